@@ -1,0 +1,491 @@
+"""Rig parameters: frozen dataclasses loaded from a TOML data file with a source tag on every value.
+
+The default rig (``rig_env/data/default_rig.toml``) is the Bristol pilot manoeuvre rig with the 1/16
+BAe Hawk (Pattinson, Lowenberg & Goman, AIAA 2009-5727).  Every value in the file carries its origin:
+``paper`` (that paper), ``rig-code`` (the later Bristol rig's control code) or ``estimate`` with a
+one-line derivation.  Values are validated on load; errors name the field and its allowed range.
+
+Units are SI except where the field name says otherwise (``_deg``, ``_deg_s``, ``_hz``).
+
+The numba kernels read a flat float64 vector per environment (``RigParams.to_vector``), laid out by
+:data:`PARAM_NAMES`; :func:`param_batch` builds the ``(n_envs, n_params)`` array with per-environment
+overrides for domain randomisation.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+JOINTS: tuple[str, ...] = ("rig_roll", "rig_pitch", "rig_yaw", "model_pitch", "model_yaw")
+"""Canonical joint names, in the order of every joint-space array."""
+
+LIMITED_JOINTS: tuple[str, ...] = ("rig_pitch", "rig_yaw", "model_pitch")
+"""Joints with gimbal stops; ``rig_roll`` and ``model_yaw`` are unlimited (and unwrapped)."""
+
+SURFACES: tuple[str, ...] = (
+    "comp_aileron",
+    "comp_elevator",
+    "comp_rudder",
+    "hawk_elevator",
+    "hawk_aileron",
+    "hawk_rudder",
+)
+"""Control inputs in degrees, as a pilot or controller commands them."""
+
+SERVOS: tuple[str, ...] = ("flap1", "flap2", "flap3", "flap4", "hawk_elevator", "hawk_aileron", "hawk_rudder")
+"""Physical actuators: four compensator flaps (after mixing) and three Hawk surfaces."""
+
+SOURCES = ("paper", "rig-code", "estimate")
+DATA_DIR = Path(__file__).parent / "data"
+DEFAULT_FILE = DATA_DIR / "default_rig.toml"
+
+
+class ParameterError(ValueError):
+    """Invalid rig parameter: the message names the field and its allowed range."""
+
+
+def _f(lo: float, hi: float, unit: str) -> Any:
+    return field(metadata={"range": (lo, hi), "unit": unit})
+
+
+@dataclass(frozen=True)
+class Environment:
+    gravity: float = _f(0.0, 20.0, "m/s^2")
+    air_density: float = _f(0.5, 1.5, "kg/m^3")
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Lengths of eqs. (15)-(17); arm axes x towards the model, y starboard, z down."""
+
+    arm_length: float = _f(0.2, 3.0, "m")  # l_f, pivot to model gimbal
+    hawk_cg_x: float = _f(-0.1, 0.1, "m")  # l_cga x, aircraft axes, from the model gimbal
+    hawk_cg_z: float = _f(-0.1, 0.1, "m")  # l_cga z (positive: c.g. below the gimbal)
+    arm_cg_x: float = _f(-2.0, 2.0, "m")  # l_cgs x
+    arm_cg_y: float = _f(-0.2, 0.2, "m")
+    arm_cg_z: float = _f(-0.2, 0.2, "m")  # l_cgs z (roll imbalance)
+    comp_cg_x: float = _f(-3.0, -0.05, "m")  # -l_r
+    comp_cg_y: float = _f(-0.2, 0.2, "m")
+    comp_cg_z: float = _f(-0.2, 0.2, "m")
+    comp_aero_x: float = _f(-3.0, -0.05, "m")  # compensator aerodynamic reference point
+    arm_radius: float = _f(0.0, 0.1, "m")  # root of the compensator panels
+
+
+@dataclass(frozen=True)
+class MassProperties:
+    """Masses (kg) and principal inertias about each body's own c.g. (kg m^2, body axes)."""
+
+    hawk_mass: float = _f(0.1, 10.0, "kg")
+    hawk_Ixx: float = _f(1e-5, 1.0, "kg m^2")
+    hawk_Iyy: float = _f(1e-5, 1.0, "kg m^2")
+    hawk_Izz: float = _f(1e-5, 1.0, "kg m^2")
+    hawk_Ixz: float = _f(-0.1, 0.1, "kg m^2")
+    arm_mass: float = _f(0.1, 50.0, "kg")
+    arm_Ixx: float = _f(1e-6, 10.0, "kg m^2")
+    arm_Iyy: float = _f(1e-6, 10.0, "kg m^2")
+    arm_Izz: float = _f(1e-6, 10.0, "kg m^2")
+    comp_mass: float = _f(0.1, 50.0, "kg")
+    comp_Ixx: float = _f(1e-6, 10.0, "kg m^2")
+    comp_Iyy: float = _f(1e-6, 10.0, "kg m^2")
+    comp_Izz: float = _f(1e-6, 10.0, "kg m^2")
+
+
+@dataclass(frozen=True)
+class HawkAero:
+    """Eq. (23) derivatives (per rad) plus lateral-directional derivatives, body axes at the c.g."""
+
+    S: float = _f(0.005, 1.0, "m^2")
+    c: float = _f(0.01, 1.0, "m")
+    b: float = _f(0.05, 3.0, "m")
+    e_oswald: float = _f(0.3, 1.0, "-")
+    CL0: float = _f(-1.0, 1.5, "-")
+    CLalpha: float = _f(0.0, 10.0, "1/rad")
+    CLq: float = _f(-50.0, 100.0, "1/rad")
+    CLde: float = _f(-5.0, 5.0, "1/rad")
+    alpha0: float = _f(-0.3, 0.3, "rad")
+    CD0: float = _f(0.0, 1.0, "-")
+    CM0: float = _f(-0.5, 0.5, "-")
+    CMalpha: float = _f(-5.0, 1.0, "1/rad")
+    CMq: float = _f(-100.0, 10.0, "1/rad")  # CMq + CMalphadot
+    CMde: float = _f(-10.0, 10.0, "1/rad")
+    CYbeta: float = _f(-5.0, 1.0, "1/rad")
+    CYdr: float = _f(-2.0, 2.0, "1/rad")
+    Clbeta: float = _f(-2.0, 1.0, "1/rad")
+    Clp: float = _f(-5.0, 0.5, "1/rad")
+    Clr: float = _f(-2.0, 2.0, "1/rad")
+    Clda: float = _f(-2.0, 2.0, "1/rad")
+    Cldr: float = _f(-2.0, 2.0, "1/rad")
+    Cnbeta: float = _f(-2.0, 2.0, "1/rad")
+    Cnp: float = _f(-2.0, 2.0, "1/rad")
+    Cnr: float = _f(-5.0, 0.5, "1/rad")
+    Cnda: float = _f(-2.0, 2.0, "1/rad")
+    Cndr: float = _f(-2.0, 2.0, "1/rad")
+
+
+@dataclass(frozen=True)
+class CompensatorAero:
+    """Table 4 derivatives of the compensator on its reference area, span and chord S/span."""
+
+    S: float = _f(0.005, 2.0, "m^2")
+    span: float = _f(0.05, 3.0, "m")
+    e_oswald: float = _f(0.3, 1.0, "-")
+    CL0: float = _f(-1.0, 1.0, "-")
+    CLalpha: float = _f(0.0, 10.0, "1/rad")
+    CLq: float = _f(-50.0, 200.0, "1/rad")
+    CLde: float = _f(-5.0, 5.0, "1/rad")
+    alpha0: float = _f(-0.3, 0.3, "rad")
+    CD0: float = _f(0.0, 1.0, "-")
+    CM0: float = _f(-0.5, 0.5, "-")
+    CMalpha: float = _f(-10.0, 2.0, "1/rad")
+    CMq: float = _f(-200.0, 10.0, "1/rad")
+    CMde: float = _f(-10.0, 10.0, "1/rad")
+
+
+@dataclass(frozen=True)
+class LuGre:
+    """LuGre friction of one joint, eqs. (19)-(21); N m, rad, s."""
+
+    Fs: float = _f(0.0, 10.0, "N m")
+    Fc: float = _f(0.0, 10.0, "N m")
+    alpha_f: float = _f(0.0, 1e4, "s/rad")
+    v_d: float = _f(1e-4, 100.0, "rad/s")
+    sigma0: float = _f(1e-3, 1e7, "N m/rad")
+    sigma1: float = _f(0.0, 100.0, "N m s/rad")
+    sigma2: float = _f(0.0, 100.0, "N m s/rad")
+
+
+@dataclass(frozen=True)
+class Friction:
+    rig_roll: LuGre
+    rig_pitch: LuGre
+    rig_yaw: LuGre
+    model_pitch: LuGre
+    model_yaw: LuGre
+
+
+@dataclass(frozen=True)
+class Stop:
+    """A gimbal stop: angle limits and a stiff spring-damper beyond them."""
+
+    lower_deg: float = _f(-89.0, 0.0, "deg")
+    upper_deg: float = _f(0.0, 89.0, "deg")
+    stiffness: float = _f(0.0, 1e7, "N m/rad")
+    damping: float = _f(0.0, 1e5, "N m s/rad")
+
+
+@dataclass(frozen=True)
+class Stops:
+    rig_pitch: Stop
+    rig_yaw: Stop
+    model_pitch: Stop
+
+
+@dataclass(frozen=True)
+class Servo:
+    """Surface actuator: transport delay, then position limit, second-order lag with a rate limit."""
+
+    delay_s: float = _f(0.0, 0.2, "s")
+    rate_limit_deg_s: float = _f(1.0, 5000.0, "deg/s")
+    limit_deg: float = _f(1.0, 45.0, "deg")
+    natural_freq_hz: float = _f(0.5, 100.0, "Hz")
+    damping: float = _f(0.1, 2.0, "-")
+
+
+@dataclass(frozen=True)
+class Servos:
+    compensator: Servo
+    hawk: Servo
+
+
+@dataclass(frozen=True)
+class HighIncidence:
+    """Static coefficient tables over angle of attack (deg) for the optional nonlinear model.
+
+    ``hawk_CL``/``hawk_CM`` replace ``CL0 + CLalpha (alpha - alpha0)`` and ``CM0 + CMalpha (alpha -
+    alpha0)``; ``comp_CN`` replaces the compensator panels' ``CLalpha (alpha - alpha0)``.  Outside the
+    table the end values are held.  These are not per-environment parameters.
+    """
+
+    alpha_deg: tuple[float, ...]
+    hawk_CL: tuple[float, ...]
+    hawk_CM: tuple[float, ...]
+    comp_alpha_deg: tuple[float, ...]
+    comp_CN: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class RigParams:
+    """All parameters of one rig.  Frozen: derive variants with :meth:`replace`."""
+
+    environment: Environment
+    geometry: Geometry
+    mass: MassProperties
+    hawk_aero: HawkAero
+    comp_aero: CompensatorAero
+    friction: Friction
+    stops: Stops
+    servos: Servos
+    high_incidence: HighIncidence
+    sources: Mapping[str, tuple[str, str]] = field(default_factory=dict, compare=False, repr=False)
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def default(cls) -> "RigParams":
+        """The default rig, from ``rig_env/data/default_rig.toml``."""
+        return cls.from_toml(DEFAULT_FILE)
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> "RigParams":
+        """Load and validate a parameter file (see the default file for its layout)."""
+        path = Path(path)
+        try:
+            with path.open("rb") as fh:
+                raw = tomllib.load(fh)
+        except FileNotFoundError:
+            raise ParameterError(f"parameter file not found: {path}") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise ParameterError(f"{path}: not valid TOML: {exc}") from None
+        sources: dict[str, tuple[str, str]] = {}
+        params = _build(cls, raw, "", sources, str(path))
+        params = dataclasses.replace(params, sources=sources)
+        params.validate()
+        return params
+
+    def replace(self, **overrides: float) -> "RigParams":
+        """A copy with dotted-name overrides, e.g. ``p.replace(**{"mass.hawk_mass": 1.2})``.
+
+        Names are those of :data:`PARAM_NAMES` (``group.field`` or ``friction.<joint>.<field>``).
+        """
+        tree = dataclasses.asdict(self)
+        tree.pop("sources")
+        for name, value in overrides.items():
+            parts = name.split(".")
+            node: Any = tree
+            for part in parts[:-1]:
+                if not isinstance(node, dict) or part not in node:
+                    raise ParameterError(f"unknown parameter {name!r}; valid names: see rig_env.PARAM_NAMES")
+                node = node[part]
+            if not isinstance(node, dict) or parts[-1] not in node or isinstance(node[parts[-1]], dict):
+                raise ParameterError(f"unknown parameter {name!r}; valid names: see rig_env.PARAM_NAMES")
+            node[parts[-1]] = value
+        new = _from_plain(RigParams, tree)
+        srcs = dict(self.sources)
+        for name in overrides:
+            srcs[name] = ("override", "set by RigParams.replace")
+        new = dataclasses.replace(new, sources=srcs)
+        new.validate()
+        return new
+
+    # ------------------------------------------------------------------ validation
+    def validate(self) -> None:
+        """Check every field against its range and the cross-field rules; raise ParameterError."""
+        for name, value, (lo, hi), unit in _iter_leaves(self):
+            if not isinstance(value, (int, float)) or isinstance(value, bool):
+                raise ParameterError(f"{name} must be a number, got {value!r}")
+            if not math.isfinite(value):
+                raise ParameterError(f"{name} must be finite, got {value!r}")
+            if not lo <= value <= hi:
+                raise ParameterError(f"{name} = {value} {unit} is outside the allowed range [{lo}, {hi}] {unit}")
+        m = self.mass
+        for body in ("hawk", "arm", "comp"):
+            ixx, iyy, izz = (getattr(m, f"{body}_I{a}") for a in ("xx", "yy", "zz"))
+            for a, b_, c_, n in ((ixx, iyy, izz, "Ixx"), (iyy, izz, ixx, "Iyy"), (izz, ixx, iyy, "Izz")):
+                if a > b_ + c_ + 1e-12:
+                    raise ParameterError(
+                        f"mass.{body}_{n} = {a} violates the rigid-body triangle inequality "
+                        f"(must be <= the sum of the other two principal inertias, {b_ + c_})"
+                    )
+        if m.hawk_Ixz**2 >= m.hawk_Ixx * m.hawk_Izz:
+            raise ParameterError("mass.hawk_Ixz: the Hawk inertia tensor must be positive definite (Ixz^2 < Ixx Izz)")
+        for j in JOINTS:
+            fr: LuGre = getattr(self.friction, j)
+            if fr.Fs < fr.Fc:
+                raise ParameterError(f"friction.{j}.Fs = {fr.Fs} must be >= friction.{j}.Fc = {fr.Fc}")
+        for j in LIMITED_JOINTS:
+            st: Stop = getattr(self.stops, j)
+            if st.lower_deg >= st.upper_deg:
+                raise ParameterError(f"stops.{j}: lower_deg {st.lower_deg} must be < upper_deg {st.upper_deg}")
+        g = self.geometry
+        if g.arm_radius >= self.comp_aero.span / 2:
+            raise ParameterError("geometry.arm_radius must be smaller than comp_aero.span / 2")
+        hi = self.high_incidence
+        for xs, ys, name in (
+            (hi.alpha_deg, hi.hawk_CL, "high_incidence.hawk_CL"),
+            (hi.alpha_deg, hi.hawk_CM, "high_incidence.hawk_CM"),
+            (hi.comp_alpha_deg, hi.comp_CN, "high_incidence.comp_CN"),
+        ):
+            if len(xs) != len(ys) or len(xs) < 2:
+                raise ParameterError(f"{name}: needs as many values as its alpha grid (>= 2), got {len(ys)} vs {len(xs)}")
+            if any(b_ <= a for a, b_ in zip(xs, xs[1:])):
+                raise ParameterError(f"{name}: the alpha grid must be strictly increasing")
+            if not all(math.isfinite(v) for v in (*xs, *ys)):
+                raise ParameterError(f"{name}: values must be finite")
+
+    # ------------------------------------------------------------------ flat layout for kernels
+    def to_vector(self) -> np.ndarray:
+        """The flat float64 vector the kernels read, laid out by :data:`PARAM_NAMES` (SI, rad)."""
+        vals = dict((name, value) for name, value, _, _ in _iter_leaves(self))
+        out = np.empty(len(PARAM_NAMES))
+        for i, name in enumerate(PARAM_NAMES):
+            v = float(vals[name])
+            out[i] = math.radians(v) if name.endswith(("_deg", "_deg_s")) else v
+        return out
+
+    def tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """High-incidence tables as float64 arrays in rad: (alpha, hawk_CL, hawk_CM, comp_alpha, comp_CN)."""
+        hi = self.high_incidence
+        return (
+            np.radians(np.asarray(hi.alpha_deg, dtype=np.float64)),
+            np.asarray(hi.hawk_CL, dtype=np.float64),
+            np.asarray(hi.hawk_CM, dtype=np.float64),
+            np.radians(np.asarray(hi.comp_alpha_deg, dtype=np.float64)),
+            np.asarray(hi.comp_CN, dtype=np.float64),
+        )
+
+    def source(self, name: str) -> tuple[str, str]:
+        """(source tag, note) of a dotted parameter name as recorded in its data file."""
+        if name not in self.sources:
+            raise ParameterError(f"no source recorded for {name!r}")
+        return self.sources[name]
+
+
+# ---------------------------------------------------------------------- helpers
+def _iter_leaves(obj: Any, prefix: str = ""):
+    for f in fields(obj):
+        if f.name == "sources" or f.name == "high_incidence":
+            continue
+        value = getattr(obj, f.name)
+        name = f"{prefix}{f.name}"
+        if dataclasses.is_dataclass(value):
+            yield from _iter_leaves(value, name + ".")
+        else:
+            yield name, value, f.metadata["range"], f.metadata["unit"]
+
+
+def _build(cls: type, raw: Mapping[str, Any], prefix: str, sources: dict, path: str) -> Any:
+    if not isinstance(raw, Mapping):
+        raise ParameterError(f"{path}: [{prefix.rstrip('.')}] must be a table")
+    known = {f.name for f in fields(cls) if f.name != "sources"}
+    unknown = set(raw) - known
+    if unknown:
+        raise ParameterError(f"{path}: unknown field(s) {sorted(prefix + u for u in unknown)}; allowed: {sorted(known)}")
+    kwargs = {}
+    for f in fields(cls):
+        if f.name == "sources":
+            continue
+        name = prefix + f.name
+        if f.name not in raw:
+            raise ParameterError(f"{path}: missing field {name}")
+        entry = raw[f.name]
+        ftype = _resolve(cls, f.name)
+        if dataclasses.is_dataclass(ftype) and ftype is not HighIncidence:
+            kwargs[f.name] = _build(ftype, entry, name + ".", sources, path)
+        elif ftype is HighIncidence:
+            kwargs[f.name] = HighIncidence(**{k: tuple(float(x) for x in v) for k, v in _table_entry(entry, name, path).items()})
+        else:
+            if not isinstance(entry, Mapping) or "value" not in entry or "source" not in entry:
+                raise ParameterError(f"{path}: {name} must be a table {{ value = ..., source = ... }}")
+            src = entry["source"]
+            if src not in SOURCES:
+                raise ParameterError(f"{path}: {name}.source = {src!r}; allowed: {', '.join(SOURCES)}")
+            note = str(entry.get("note", ""))
+            if src == "estimate" and not note:
+                raise ParameterError(f"{path}: {name} is an estimate and needs a 'note' with its derivation")
+            extra = set(entry) - {"value", "source", "note", "unit"}
+            if extra:
+                raise ParameterError(f"{path}: {name} has unknown key(s) {sorted(extra)}")
+            kwargs[f.name] = entry["value"]
+            sources[name] = (src, note)
+    return cls(**kwargs)
+
+
+def _table_entry(entry: Any, name: str, path: str) -> dict:
+    if not isinstance(entry, Mapping) or entry.get("source") not in SOURCES:
+        raise ParameterError(f"{path}: [{name}] must have a source tag ({', '.join(SOURCES)})")
+    if entry["source"] == "estimate" and not entry.get("note"):
+        raise ParameterError(f"{path}: [{name}] is an estimate and needs a 'note'")
+    keys = {f.name for f in fields(HighIncidence)}
+    out = {k: v for k, v in entry.items() if k not in ("source", "note")}
+    if set(out) != keys:
+        raise ParameterError(f"{path}: [{name}] needs exactly the keys {sorted(keys)}, got {sorted(out)}")
+    return out
+
+
+def _resolve(cls: type, name: str) -> Any:
+    import typing
+
+    return typing.get_type_hints(cls)[name]
+
+
+def _from_plain(cls: type, tree: Mapping[str, Any]) -> Any:
+    kwargs = {}
+    hints = {f.name: _resolve(cls, f.name) for f in fields(cls) if f.name != "sources"}
+    for name, ftype in hints.items():
+        v = tree[name]
+        if dataclasses.is_dataclass(ftype):
+            kwargs[name] = _from_plain(ftype, v) if ftype is not HighIncidence else HighIncidence(**v)
+        else:
+            kwargs[name] = v
+    return cls(**kwargs)
+
+
+def _param_names() -> tuple[str, ...]:
+    def walk(cls: type, prefix: str):
+        for f in fields(cls):
+            if f.name in ("sources", "high_incidence"):
+                continue
+            t = _resolve(cls, f.name)
+            if dataclasses.is_dataclass(t):
+                yield from walk(t, prefix + f.name + ".")
+            else:
+                yield prefix + f.name
+
+    return tuple(walk(RigParams, ""))
+
+
+PARAM_NAMES: tuple[str, ...] = _param_names()
+"""Dotted names of the flat parameter vector, in kernel order."""
+
+PARAM_INDEX: dict[str, int] = {n: i for i, n in enumerate(PARAM_NAMES)}
+
+
+def param_batch(
+    params: RigParams | list[RigParams] | tuple[RigParams, ...],
+    n_envs: int,
+    overrides: Mapping[str, Any] | None = None,
+) -> np.ndarray:
+    """``(n_envs, n_params)`` kernel parameters with per-environment overrides.
+
+    ``params`` is one RigParams (broadcast) or a sequence of ``n_envs``.  ``overrides`` maps dotted
+    names to a scalar or an array of ``n_envs`` values in the file's units (degrees where the name
+    says so); every resulting environment is validated.
+    """
+    if isinstance(params, RigParams):
+        base = [params] * n_envs
+    else:
+        base = list(params)
+        if len(base) != n_envs:
+            raise ParameterError(f"params: got {len(base)} RigParams for n_envs = {n_envs}")
+    overrides = dict(overrides or {})
+    for name, v in overrides.items():
+        if name not in PARAM_INDEX:
+            raise ParameterError(f"unknown parameter {name!r} in overrides; valid names: rig_env.PARAM_NAMES")
+        arr = np.broadcast_to(np.asarray(v, dtype=np.float64), (n_envs,)) if np.ndim(v) <= 1 else None
+        if arr is None or (np.ndim(v) == 1 and len(v) != n_envs):
+            raise ParameterError(f"override {name!r} must be a scalar or have n_envs = {n_envs} values")
+        overrides[name] = arr
+    if not overrides:
+        cache: dict[int, np.ndarray] = {}
+        rows = [cache.setdefault(id(p), p.to_vector()) for p in base]
+        return np.ascontiguousarray(np.stack(rows))
+    rows = []
+    for i, p in enumerate(base):
+        rows.append(p.replace(**{k: float(a[i]) for k, a in overrides.items()}).to_vector())
+    return np.ascontiguousarray(np.stack(rows))

@@ -1,0 +1,210 @@
+"""Aerodynamics of the Hawk (eq. 23 plus lateral-directional terms) and the cruciform compensator.
+
+Both functions take world-frame kinematics of the body and return the aerodynamic force and moment in
+world axes, so the joint-space and the DAE formulations share them unchanged.
+
+Air: the tunnel flow moves at ``-V_t`` along world x (the model faces +x, upstream) plus a gust
+vector (world axes, m/s).  The relative velocity of a body point is its ground velocity minus the air
+velocity: the rig's own heave, sway and roll velocities change the local angle of attack and sideslip.
+
+Compensator: four flapped panels in an X at roll positions 135, 45, -45 and -135 deg (flaps 1-4) about
+the arm axis, each a strip with two Gauss stations over its span (exact for the linear terms).  With
+the per-panel coefficients below the X sums to Table 4 exactly in pitch and yaw (an exact cruciform
+equivalent), while the rolling moment and roll damping follow from the panels' spanwise lever arms.
+Mixing (rig-code): flap_i = da + s_e,i de + s_r,i dr with (s_e, s_r) = (+,-), (-,-), (-,+), (+,+).
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from rig_env.physics import layout as L
+from rig_env.physics.vec import cross, dot, mtv, mv, norm, sub
+
+_JIT = dict(cache=True, error_model="numpy")
+
+MIN_AIRSPEED = 0.5
+"""Below this local airspeed (m/s) a body or strip produces no aerodynamic load (wind off)."""
+
+SQRT_HALF = math.sqrt(0.5)
+# panel roll positions (rad) and mixing signs for flaps 1-4
+PANEL_GAMMA = (0.75 * math.pi, 0.25 * math.pi, -0.25 * math.pi, -0.75 * math.pi)
+MIX_ELEVATOR = (1.0, -1.0, -1.0, 1.0)
+MIX_RUDDER = (-1.0, -1.0, 1.0, 1.0)
+GAUSS = 0.5 / math.sqrt(3.0)  # 2-point Gauss stations at mid +- GAUSS * length
+
+
+@njit(**_JIT)
+def interp(x, xs, ys):
+    """Piecewise-linear table look-up, end values held outside the grid."""
+    n = xs.shape[0]
+    if x <= xs[0]:
+        return ys[0]
+    if x >= xs[n - 1]:
+        return ys[n - 1]
+    lo = 0
+    hi = n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if xs[mid] <= x:
+            lo = mid
+        else:
+            hi = mid
+    t = (x - xs[lo]) / (xs[hi] - xs[lo])
+    return ys[lo] + t * (ys[hi] - ys[lo])
+
+
+@njit(**_JIT)
+def mix(da, de, dr, i):
+    """Flap i (0-3) deflection from compensator aileron, elevator and rudder (rad)."""
+    return da + MIX_ELEVATOR[i] * de + MIX_RUDDER[i] * dr
+
+
+@njit(**_JIT)
+def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl, tab_cm):
+    """Hawk force and moment about its c.g., world axes (N, N m).
+
+    p: parameter vector; A: aircraft rotation (body to world); v_cg, omega: c.g. velocity and angular
+    velocity (world); v_air: air velocity at the c.g. (world); de, da, dr: surface deflections (rad).
+    Eq. (23): CL = CL0 + CLa (a - a0) + CLq q c/2V + CLde de, CD = CD0 + CL^2/(pi e AR),
+    CM = CM0 + CMa (a - a0) + (CMq + CMadot) q c/2V + CMde de; plus CY, Cl, Cn in beta, p, r, da, dr.
+    """
+    vb = mtv(A, sub(v_cg, v_air))
+    V = norm(vb)
+    if V < MIN_AIRSPEED:
+        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    wb = mtv(A, omega)
+    alpha = math.atan2(vb[2], vb[0])
+    sb = vb[1] / V
+    beta = math.asin(min(1.0, max(-1.0, sb)))
+    S = p[L.P_HAWK_AERO_S]
+    c = p[L.P_HAWK_AERO_C]
+    b = p[L.P_HAWK_AERO_B]
+    qbar = 0.5 * p[L.P_ENVIRONMENT_AIR_DENSITY] * V * V
+    ph = wb[0] * b / (2.0 * V)
+    qh = wb[1] * c / (2.0 * V)
+    rh = wb[2] * b / (2.0 * V)
+    a0 = p[L.P_HAWK_AERO_ALPHA0]
+    if nonlinear:
+        cl_static = interp(alpha, tab_alpha, tab_cl)
+        cm_static = interp(alpha, tab_alpha, tab_cm)
+    else:
+        cl_static = p[L.P_HAWK_AERO_CL0] + p[L.P_HAWK_AERO_CLALPHA] * (alpha - a0)
+        cm_static = p[L.P_HAWK_AERO_CM0] + p[L.P_HAWK_AERO_CMALPHA] * (alpha - a0)
+    CL = cl_static + p[L.P_HAWK_AERO_CLQ] * qh + p[L.P_HAWK_AERO_CLDE] * de
+    AR = b * b / S
+    CD = p[L.P_HAWK_AERO_CD0] + CL * CL / (math.pi * p[L.P_HAWK_AERO_E_OSWALD] * AR)
+    CM = cm_static + p[L.P_HAWK_AERO_CMQ] * qh + p[L.P_HAWK_AERO_CMDE] * de
+    CY = p[L.P_HAWK_AERO_CYBETA] * beta + p[L.P_HAWK_AERO_CYDR] * dr
+    Cl = (
+        p[L.P_HAWK_AERO_CLBETA] * beta
+        + p[L.P_HAWK_AERO_CLP] * ph
+        + p[L.P_HAWK_AERO_CLR] * rh
+        + p[L.P_HAWK_AERO_CLDA] * da
+        + p[L.P_HAWK_AERO_CLDR] * dr
+    )
+    Cn = (
+        p[L.P_HAWK_AERO_CNBETA] * beta
+        + p[L.P_HAWK_AERO_CNP] * ph
+        + p[L.P_HAWK_AERO_CNR] * rh
+        + p[L.P_HAWK_AERO_CNDA] * da
+        + p[L.P_HAWK_AERO_CNDR] * dr
+    )
+    sa = math.sin(alpha)
+    ca = math.cos(alpha)
+    k = qbar * S
+    # lift normal to the velocity in the body x-z plane, drag against it, side force along body y
+    fb = (
+        k * (CL * sa - CD * vb[0] / V),
+        k * (CY - CD * vb[1] / V),
+        k * (-CL * ca - CD * vb[2] / V),
+    )
+    mb = (k * b * Cl, k * c * CM, k * b * Cn)
+    return mv(A, fb), mv(A, mb)
+
+
+@njit(**_JIT)
+def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn):
+    """Compensator force (world, N) and moment about its aerodynamic reference point (world, N m).
+
+    A: arm rotation; v_ref: velocity of the reference point (world); omega: arm angular velocity
+    (world); v_air: air velocity (world); flaps: 4 flap deflections (rad, after mixing and servos).
+    Each panel i (span e_r, normal n = x_arm cross e_r) carries Table 4 coefficients per unit area of
+    half the reference area; its lift acts along n for positive local incidence or flap.
+    """
+    S = p[L.P_COMP_AERO_S]
+    span = p[L.P_COMP_AERO_SPAN]
+    c = S / span
+    r0 = p[L.P_GEOMETRY_ARM_RADIUS]
+    r1 = 0.5 * span
+    rm = 0.5 * (r0 + r1)
+    dr_g = GAUSS * (r1 - r0)
+    dS = 0.25 * S  # two strips per panel, each a quarter of S (a panel is half the reference area)
+    rho = p[L.P_ENVIRONMENT_AIR_DENSITY]
+    AR = span * span / S
+    k_ind = 1.0 / (math.pi * p[L.P_COMP_AERO_E_OSWALD] * AR)
+    cla = p[L.P_COMP_AERO_CLALPHA]
+    cma = p[L.P_COMP_AERO_CMALPHA]
+    a0 = p[L.P_COMP_AERO_ALPHA0]
+    cl_off = (p[L.P_COMP_AERO_CL0] - cla * a0) * SQRT_HALF
+    cm_off = (p[L.P_COMP_AERO_CM0] - cma * a0) * SQRT_HALF
+    cld = p[L.P_COMP_AERO_CLDE] * SQRT_HALF
+    cmd = p[L.P_COMP_AERO_CMDE] * SQRT_HALF
+    clq = p[L.P_COMP_AERO_CLQ]
+    cmq = p[L.P_COMP_AERO_CMQ]
+    cd0 = 0.5 * p[L.P_COMP_AERO_CD0]
+    vb0 = mtv(A, sub(v_ref, v_air))
+    wb = mtv(A, omega)
+    fx = 0.0
+    fy = 0.0
+    fz = 0.0
+    mx = 0.0
+    my = 0.0
+    mz = 0.0
+    for i in range(4):
+        g = PANEL_GAMMA[i]
+        er = (0.0, math.cos(g), math.sin(g))
+        n = (0.0, -er[2], er[1])
+        qp = -dot(wb, er)  # rotation about -e_r moves the leading edge towards +n
+        se = MIX_ELEVATOR[i]
+        for s in range(2):
+            r = rm - dr_g if s == 0 else rm + dr_g
+            v = (vb0[0] + wb[1] * er[2] * r - wb[2] * er[1] * r, vb0[1] - wb[0] * er[2] * r, vb0[2] + wb[0] * er[1] * r)
+            u = v[0]
+            wn = -dot(v, n)
+            V = math.sqrt(u * u + wn * wn)
+            if V < MIN_AIRSPEED:
+                continue
+            alpha = math.atan2(wn, u)
+            qhat = qp * c / (2.0 * V)
+            if nonlinear:
+                cl_static = interp(alpha, tab_alpha, tab_cn)
+                cm_static = cl_static * (cma / cla) if cla != 0.0 else cma * alpha
+            else:
+                cl_static = cla * alpha
+                cm_static = cma * alpha
+            CL = se * cl_off + cl_static + clq * qhat + cld * flaps[i]
+            CM = se * cm_off + cm_static + cmq * qhat + cmd * flaps[i]
+            CD = cd0 + k_ind * CL * CL
+            qS = 0.5 * rho * V * V * dS
+            # lift normal to the in-plane velocity (u e_x - wn n), drag against it
+            lx = wn / V
+            ln = u / V
+            f_x = qS * (CL * lx - CD * u / V)
+            f_n = qS * (CL * ln + CD * wn / V)
+            fxs = f_x
+            fys = f_n * n[1]
+            fzs = f_n * n[2]
+            fx += fxs
+            fy += fys
+            fz += fzs
+            # moment of the strip force about the reference point, plus the section pitching moment
+            arm = (0.0, er[1] * r, er[2] * r)
+            m = cross(arm, (fxs, fys, fzs))
+            mc = qS * c * CM
+            mx += m[0]
+            my += m[1] - mc * er[1]
+            mz += m[2] - mc * er[2]
+    return mv(A, (fx, fy, fz)), mv(A, (mx, my, mz))

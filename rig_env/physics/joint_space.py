@@ -1,0 +1,263 @@
+"""Joint-space equations of motion of the rig, derived from the same three bodies as the paper's DAE.
+
+Bodies (paper Sec. II): aircraft a (mass m_a, inertia I_a at its c.g.), arm s (m_s, I_s at its c.g.,
+with the compensator's own inertia I_r added: eq. 10 note), compensator r (point mass m_r at its
+c.g.).  Joint angles q in rig_env.JOINTS order (rig_roll phi, rig_pitch theta, rig_yaw psi,
+model_pitch theta_a, model_yaw psi_a); world axes x upstream, y starboard, z down, origin at the pivot.
+
+    A_s = Rz(psi) Ry(theta) Rx(phi)                        arm (3-DOF gimbal, yaw outermost)
+    A_a = A_s Rz(psi_a) Ry(theta_a)                        aircraft; (A_s^T A_a)(3,2) = 0 is eq. (18)
+    R_s = A_s l_cgs,  R_r = A_s l_r,  R_a = A_s [l_f 0 0]^T + A_a l_cga         eqs. (15)-(17)
+
+Every body velocity is J(q) qdot and every acceleration J qddot + b(q, qdot) with b the velocity-product
+("bias") terms of the joint axes turning with the chain.  Substituting into the Newton-Euler equations
+of the bodies and projecting onto the joint directions (the null space of the paper's constraint
+Jacobian) gives
+
+    M(q) qddot = Q(q, qdot, t) - h(q, qdot),
+    M = sum m J_v^T J_v + J_w^T (A I A^T) J_w,  h = sum m J_v^T b_v + J_w^T (I_w b_w + w x I_w w),
+
+with Q the generalised gravity, aerodynamic, friction and stop torques.  Locked joints keep their
+angle and the equations are solved for the free subset only.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from rig_env.physics import friction as fr
+from rig_env.physics import layout as L
+from rig_env.physics import servo as sv
+from rig_env.physics.aero import comp_aero, hawk_aero
+from rig_env.physics.vec import add, col, cross, dot, inertia_world, mm, mv, rot_x, rot_y, rot_z, scale
+
+_JIT = dict(cache=True, error_model="numpy")
+
+STOP_BASE = (-1, L.P_STOPS_RIG_PITCH_LOWER_DEG, L.P_STOPS_RIG_YAW_LOWER_DEG, L.P_STOPS_MODEL_PITCH_LOWER_DEG, -1)
+
+
+@njit(**_JIT)
+def frames(q, p):
+    """Rotations, joint axes (world) and body points (world, from the pivot) at joint angles q."""
+    Rz = rot_z(q[L.J_RIG_YAW])
+    As = mm(mm(Rz, rot_y(q[L.J_RIG_PITCH])), rot_x(q[L.J_RIG_ROLL]))
+    Aa = mm(As, mm(rot_z(q[L.J_MODEL_YAW]), rot_y(q[L.J_MODEL_PITCH])))
+    axes = (col(As, 0), col(Rz, 1), (0.0, 0.0, 1.0), col(Aa, 1), col(As, 2))  # JOINTS order
+    G = scale(col(As, 0), p[L.P_GEOMETRY_ARM_LENGTH])
+    rho = mv(Aa, (p[L.P_GEOMETRY_HAWK_CG_X], 0.0, p[L.P_GEOMETRY_HAWK_CG_Z]))
+    r_s = mv(As, (p[L.P_GEOMETRY_ARM_CG_X], p[L.P_GEOMETRY_ARM_CG_Y], p[L.P_GEOMETRY_ARM_CG_Z]))
+    r_r = mv(As, (p[L.P_GEOMETRY_COMP_CG_X], p[L.P_GEOMETRY_COMP_CG_Y], p[L.P_GEOMETRY_COMP_CG_Z]))
+    r_ref = scale(col(As, 0), p[L.P_GEOMETRY_COMP_AERO_X])
+    return As, Aa, axes, G, rho, r_s, r_r, r_ref
+
+
+@njit(**_JIT)
+def velocities(axes, qd):
+    """Arm and aircraft angular velocities (world) and their bias accelerations (J-dot qdot)."""
+    a_roll, a_pitch, a_yaw, a_mp, a_my = axes[0], axes[1], axes[2], axes[3], axes[4]
+    w_yaw = scale(a_yaw, qd[L.J_RIG_YAW])
+    w_yp = add(w_yaw, scale(a_pitch, qd[L.J_RIG_PITCH]))
+    w_s = add(w_yp, scale(a_roll, qd[L.J_RIG_ROLL]))
+    w_sy = add(w_s, scale(a_my, qd[L.J_MODEL_YAW]))
+    w_a = add(w_sy, scale(a_mp, qd[L.J_MODEL_PITCH]))
+    # each axis turns with the bodies outboard of it: d(axis)/dt = (angular velocity before it) x axis
+    b_s = add(scale(cross(w_yaw, a_pitch), qd[L.J_RIG_PITCH]), scale(cross(w_yp, a_roll), qd[L.J_RIG_ROLL]))
+    b_a = add(b_s, add(scale(cross(w_s, a_my), qd[L.J_MODEL_YAW]), scale(cross(w_sy, a_mp), qd[L.J_MODEL_PITCH])))
+    return w_s, w_a, b_s, b_a
+
+
+@njit(**_JIT)
+def point_bias(b, w, r):
+    """Bias acceleration of a point at r (from the rotation centre): b x r + w x (w x r)."""
+    return add(cross(b, r), cross(w, cross(w, r)))
+
+
+@njit(**_JIT)
+def mass_matrix_and_bias(q, qd, p, M, hvec, jv):
+    """Fill M (5x5) and h (5) of M qdd + h = Q; jv: scratch (45,) for the linear Jacobian columns.
+
+    Returns the kinematics (As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a) for the force terms.
+    """
+    As, Aa, axes, G, rho, r_s, r_r, r_ref = frames(q, p)
+    w_s, w_a, b_s, b_a = velocities(axes, qd)
+    m_a = p[L.P_MASS_HAWK_MASS]
+    m_s = p[L.P_MASS_ARM_MASS]
+    m_r = p[L.P_MASS_COMP_MASS]
+    I_s = inertia_world(
+        As,
+        p[L.P_MASS_ARM_IXX] + p[L.P_MASS_COMP_IXX],
+        p[L.P_MASS_ARM_IYY] + p[L.P_MASS_COMP_IYY],
+        p[L.P_MASS_ARM_IZZ] + p[L.P_MASS_COMP_IZZ],
+        0.0,
+    )
+    I_a = inertia_world(Aa, p[L.P_MASS_HAWK_IXX], p[L.P_MASS_HAWK_IYY], p[L.P_MASS_HAWK_IZZ], p[L.P_MASS_HAWK_IXZ])
+    r_a = add(G, rho)
+    for k in range(5):
+        ax = axes[k]
+        if k < 3:
+            vs = cross(ax, r_s)
+            vr = cross(ax, r_r)
+            va = cross(ax, r_a)
+        else:
+            vs = (0.0, 0.0, 0.0)
+            vr = (0.0, 0.0, 0.0)
+            va = cross(ax, rho)
+        for d in range(3):
+            jv[k * 3 + d] = vs[d]
+            jv[15 + k * 3 + d] = vr[d]
+            jv[30 + k * 3 + d] = va[d]
+    for j in range(5):
+        js = (jv[j * 3], jv[j * 3 + 1], jv[j * 3 + 2])
+        jr = (jv[15 + j * 3], jv[16 + j * 3], jv[17 + j * 3])
+        ja = (jv[30 + j * 3], jv[31 + j * 3], jv[32 + j * 3])
+        Iw_s_j = mv(I_s, axes[j]) if j < 3 else (0.0, 0.0, 0.0)
+        Iw_a_j = mv(I_a, axes[j])
+        for k in range(j, 5):
+            ks = (jv[k * 3], jv[k * 3 + 1], jv[k * 3 + 2])
+            kr = (jv[15 + k * 3], jv[16 + k * 3], jv[17 + k * 3])
+            ka = (jv[30 + k * 3], jv[31 + k * 3], jv[32 + k * 3])
+            mjk = m_s * dot(js, ks) + m_r * dot(jr, kr) + m_a * dot(ja, ka) + dot(Iw_a_j, axes[k])
+            if k < 3:
+                mjk += dot(Iw_s_j, axes[k])
+            M[j, k] = mjk
+            M[k, j] = mjk
+    a_s = point_bias(b_s, w_s, r_s)
+    a_r = point_bias(b_s, w_s, r_r)
+    a_a = add(point_bias(b_s, w_s, G), point_bias(b_a, w_a, rho))
+    t_s = add(mv(I_s, b_s), cross(w_s, mv(I_s, w_s)))
+    t_a = add(mv(I_a, b_a), cross(w_a, mv(I_a, w_a)))
+    for k in range(5):
+        hk = (
+            m_s * (jv[k * 3] * a_s[0] + jv[k * 3 + 1] * a_s[1] + jv[k * 3 + 2] * a_s[2])
+            + m_r * (jv[15 + k * 3] * a_r[0] + jv[16 + k * 3] * a_r[1] + jv[17 + k * 3] * a_r[2])
+            + m_a * (jv[30 + k * 3] * a_a[0] + jv[31 + k * 3] * a_a[1] + jv[32 + k * 3] * a_a[2])
+            + dot(axes[k], t_a)
+        )
+        if k < 3:
+            hk += dot(axes[k], t_s)
+        hvec[k] = hk
+    return As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a
+
+
+@njit(**_JIT)
+def potential_energy(q, p):
+    """Gravitational potential energy (J), zero with every c.g. at the pivot height (z down)."""
+    As, Aa, axes, G, rho, r_s, r_r, r_ref = frames(q, p)
+    g = p[L.P_ENVIRONMENT_GRAVITY]
+    z_a = G[2] + rho[2]
+    return -g * (p[L.P_MASS_ARM_MASS] * r_s[2] + p[L.P_MASS_COMP_MASS] * r_r[2] + p[L.P_MASS_HAWK_MASS] * z_a)
+
+
+@njit(**_JIT)
+def air_velocity(u):
+    """Air velocity (world, m/s): the tunnel flow along -x plus the gust."""
+    return (-u[L.U_AIRSPEED] + u[L.U_GUST], u[L.U_GUST + 1], u[L.U_GUST + 2])
+
+
+@njit(**_JIT)
+def joint_torque(j, q, qd, z, p, flags):
+    """Friction and stop torque on joint j (N m, acting on the joint's positive direction)."""
+    tau = 0.0
+    if flags & L.F_FRICTION:
+        tau -= fr.torque(p, j, qd[j], z[j])
+    if flags & L.F_STOPS:
+        b = STOP_BASE[j]
+        if b >= 0:
+            lo = p[b]
+            hi = p[b + 1]
+            k = p[b + 2]
+            c = p[b + 3]
+            if q[j] > hi:
+                tau += min(0.0, -k * (q[j] - hi) - c * qd[j])
+            elif q[j] < lo:
+                tau += max(0.0, -k * (q[j] - lo) - c * qd[j])
+    return tau
+
+
+@njit(**_JIT)
+def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q):
+    """Fill Q (5) with gravity, aerodynamic, friction and stop generalised forces."""
+    As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a = kin
+    g = p[L.P_ENVIRONMENT_GRAVITY]
+    m_a = p[L.P_MASS_HAWK_MASS]
+    r_a = add(G, rho)
+    f_a = (0.0, 0.0, m_a * g)
+    t_a = (0.0, 0.0, 0.0)
+    # torque of all arm-borne loads about the pivot
+    t_arm = add(cross(r_s, (0.0, 0.0, p[L.P_MASS_ARM_MASS] * g)), cross(r_r, (0.0, 0.0, p[L.P_MASS_COMP_MASS] * g)))
+    if flags & L.F_AERO:
+        v_air = air_velocity(u)
+        nonlin = (flags & L.F_NONLINEAR) != 0
+        v_a = add(cross(w_s, G), cross(w_a, rho))
+        fa, ta = hawk_aero(p, Aa, v_a, w_a, v_air, flaps[4], flaps[5], flaps[6], nonlin, tabs[0], tabs[1], tabs[2])
+        f_a = add(f_a, fa)
+        t_a = ta
+        fc, tc = comp_aero(p, As, cross(w_s, r_ref), w_s, v_air, flaps, nonlin, tabs[3], tabs[4])
+        t_arm = add(t_arm, add(cross(r_ref, fc), tc))
+    t_hawk_pivot = add(cross(r_a, f_a), t_a)
+    t_hawk_gimbal = add(cross(rho, f_a), t_a)
+    for k in range(5):
+        if k < 3:
+            Q[k] = dot(axes[k], add(t_arm, t_hawk_pivot))
+        else:
+            Q[k] = dot(axes[k], t_hawk_gimbal)
+        Q[k] += joint_torque(k, q, qd, z, p, flags)
+
+
+@njit(**_JIT)
+def solve_free(M, rhs, free_idx, n, out):
+    """out[free] = M[free, free]^-1 rhs[free] by Cholesky (in place on M); out[locked] = 0.
+
+    free_idx[:n] are the free joints' indices.  A block that is not positive definite gives NaN, which
+    the caller reports as a blow-up of that environment.
+    """
+    for j in range(5):
+        out[j] = 0.0
+    for a in range(n):
+        ia = free_idx[a]
+        s = M[ia, ia]
+        for c in range(a):
+            s -= M[ia, free_idx[c]] ** 2
+        d = math.sqrt(s) if s > 0.0 else np.nan
+        M[ia, ia] = d
+        for b in range(a + 1, n):
+            ib = free_idx[b]
+            t = M[ib, ia]
+            for c in range(a):
+                t -= M[ib, free_idx[c]] * M[ia, free_idx[c]]
+            M[ib, ia] = t / d
+    for a in range(n):
+        ia = free_idx[a]
+        t = rhs[ia]
+        for c in range(a):
+            t -= M[ia, free_idx[c]] * out[free_idx[c]]
+        out[ia] = t / M[ia, ia]
+    for a in range(n - 1, -1, -1):
+        ia = free_idx[a]
+        t = out[ia]
+        for c in range(a + 1, n):
+            t -= M[free_idx[c], ia] * out[free_idx[c]]
+        out[ia] = t / M[ia, ia]
+
+
+@njit(**_JIT)
+def accelerations(q, qd, z, flaps, u, p, flags, free_idx, n_free, tabs, M, hvec, Q, jv, qdd):
+    """Joint accelerations qdd (5; zero for locked joints) of the joint-space model."""
+    kin = mass_matrix_and_bias(q, qd, p, M, hvec, jv)
+    generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q)
+    for k in range(5):
+        Q[k] -= hvec[k]
+    solve_free(M, Q, free_idx, n_free, qdd)
+
+
+@njit(**_JIT)
+def kinetic_energy(q, qd, p, M, hvec, jv):
+    mass_matrix_and_bias(q, qd, p, M, hvec, jv)
+    t = 0.0
+    for j in range(5):
+        for k in range(5):
+            t += 0.5 * qd[j] * M[j, k] * qd[k]
+    return t

@@ -1,0 +1,111 @@
+"""Allocation-free 3-vector and 3x3 rotation helpers for the numba kernels.
+
+Vectors are 3-tuples of float64, matrices are 9-tuples in row-major order.  Keeping them as tuples
+lets LLVM hold them in registers: the hot loops allocate nothing.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+_JIT = dict(cache=True, inline="always", error_model="numpy")
+
+
+@njit(**_JIT)
+def add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+@njit(**_JIT)
+def sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@njit(**_JIT)
+def scale(a, s):
+    return (a[0] * s, a[1] * s, a[2] * s)
+
+
+@njit(**_JIT)
+def dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@njit(**_JIT)
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@njit(**_JIT)
+def norm(a):
+    return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+
+
+@njit(**_JIT)
+def mv(m, v):
+    """m @ v."""
+    return (
+        m[0] * v[0] + m[1] * v[1] + m[2] * v[2],
+        m[3] * v[0] + m[4] * v[1] + m[5] * v[2],
+        m[6] * v[0] + m[7] * v[1] + m[8] * v[2],
+    )
+
+
+@njit(**_JIT)
+def mtv(m, v):
+    """m.T @ v."""
+    return (
+        m[0] * v[0] + m[3] * v[1] + m[6] * v[2],
+        m[1] * v[0] + m[4] * v[1] + m[7] * v[2],
+        m[2] * v[0] + m[5] * v[1] + m[8] * v[2],
+    )
+
+
+@njit(**_JIT)
+def mm(a, b):
+    """a @ b."""
+    return (
+        a[0] * b[0] + a[1] * b[3] + a[2] * b[6],
+        a[0] * b[1] + a[1] * b[4] + a[2] * b[7],
+        a[0] * b[2] + a[1] * b[5] + a[2] * b[8],
+        a[3] * b[0] + a[4] * b[3] + a[5] * b[6],
+        a[3] * b[1] + a[4] * b[4] + a[5] * b[7],
+        a[3] * b[2] + a[4] * b[5] + a[5] * b[8],
+        a[6] * b[0] + a[7] * b[3] + a[8] * b[6],
+        a[6] * b[1] + a[7] * b[4] + a[8] * b[7],
+        a[6] * b[2] + a[7] * b[5] + a[8] * b[8],
+    )
+
+
+@njit(**_JIT)
+def col(m, j):
+    return (m[j], m[3 + j], m[6 + j])
+
+
+@njit(**_JIT)
+def rot_x(a):
+    c, s = math.cos(a), math.sin(a)
+    return (1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
+
+
+@njit(**_JIT)
+def rot_y(a):
+    c, s = math.cos(a), math.sin(a)
+    return (c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
+
+
+@njit(**_JIT)
+def rot_z(a):
+    c, s = math.cos(a), math.sin(a)
+    return (c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
+
+
+@njit(**_JIT)
+def inertia_world(A, ixx, iyy, izz, ixz):
+    """A I A^T for a body inertia with principal terms and one product Ixz (body axes)."""
+    # I A^T, then A (I A^T)
+    i_body = (ixx, 0.0, -ixz, 0.0, iyy, 0.0, -ixz, 0.0, izz)
+    at = (A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8])
+    return mm(A, mm(i_body, at))
