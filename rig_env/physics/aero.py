@@ -23,7 +23,7 @@ from numba import njit
 from rig_env.physics import layout as L
 from rig_env.physics.vec import cross, dot, mtv, mv, norm, sub
 
-_JIT = dict(cache=True, error_model="numpy")
+_JIT = dict(cache=True, error_model="numpy", _nrt=False)
 
 MIN_AIRSPEED = 0.5
 """Below this local airspeed (m/s) a body or strip produces no aerodynamic load (wind off)."""

@@ -18,7 +18,7 @@ from numba import njit
 
 from rig_env.physics import layout as L
 
-_JIT = dict(cache=True, error_model="numpy")
+_JIT = dict(cache=True, error_model="numpy", _nrt=False)
 
 # offset of joint j's seven LuGre parameters in the parameter vector
 FRICTION_BASE = (

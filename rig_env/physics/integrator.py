@@ -23,7 +23,7 @@ from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.joint_space import accelerations, kinetic_energy, potential_energy
 
-_JIT = dict(cache=True, error_model="numpy")
+_JIT = dict(cache=True, error_model="numpy", _nrt=False)
 
 N_Y = 24  # RK state: q (5), qd (5), servo positions (7), servo rates (7)
 # scratch layout of one environment's work row
@@ -35,7 +35,8 @@ W_Q = 151  # generalised forces, 5
 W_H = 156  # bias, 5
 W_JV = 161  # Jacobian columns, 45
 W_QDD = 206
-N_WORK = 211
+W_BACKUP = 211  # state at the start of the control step, N_STATE
+N_WORK = 240
 RK_C = (0.0, 0.5, 0.5, 1.0)
 RK_W = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)
 
@@ -155,7 +156,9 @@ def step_batch(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h,
         x = X[i]
         w = W[i]
         ud = w[W_UD : W_UD + 7]
-        backup = x.copy()
+        backup = w[W_BACKUP : W_BACKUP + L.N_STATE]
+        for a in range(L.N_STATE):
+            backup[a] = x[a]
         for s in range(n_sub):
             k = k0 + s
             push_demands(dbuf[i], k % n_buf, U[i], P[i])
@@ -166,7 +169,8 @@ def step_batch(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h,
         st = check(x)
         if st != L.S_OK:
             status[i] = st
-            x[:] = backup
+            for a in range(L.N_STATE):
+                x[a] = backup[a]
 
 
 @njit(parallel=True, **_JIT)

@@ -34,7 +34,7 @@ from rig_env.physics import servo as sv
 from rig_env.physics.aero import comp_aero, hawk_aero
 from rig_env.physics.vec import add, col, cross, dot, inertia_world, mm, mv, rot_x, rot_y, rot_z, scale
 
-_JIT = dict(cache=True, error_model="numpy")
+_JIT = dict(cache=True, error_model="numpy", _nrt=False)
 
 STOP_BASE = (-1, L.P_STOPS_RIG_PITCH_LOWER_DEG, L.P_STOPS_RIG_YAW_LOWER_DEG, L.P_STOPS_MODEL_PITCH_LOWER_DEG, -1)
 
@@ -220,7 +220,8 @@ def solve_free(M, rhs, free_idx, n, out):
         ia = free_idx[a]
         s = M[ia, ia]
         for c in range(a):
-            s -= M[ia, free_idx[c]] ** 2
+            v = M[ia, free_idx[c]]
+            s -= v * v
         d = math.sqrt(s) if s > 0.0 else np.nan
         M[ia, ia] = d
         for b in range(a + 1, n):

@@ -10,7 +10,7 @@ import math
 
 from numba import njit
 
-_JIT = dict(cache=True, inline="always", error_model="numpy")
+_JIT = dict(cache=True, inline="always", error_model="numpy", _nrt=False)
 
 
 @njit(**_JIT)

@@ -1,0 +1,324 @@
+"""``simulate``: run the rig model for a fixed time, batched or single, in either formulation.
+
+This is the Python layer over the numba kernels: it checks inputs, lays out the batch, evaluates the
+control and gust schedules once per control step, and collects the trajectory at the control rate.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+
+from rig_env.params import JOINTS, SURFACES, ParameterError, RigParams, param_batch
+from rig_env.physics import integrator as integ
+from rig_env.physics import layout as L
+
+Schedule = float | np.ndarray | Callable[[float], "float | np.ndarray"]
+
+STATUS_NAMES = {L.S_OK: "ok", L.S_NONFINITE: "non-finite state", L.S_RUNAWAY: "runaway joint rate", L.S_CONSTRAINT: "constraint residual"}
+
+
+@dataclass(frozen=True)
+class SimResult:
+    """Trajectory at the control rate.  Batched arrays lead with the environment axis.
+
+    t: (n_t,) s.  q, qd: (n_t, n_free) or (n_envs, n_t, n_free), rad and rad/s, free joints in
+    ``free_dofs`` order.  q_all: the same for all five joints (JOINTS order).  energy: kinetic +
+    gravitational, J.  flaps: servo positions (deg, rig_env.SERVOS order).  z: LuGre bristle states
+    (rad).  constraint_residual: max |C| per sample (DAE only, else None).  status: per-environment
+    code (0 ok; see ``status_text``); fail_time: time of the detected blow-up (s) or NaN.  After a
+    blow-up an environment's samples hold its last finite state.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    q_all: np.ndarray
+    qd_all: np.ndarray
+    energy: np.ndarray
+    flaps: np.ndarray
+    z: np.ndarray
+    constraint_residual: np.ndarray | None
+    status: np.ndarray
+    fail_time: np.ndarray
+    free_dofs: tuple[str, ...]
+    formulation: str
+    physics_dt: float
+    control_dt: float
+
+    @property
+    def failed(self) -> np.ndarray:
+        return self.status != L.S_OK
+
+    def status_text(self) -> list[str]:
+        return [STATUS_NAMES[int(s)] for s in np.atleast_1d(self.status)]
+
+
+def check_free_dofs(free_dofs: Sequence[str]) -> tuple[str, ...]:
+    """Validate a set of free joint names; returns them in JOINTS order."""
+    if isinstance(free_dofs, str):
+        free_dofs = (free_dofs,)
+    names = tuple(free_dofs)
+    unknown = [n for n in names if n not in JOINTS]
+    if unknown:
+        raise ValueError(f"free_dofs: unknown joint(s) {unknown}; valid names: {list(JOINTS)}")
+    if len(set(names)) != len(names):
+        raise ValueError(f"free_dofs: duplicate joint names in {list(names)}")
+    if not names:
+        raise ValueError("free_dofs: at least one joint must be free (locking all five leaves nothing to simulate)")
+    return tuple(j for j in JOINTS if j in names)
+
+
+def rates(control_rate: float, physics_dt: float | None) -> tuple[float, float, int]:
+    """(control_dt, physics_dt, n_sub); the control step must be an integer multiple of the physics step."""
+    if not (math.isfinite(control_rate) and 1.0 <= control_rate <= 2000.0):
+        raise ValueError(f"control_rate = {control_rate} Hz is outside the allowed range [1, 2000] Hz")
+    control_dt = 1.0 / control_rate
+    if physics_dt is None:
+        n_sub = max(1, int(math.ceil(control_dt / 0.0025 - 1e-9)))
+        return control_dt, control_dt / n_sub, n_sub
+    if not (math.isfinite(physics_dt) and 1e-6 <= physics_dt <= 0.05):
+        raise ValueError(f"physics_dt = {physics_dt} s is outside the allowed range [1e-6, 0.05] s")
+    ratio = control_dt / physics_dt
+    n_sub = int(round(ratio))
+    if n_sub < 1 or abs(ratio - n_sub) > 1e-9 * ratio:
+        raise ValueError(
+            f"the control step 1/{control_rate} s must be an integer multiple of physics_dt = {physics_dt} s (ratio {ratio:.6g})"
+        )
+    return control_dt, physics_dt, n_sub
+
+
+def _as_batch(name: str, a, n_free: int) -> np.ndarray:
+    arr = np.asarray(a, dtype=np.float64)
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] not in (n_free, 5):
+        raise ValueError(f"{name}: expected shape ({n_free},) or (n_envs, {n_free}) (free joints) or (..., 5) (all joints), got {np.shape(a)}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: values must be finite")
+    return arr
+
+
+def initial_state(q0, qd0, free: tuple[str, ...]) -> tuple[np.ndarray, bool]:
+    """(n_envs, N_STATE) initial states from q0/qd0 given for the free joints or all five."""
+    n_free = len(free)
+    batched = np.ndim(q0) == 2
+    Q = _as_batch("q0", q0, n_free)
+    QD = _as_batch("qd0", qd0, n_free) if qd0 is not None else np.zeros((Q.shape[0], n_free))
+    if QD.shape[0] != Q.shape[0]:
+        if QD.shape[0] == 1:
+            QD = np.repeat(QD, Q.shape[0], axis=0)
+        else:
+            raise ValueError(f"qd0: {QD.shape[0]} environments but q0 has {Q.shape[0]}")
+    n = Q.shape[0]
+    X = np.zeros((n, L.N_STATE))
+    idx = [JOINTS.index(j) for j in free]
+    if Q.shape[1] == 5:
+        X[:, 0:5] = Q
+    else:
+        X[:, idx] = Q
+    if QD.shape[1] == 5:
+        locked = [k for k in range(5) if k not in idx]
+        if np.any(QD[:, locked] != 0.0):
+            raise ValueError("qd0: locked joints must have zero rate")
+        X[:, 5:10] = QD
+    else:
+        X[:, [5 + k for k in idx]] = QD
+    return X, batched
+
+
+def _schedule_value(name: str, s: Schedule, t: float, n: int, width: int | None = None) -> np.ndarray:
+    v = s(t) if callable(s) else s
+    arr = np.asarray(v, dtype=np.float64)
+    shape = (n,) if width is None else (n, width)
+    try:
+        arr = np.broadcast_to(arr, shape)
+    except ValueError:
+        raise ValueError(f"{name}: value of shape {np.shape(v)} does not broadcast to {shape}") from None
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: non-finite value at t = {t:.4f} s")
+    return arr
+
+
+def check_controls(controls: Mapping[str, Schedule] | None) -> dict[str, Schedule]:
+    controls = dict(controls or {})
+    unknown = [k for k in controls if k not in SURFACES]
+    if unknown:
+        raise ValueError(f"controls: unknown surface(s) {unknown}; valid names: {list(SURFACES)}")
+    return controls
+
+
+def fill_inputs(U: np.ndarray, t: float, controls: Mapping[str, Schedule], airspeed: Schedule, gust: Schedule | None) -> None:
+    """Inputs of every environment at time t: surface commands (deg -> rad), gust, airspeed."""
+    n = U.shape[0]
+    for k, name in enumerate(SURFACES):
+        U[:, k] = np.radians(_schedule_value(f"controls[{name!r}]", controls[name], t, n)) if name in controls else 0.0
+    if gust is not None:
+        U[:, L.U_GUST : L.U_GUST + 3] = _schedule_value("gust", gust, t, n, 3)
+    a = _schedule_value("airspeed", airspeed, t, n)
+    if np.any((a < 0.0) | (a > 60.0)):
+        raise ValueError(f"airspeed = {a.min():.3g}..{a.max():.3g} m/s is outside the allowed range [0, 60] m/s")
+    U[:, L.U_AIRSPEED] = a
+
+
+def flags_of(aero: bool, friction: bool, stops: bool, servo: bool, nonlinear_aero: bool) -> int:
+    return (
+        (L.F_AERO if aero else 0)
+        | (L.F_FRICTION if friction else 0)
+        | (L.F_STOPS if stops else 0)
+        | (L.F_SERVO if servo else 0)
+        | (L.F_NONLINEAR if nonlinear_aero else 0)
+    )
+
+
+def delay_line(P: np.ndarray, physics_dt: float) -> tuple[np.ndarray, int]:
+    """Per-environment servo delays in whole physics steps (nearest) and the delay-line length."""
+    d = np.stack([P[:, L.P_SERVOS_COMPENSATOR_DELAY_S], P[:, L.P_SERVOS_HAWK_DELAY_S]], axis=1)
+    steps = np.rint(d / physics_dt).astype(np.int64)
+    return steps, int(steps.max()) + 1
+
+
+def simulate(
+    params: RigParams | Sequence[RigParams],
+    q0,
+    qd0,
+    t_final: float,
+    *,
+    free_dofs: Sequence[str],
+    controls: Mapping[str, Schedule] | None = None,
+    airspeed: Schedule = 20.0,
+    gust: Schedule | None = None,
+    aero: bool = True,
+    friction: bool = True,
+    stops: bool = True,
+    servo: bool = True,
+    nonlinear_aero: bool = False,
+    formulation: str = "joint",
+    control_rate: float = 80.0,
+    physics_dt: float | None = None,
+    overrides: Mapping[str, object] | None = None,
+) -> SimResult:
+    """Simulate the rig from (q0, qd0) for t_final seconds.
+
+    q0, qd0: angles (rad) and rates (rad/s) of the free joints, shape (n_free,) or (n_envs, n_free);
+    a last axis of 5 gives all joints (JOINTS order), from which locked joints take their angle.
+    controls: surface name -> degrees (constant, (n_envs,) array, or function of time returning
+    either), held over each control step.  airspeed: m/s (same forms).  gust: world-frame air
+    velocity added to the tunnel flow, m/s, shape (3,) or (n_envs, 3) or a function of time.
+    formulation: "joint" (fast joint-space model) or "dae" (the paper's body-coordinate DAE).
+    control_rate: Hz; physics_dt: s, default the largest step <= 2.5 ms dividing the control step.
+    overrides: per-environment parameter overrides (see rig_env.param_batch).
+    """
+    free = check_free_dofs(free_dofs)
+    if formulation not in ("joint", "dae"):
+        raise ValueError(f"formulation = {formulation!r}; allowed: 'joint', 'dae'")
+    if not (math.isfinite(t_final) and 0.0 < t_final <= 1e5):
+        raise ValueError(f"t_final = {t_final} s is outside the allowed range (0, 1e5] s")
+    controls = check_controls(controls)
+    control_dt, h, n_sub = rates(control_rate, physics_dt)
+    X, batched = initial_state(q0, qd0, free)
+    n = X.shape[0]
+    if not isinstance(params, RigParams) and not (isinstance(params, Sequence) and all(isinstance(p, RigParams) for p in params)):
+        raise ParameterError("params must be a RigParams or a sequence of RigParams (one per environment)")
+    P = param_batch(params, n, overrides)
+    first = params if isinstance(params, RigParams) else params[0]
+    tabs = first.tables()
+    flags = flags_of(aero, friction, stops, servo, nonlinear_aero)
+    free_idx = np.array([JOINTS.index(j) for j in free], dtype=np.int64)
+    n_t = int(round(t_final / control_dt)) + 1
+    U = np.zeros((n, L.N_INPUTS))
+    fill_inputs(U, 0.0, controls, airspeed, gust)
+    delay_steps, n_buf = delay_line(P, h)
+    dbuf = np.zeros((n, n_buf, 7))
+    for i in range(n):  # demands before t = 0 equal the first command
+        for k in range(7):
+            dbuf[i, :, k] = _initial_demand(U[i], P[i], k)
+    # servos start at their initial demand, at rest
+    X[:, L.X_SERVO : L.X_SERVO + 7] = dbuf[:, 0, :]
+    status = np.zeros(n, dtype=np.int8)
+    fail_time = np.full(n, np.nan)
+
+    Xs = np.empty((n_t, n, L.N_STATE))
+    E = np.empty((n_t, n))
+    R = np.empty((n_t, n)) if formulation == "dae" else None
+    if formulation == "joint":
+        W, MW = integ.new_work(n)
+
+        def step(k0: int) -> None:
+            integ.step_batch(X, dbuf, k0, delay_steps, P, U, flags, free_idx, len(free_idx), tabs, h, n_sub, status, W, MW)
+
+        def record(i: int) -> None:
+            Xs[i] = X
+            integ.energy_batch(X, P, E[i], W, MW)
+
+    else:
+        from rig_env.physics import dae
+
+        Y = np.zeros((n, dae.N_DAE))
+        dae.from_joint_state(X, P, Y)
+        work = dae.new_work_dae(n)
+        Wj, MWj = integ.new_work(n)
+
+        def step(k0: int) -> None:
+            dae.step_batch_dae(Y, dbuf, k0, delay_steps, P, U, flags, free_idx, len(free_idx), tabs, h, n_sub, status, *work)
+            dae.to_joint_state(Y, P, X)
+
+        def record(i: int) -> None:
+            Xs[i] = X
+            integ.energy_batch(X, P, E[i], Wj, MWj)
+            dae.constraint_residual_batch(Y, P, free_idx, len(free_idx), R[i])
+
+    record(0)
+    for i in range(1, n_t):
+        t_prev = (i - 1) * control_dt
+        fill_inputs(U, t_prev, controls, airspeed, gust)
+        before = status.copy()
+        step((i - 1) * n_sub)
+        newly = (status != L.S_OK) & (before == L.S_OK)
+        fail_time[newly] = i * control_dt
+        record(i)
+    if np.any(status != L.S_OK):
+        bad = np.flatnonzero(status != L.S_OK)
+        warnings.warn(
+            f"simulate: {len(bad)} of {n} environment(s) blew up and were frozen (first: env {bad[0]}, "
+            f"{STATUS_NAMES[int(status[bad[0]])]} at t = {fail_time[bad[0]]:.4f} s); see result.status",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+    t = np.arange(n_t) * control_dt
+    Xs = np.moveaxis(Xs, 1, 0)  # (n, n_t, N_STATE)
+    E = E.T
+    q_all = Xs[:, :, 0:5]
+    qd_all = Xs[:, :, 5:10]
+    out = dict(
+        q=q_all[:, :, free_idx],
+        qd=qd_all[:, :, free_idx],
+        q_all=q_all,
+        qd_all=qd_all,
+        energy=E,
+        flaps=np.degrees(Xs[:, :, L.X_SERVO : L.X_SERVO + 7]),
+        z=Xs[:, :, L.X_Z : L.X_Z + 5],
+        constraint_residual=None if R is None else R.T,
+    )
+    if not batched:
+        out = {k: (None if v is None else v[0]) for k, v in out.items()}
+    return SimResult(
+        t=t,
+        status=status if batched else status[:1],
+        fail_time=fail_time if batched else fail_time[:1],
+        free_dofs=free,
+        formulation=formulation,
+        physics_dt=h,
+        control_dt=control_dt,
+        **out,
+    )
+
+
+def _initial_demand(u: np.ndarray, p: np.ndarray, k: int) -> float:
+    from rig_env.physics import servo as sv
+
+    return float(sv.limited(p, k, sv.demand(u, k)))
