@@ -477,10 +477,9 @@ def param_batch(
     for name, v in overrides.items():
         if name not in PARAM_INDEX:
             raise ParameterError(f"unknown parameter {name!r} in overrides; valid names: rig_env.PARAM_NAMES")
-        arr = np.broadcast_to(np.asarray(v, dtype=np.float64), (n_envs,)) if np.ndim(v) <= 1 else None
-        if arr is None or (np.ndim(v) == 1 and len(v) != n_envs):
-            raise ParameterError(f"override {name!r} must be a scalar or have n_envs = {n_envs} values")
-        overrides[name] = arr
+        if np.ndim(v) > 1 or (np.ndim(v) == 1 and len(v) != n_envs):
+            raise ParameterError(f"override {name!r} must be a scalar or have n_envs = {n_envs} values, got shape {np.shape(v)}")
+        overrides[name] = np.broadcast_to(np.asarray(v, dtype=np.float64), (n_envs,))
     if not overrides:
         cache: dict[int, np.ndarray] = {}
         rows = [cache.setdefault(id(p), p.to_vector()) for p in base]

@@ -1,0 +1,99 @@
+"""Parameter file, provenance tags, validation and the kernel layout."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import rig_env
+from rig_env.params import PARAM_INDEX, ParameterError, RigParams, param_batch
+from rig_env.physics import layout as L
+
+
+def test_layout_matches_param_names():
+    for name, i in PARAM_INDEX.items():
+        assert getattr(L, "P_" + name.replace(".", "_").upper()) == i
+    assert L.N_PARAMS == len(rig_env.PARAM_NAMES)
+
+
+def test_every_value_has_a_source(params):
+    for name in rig_env.PARAM_NAMES:
+        src, note = params.source(name)
+        assert src in ("paper", "rig-code", "estimate")
+        if src == "estimate":
+            assert note
+
+
+def test_paper_values_are_the_papers(params):
+    # Table 2 (model-pitch friction) and Table 4 (compensator), copied from the paper text
+    f = params.friction.model_pitch
+    assert (f.Fs, f.Fc, f.alpha_f, f.v_d, f.sigma0, f.sigma1, f.sigma2) == (1.95e-3, 1.89e-3, 95.6, 0.10, 9.37, 4.88e-5, 4.33e-4)
+    c = params.comp_aero
+    assert (c.CLalpha, c.CLq, c.CLde, c.CD0, c.CMalpha, c.CMq, c.CMde) == (6.61, 75.34, 1.694, 0.043, -2.16, -26.74, -0.77)
+    assert params.source("hawk_aero.CMalpha") == ("paper", "Table 3")
+
+
+def test_degrees_become_radians_in_the_kernel_vector(params):
+    v = params.to_vector()
+    assert v[L.P_STOPS_MODEL_PITCH_UPPER_DEG] == pytest.approx(math.radians(params.stops.model_pitch.upper_deg))
+    assert v[L.P_SERVOS_HAWK_RATE_LIMIT_DEG_S] == pytest.approx(math.radians(350.0))
+
+
+def test_replace_and_batch_overrides(params):
+    q = params.replace(**{"mass.hawk_mass": 1.3, "friction.rig_roll.Fc": 0.05})
+    assert q.mass.hawk_mass == 1.3 and q.friction.rig_roll.Fc == 0.05
+    assert params.mass.hawk_mass == 1.0  # frozen original untouched
+    P = param_batch(params, 3, {"mass.hawk_mass": [0.9, 1.0, 1.1]})
+    assert P.shape == (3, L.N_PARAMS)
+    np.testing.assert_allclose(P[:, L.P_MASS_HAWK_MASS], [0.9, 1.0, 1.1])
+
+
+@pytest.mark.parametrize(
+    "name, value, match",
+    [
+        ("mass.hawk_mass", -1.0, r"mass.hawk_mass = -1.0 kg is outside the allowed range \[0.1, 10.0\]"),
+        ("mass.hawk_Izz", 0.5, "triangle inequality"),
+        ("friction.model_pitch.Fs", 1e-4, "must be >= friction.model_pitch.Fc"),
+        ("stops.rig_pitch.upper_deg", 95.0, "stops.rig_pitch.upper_deg"),
+        ("hawk_aero.CLalpha", float("nan"), "must be finite"),
+        ("no.such", 1.0, "unknown parameter"),
+    ],
+)
+def test_invalid_values_name_field_and_range(params, name, value, match):
+    with pytest.raises(ParameterError, match=match):
+        params.replace(**{name: value})
+
+
+def test_bad_files(tmp_path: Path):
+    text = rig_env.params.DEFAULT_FILE.read_text()
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace('arm_length = { value = 0.8, source = "rig-code"', 'arm_length = { value = 0.8, source = "guess"'))
+    with pytest.raises(ParameterError, match="geometry.arm_length.source"):
+        RigParams.from_toml(bad)
+    bad.write_text(text + "\n[extra]\nx = 1\n")
+    with pytest.raises(ParameterError, match="unknown field"):
+        RigParams.from_toml(bad)
+    bad.write_text(text.replace('note = "RIG_DATA: about 1.0 kg (0.8-1.5)"', 'note = ""'))
+    with pytest.raises(ParameterError, match="mass.hawk_mass is an estimate and needs a 'note'"):
+        RigParams.from_toml(bad)
+    with pytest.raises(ParameterError, match="not found"):
+        RigParams.from_toml(tmp_path / "missing.toml")
+
+
+def test_batch_override_errors(params):
+    with pytest.raises(ParameterError, match="n_envs = 3"):
+        param_batch(params, 3, {"mass.hawk_mass": [1.0, 1.1]})
+    with pytest.raises(ParameterError, match="unknown parameter"):
+        param_batch(params, 3, {"mass.nope": 1.0})
+    with pytest.raises(ParameterError, match="outside the allowed range"):
+        param_batch(params, 2, {"mass.hawk_mass": [1.0, 100.0]})
+
+
+def test_static_balance_and_roll_imbalance(params):
+    """Sec. I: the compensator balances the pendulum in pitch; a small roll imbalance remains (Sec. VI)."""
+    g, m = params.geometry, params.mass
+    pitch_moment = m.hawk_mass * (g.arm_length + g.hawk_cg_x) + m.arm_mass * g.arm_cg_x + m.comp_mass * g.comp_cg_x
+    roll_moment = m.hawk_mass * g.hawk_cg_z + m.arm_mass * g.arm_cg_z + m.comp_mass * g.comp_cg_z
+    assert abs(pitch_moment) < 0.02  # kg m
+    assert 0.05 < roll_moment < 0.398  # below the rig-code no-model value
