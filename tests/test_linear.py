@@ -1,0 +1,48 @@
+"""Trim and linearisation against the nonlinear model and against theory."""
+
+import control
+import numpy as np
+import pytest
+
+import rig_env
+
+
+def test_trim_is_an_equilibrium(params):
+    op = rig_env.trim(params, free_dofs=["model_pitch", "rig_pitch"], controls={"hawk_elevator": 1.0}, q_guess=[0, 0, 0, 0.1, 0])
+    r = rig_env.simulate(params, op.q, op.qd, 3.0, free_dofs=op.free_dofs, controls={"hawk_elevator": 1.0}, friction=False, servo=False)
+    assert np.abs(r.q - r.q[0]).max() < 1e-6
+
+
+def test_linear_model_matches_nonlinear_small_response(params):
+    free = ["rig_pitch", "model_pitch"]
+    op = rig_env.trim(params, free_dofs=free, q_guess=[0, 0, 0, 0.1, 0])
+    sys = rig_env.linearize(params, op, inputs=["comp_elevator", "hawk_elevator"])
+    assert sys.state_labels == ["rig_pitch", "model_pitch", "rig_pitch_rate", "model_pitch_rate"]
+    assert sys.input_labels == ["comp_elevator", "hawk_elevator"]
+    step_deg = 0.05
+    T = np.arange(0, 3.0 + 1e-9, 1 / 200)
+    lin = control.forced_response(sys, T, np.vstack([np.zeros_like(T), np.full_like(T, np.radians(step_deg))]))
+    r = rig_env.simulate(params, op.q, op.qd, 3.0, free_dofs=free, controls={"hawk_elevator": step_deg},
+                         friction=False, servo=False, control_rate=200.0)
+    dq = r.q - op.q[[1, 3]]
+    err = np.abs(dq - lin.outputs[:2].T).max()
+    assert np.abs(dq).max() > 1e-4
+    assert err < 0.03 * np.abs(dq).max()
+
+
+def test_linear_pitch_mode_matches_theory(params):
+    from test_calibration import pitch_theory
+
+    op = rig_env.trim(params, free_dofs=["model_pitch"], q_guess=[0, 0, 0, 0.1, 0])
+    sys = rig_env.linearize(params, op, inputs=["hawk_elevator"])
+    eig = np.linalg.eigvals(sys.A)
+    f_lin = abs(eig[0]) / (2 * np.pi)
+    f_th, zeta_th = pitch_theory(params, alpha=op.q[3])
+    assert f_lin == pytest.approx(f_th, rel=0.05)
+    assert -eig[0].real / abs(eig[0]) == pytest.approx(zeta_th, rel=0.3)
+
+
+def test_linearize_rejects_bad_names(params):
+    op = rig_env.trim(params, free_dofs=["model_pitch"], q_guess=[0, 0, 0, 0.1, 0])
+    with pytest.raises(ValueError, match="inputs: unknown surface"):
+        rig_env.linearize(params, op, inputs=["flap9"])
