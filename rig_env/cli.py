@@ -1,0 +1,246 @@
+"""The ``rig`` command: demonstrations and pictures of the rig model.
+
+    rig demo [--out DIR] [--t-final S] [--airspeed M/S] [--aileron DEG] [--no-plot] [--quiet]
+        velocity-vector roll (paper Sec. VI, Fig. 7): rig roll and model pitch free, compensator
+        aileron ramped to +20 deg over 1 s and held; prints a summary, writes DIR/demo_roll.png
+    rig draw [--out DIR] [--q DEG DEG DEG DEG DEG] [--flaps DEG DEG DEG DEG]
+        the rig picture with its frames (DIR/rig_frames.png)
+
+The demo is the project's main job until a controller comparison exists.  ``scripts/demo_roll.py``
+runs the same :func:`demo_roll`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence, TextIO
+
+import numpy as np
+
+from rig_env.params import RigParams
+from rig_env.simulate import SimResult, simulate
+
+DEMO_FREE = ("rig_roll", "model_pitch")
+SETTLE_S = 5.0
+"""Statistics of the steady roll are taken over t >= SETTLE_S (the spin-up lasts about 3 s)."""
+
+
+@dataclass(frozen=True)
+class RollSummary:
+    """Velocity-vector roll figures (deg, deg/s, J, s); rates and pitch over t >= ``window_start``."""
+
+    t_final: float
+    airspeed: float
+    aileron_deg: float
+    total_roll_deg: float
+    mean_rate_run: float
+    window_start: float
+    mean_rate: float
+    min_rate: float
+    max_rate: float
+    model_pitch_min: float
+    model_pitch_max: float
+    energy_start: float
+    energy_end: float
+    energy_min: float
+    energy_max: float
+    compile_s: float
+    run_s: float
+    status: str
+
+    def table(self) -> str:
+        w = self.window_start
+        rows = [
+            ("airspeed", f"{self.airspeed:.1f}", "m/s"),
+            ("compensator aileron (held)", f"{self.aileron_deg:+.1f}", "deg"),
+            ("simulated time", f"{self.t_final:.1f}", "s"),
+            ("total roll angle", f"{self.total_roll_deg:+.0f}", "deg"),
+            ("mean roll rate, whole run", f"{self.mean_rate_run:+.1f}", "deg/s"),
+            (f"mean roll rate, t >= {w:g} s", f"{self.mean_rate:+.1f}", "deg/s"),
+            (f"min / max roll rate, t >= {w:g} s", f"{self.min_rate:+.1f} / {self.max_rate:+.1f}", "deg/s"),
+            (f"model pitch range, t >= {w:g} s", f"{self.model_pitch_min:+.1f} .. {self.model_pitch_max:+.1f}", "deg"),
+            ("energy (kinetic + gravity) start / end", f"{self.energy_start:+.3f} / {self.energy_end:+.3f}", "J"),
+            ("energy min / max", f"{self.energy_min:+.3f} / {self.energy_max:+.3f}", "J"),
+            ("compile (numba JIT, incl. cache load)", f"{self.compile_s:.2f}", "s"),
+            ("compute time of the run", f"{self.run_s:.2f}", f"s ({self.t_final / self.run_s:.1f}x real time)"),
+            ("status", self.status, ""),
+        ]
+        k = max(len(r[0]) for r in rows)
+        v = max(len(r[1]) for r in rows)
+        line = "-" * (k + v + 12)
+        body = "\n".join(f"  {a:<{k}}  {b:>{v}}  {c}" for a, b, c in rows)
+        return f"velocity-vector roll (rig_roll + model_pitch free)\n{line}\n{body}\n{line}"
+
+
+class _Progress:
+    """Progress bar driven by the control schedule, which simulate() evaluates once per control step."""
+
+    def __init__(self, t_final: float, stream: TextIO | None, width: int = 32):
+        self.t_final, self.stream, self.width = t_final, stream, width
+        self.tty = bool(stream is not None and getattr(stream, "isatty", lambda: False)())
+        self.last = -1
+
+    def __call__(self, t: float) -> None:
+        if self.stream is None:
+            return
+        frac = min(1.0, max(0.0, t / self.t_final))
+        step = int(frac * 100) if self.tty else int(frac * 10) * 10  # every 1 % on a terminal, else 10 %
+        if step == self.last:
+            return
+        self.last = step
+        n = int(round(frac * self.width))
+        bar = "#" * n + "." * (self.width - n)
+        msg = f"  simulating [{bar}] {step:3d} %  t = {t:5.1f} / {self.t_final:.1f} s"
+        self.stream.write(("\r" + msg) if self.tty else (msg + "\n"))
+        self.stream.flush()
+
+    def done(self) -> None:
+        if self.stream is not None and self.tty:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def run_roll(
+    params: RigParams | None = None,
+    *,
+    t_final: float = 25.0,
+    airspeed: float = 20.0,
+    aileron_deg: float = 20.0,
+    ramp_s: float = 1.0,
+    progress: TextIO | None = None,
+) -> tuple[SimResult, RollSummary]:
+    """Simulate the velocity-vector roll and summarise it.
+
+    From rest at every joint angle zero, rig roll and model pitch free (the others locked), the
+    compensator aileron ramps linearly from 0 to ``aileron_deg`` over ``ramp_s`` and is held; 80 Hz
+    control, 2.5 ms physics steps, friction, stops and servos on.  ``progress``: stream for a progress
+    bar (None: silent).  The kernels are compiled (or loaded from numba's cache) by a one-step run
+    first, timed apart from the run itself.
+    """
+    p = RigParams.default() if params is None else params
+    if not (math.isfinite(t_final) and t_final > SETTLE_S):
+        raise ValueError(f"t_final = {t_final} s must exceed the {SETTLE_S} s spin-up window")
+    if not (math.isfinite(ramp_s) and ramp_s > 0.0):
+        raise ValueError(f"ramp_s = {ramp_s} s must be positive")
+    bar = _Progress(t_final, progress)
+
+    def aileron(t: float) -> float:
+        bar(t)
+        return aileron_deg * min(1.0, t / ramp_s)
+
+    kw = dict(free_dofs=DEMO_FREE, airspeed=airspeed)
+    if progress is not None:
+        progress.write("  compiling / loading the numba kernels ...\n")
+        progress.flush()
+    t0 = time.perf_counter()
+    simulate(p, [0.0, 0.0], None, 1.0 / 80.0, controls={"comp_aileron": 0.0}, **kw)
+    t1 = time.perf_counter()
+    res = simulate(p, [0.0, 0.0], None, t_final, controls={"comp_aileron": aileron}, **kw)
+    t2 = time.perf_counter()
+    bar(t_final)
+    bar.done()
+    roll = np.degrees(res.q[:, 0])
+    rate = np.degrees(res.qd[:, 0])
+    pitch = np.degrees(res.q[:, 1])
+    w = res.t >= SETTLE_S
+    summary = RollSummary(
+        t_final=t_final,
+        airspeed=airspeed,
+        aileron_deg=aileron_deg,
+        total_roll_deg=float(roll[-1] - roll[0]),
+        mean_rate_run=float((roll[-1] - roll[0]) / t_final),
+        window_start=SETTLE_S,
+        mean_rate=float((roll[w][-1] - roll[w][0]) / (res.t[w][-1] - res.t[w][0])),
+        min_rate=float(rate[w].min()),
+        max_rate=float(rate[w].max()),
+        model_pitch_min=float(pitch[w].min()),
+        model_pitch_max=float(pitch[w].max()),
+        energy_start=float(res.energy[0]),
+        energy_end=float(res.energy[-1]),
+        energy_min=float(res.energy.min()),
+        energy_max=float(res.energy.max()),
+        compile_s=t1 - t0,
+        run_s=t2 - t1,
+        status=", ".join(res.status_text()),
+    )
+    return res, summary
+
+
+def demo_roll(
+    out_dir: str | Path = "out",
+    *,
+    t_final: float = 25.0,
+    airspeed: float = 20.0,
+    aileron_deg: float = 20.0,
+    plot: bool = True,
+    quiet: bool = False,
+    stream: TextIO | None = None,
+) -> RollSummary:
+    """``rig demo``: run the velocity-vector roll, print the summary table, write the plot."""
+    out = stream if stream is not None else sys.stdout
+    res, summary = run_roll(t_final=t_final, airspeed=airspeed, aileron_deg=aileron_deg, progress=None if quiet else sys.stderr)
+    out.write(summary.table() + "\n")
+    if plot:
+        from rig_env.plotting import plot_trajectory
+
+        path = Path(out_dir) / "demo_roll.png"
+        plot_trajectory(
+            res,
+            path,
+            f"Velocity-vector roll, {airspeed:g} m/s, compensator aileron ramped to {aileron_deg:+g} deg over 1 s",
+        )
+        out.write(f"plot: {path}\n")
+    out.flush()
+    return summary
+
+
+def draw(out_dir: str | Path = "out", q_deg: Sequence[float] | None = None, flaps_deg: Sequence[float] | None = None) -> Path:
+    """``rig draw``: the rig picture (zero position and a posed example, or the given pose)."""
+    from rig_env.plotting import rig_figure
+
+    path = Path(out_dir) / "rig_frames.png"
+    q = None if q_deg is None else np.radians(np.asarray(q_deg, dtype=np.float64))
+    rig_figure(RigParams.default(), q=q, path=path, flaps_deg=flaps_deg)
+    return path
+
+
+def _parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="rig", description="Bristol 5-DOF manoeuvre rig model (AIAA 2009-5727).")
+    sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    d = sub.add_parser("demo", help="velocity-vector roll at 20 m/s with the compensator ailerons (paper Fig. 7)")
+    d.add_argument("--out", default="out", metavar="DIR", help="directory for demo_roll.png (default: out)")
+    d.add_argument("--t-final", type=float, default=25.0, metavar="S", help="simulated time, s (default 25)")
+    d.add_argument("--airspeed", type=float, default=20.0, metavar="M/S", help="tunnel speed, m/s (default 20)")
+    d.add_argument("--aileron", type=float, default=20.0, metavar="DEG", help="held compensator aileron, deg (default 20)")
+    d.add_argument("--no-plot", action="store_true", help="do not write the plot")
+    d.add_argument("--quiet", action="store_true", help="no progress bar")
+    r = sub.add_parser("draw", help="picture of the rig with its frames and joints")
+    r.add_argument("--out", default="out", metavar="DIR", help="directory for rig_frames.png (default: out)")
+    r.add_argument("--q", type=float, nargs=5, metavar="DEG",
+                   help="joint angles, deg: rig_roll rig_pitch rig_yaw model_pitch model_yaw (default: zero and an example pose)")
+    r.add_argument("--flaps", type=float, nargs=4, metavar="DEG", help="compensator flaps 1-4, deg (with --q)")
+    return ap
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Console entry point ``rig`` (pyproject: rig = "rig_env.cli:main")."""
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "demo":
+            demo_roll(args.out, t_final=args.t_final, airspeed=args.airspeed, aileron_deg=args.aileron,
+                      plot=not args.no_plot, quiet=args.quiet)
+        elif args.command == "draw":
+            print(f"wrote {draw(args.out, args.q, args.flaps)}")
+    except ValueError as exc:  # bad argument values: one line, no traceback
+        print(f"rig {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,13 @@
+"""Velocity-vector roll demo: the same as ``rig demo`` (see rig_env.cli.demo_roll).
+
+Usage: python scripts/demo_roll.py [--out DIR] [--t-final S] [--airspeed M/S] [--aileron DEG] [--no-plot] [--quiet]
+"""
+
+from __future__ import annotations
+
+import sys
+
+from rig_env.cli import main
+
+if __name__ == "__main__":
+    raise SystemExit(main(["demo", *sys.argv[1:]]))

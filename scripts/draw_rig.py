@@ -1,0 +1,16 @@
+"""Draw the default rig (zero position and a posed example) to docs/rig_frames.png.
+
+The same as ``rig draw --out docs``; extra arguments are passed on (``--q``, ``--flaps``, ``--out``).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from rig_env.cli import main
+
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+
+if __name__ == "__main__":
+    raise SystemExit(main(["draw", "--out", str(DOCS), *sys.argv[1:]]))
