@@ -247,13 +247,15 @@ def simulate(
     R = np.empty((n_t, n)) if formulation == "dae" else None
     if formulation == "joint":
         W, MW = integ.new_work(n)
+        step_kernel = integ.step_batch if n >= integ.PARALLEL_MIN_ENVS else integ.step_serial
+        energy_kernel = integ.energy_batch if n >= integ.PARALLEL_MIN_ENVS else integ.energy_serial
 
         def step(k0: int) -> None:
-            integ.step_batch(X, dbuf, k0, delay_steps, P, U, flags, free_idx, len(free_idx), tabs, h, n_sub, status, W, MW)
+            step_kernel(X, dbuf, k0, delay_steps, P, U, flags, free_idx, len(free_idx), tabs, h, n_sub, status, W, MW)
 
         def record(i: int) -> None:
             Xs[i] = X
-            integ.energy_batch(X, P, E[i], W, MW)
+            energy_kernel(X, P, E[i], W, MW)
 
     else:
         from rig_env.physics import dae
@@ -269,7 +271,7 @@ def simulate(
 
         def record(i: int) -> None:
             Xs[i] = X
-            integ.energy_batch(X, P, E[i], Wj, MWj)
+            (integ.energy_batch if n >= integ.PARALLEL_MIN_ENVS else integ.energy_serial)(X, P, E[i], Wj, MWj)
             dae.constraint_residual_batch(Y, P, free_idx, len(free_idx), R[i])
 
     record(0)

@@ -112,8 +112,9 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
         + p[L.P_HAWK_AERO_CNDA] * da
         + p[L.P_HAWK_AERO_CNDR] * dr
     )
-    sa = math.sin(alpha)
-    ca = math.cos(alpha)
+    vxz = math.sqrt(vb[0] * vb[0] + vb[2] * vb[2])
+    sa = vb[2] / vxz if vxz > 0.0 else 0.0
+    ca = vb[0] / vxz if vxz > 0.0 else 1.0
     k = qbar * S
     # lift normal to the velocity in the body x-z plane, drag against it, side force along body y
     fb = (
@@ -189,14 +190,15 @@ def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn):
             CM = se * cm_off + cm_static + cmq * qhat + cmd * flaps[i]
             CD = cd0 + k_ind * CL * CL
             qS = 0.5 * rho * V * V * dS
-            # lift normal to the in-plane velocity (u e_x - wn n), drag against it
-            lx = wn / V
-            ln = u / V
-            f_x = qS * (CL * lx - CD * u / V)
-            f_n = qS * (CL * ln + CD * wn / V)
-            fxs = f_x
-            fys = f_n * n[1]
-            fzs = f_n * n[2]
+            # lift normal to the in-plane velocity (u e_x - wn n); drag against the full strip velocity
+            # (so that the panels' drag sums to a force along the free stream, as Table 4's CD does)
+            vabs = norm(v)
+            lift_x = qS * CL * wn / V
+            lift_n = qS * CL * u / V
+            dk = qS * CD / vabs
+            fxs = lift_x - dk * v[0]
+            fys = lift_n * n[1] - dk * v[1]
+            fzs = lift_n * n[2] - dk * v[2]
             fx += fxs
             fy += fys
             fz += fzs

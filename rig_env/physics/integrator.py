@@ -139,8 +139,7 @@ def check(x):
     return L.S_OK
 
 
-@njit(parallel=True, **_JIT)
-def step_batch(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W, MW):
+def _step_batch(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W, MW):
     """Advance all environments by one control step of n_sub physics steps.
 
     X: (n, N_STATE) states, in place; dbuf: (n, n_buf, 7) delay lines; k0: physics-step counter at the
@@ -173,8 +172,12 @@ def step_batch(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h,
                 x[a] = backup[a]
 
 
-@njit(parallel=True, **_JIT)
-def energy_batch(X, P, out, W, MW):
+step_batch = njit(parallel=True, **_JIT)(_step_batch)
+step_serial = njit(**_JIT)(_step_batch)
+"""Serial twin of step_batch for small batches, where a parallel launch costs more than it saves."""
+
+
+def _energy_batch(X, P, out, W, MW):
     """Kinetic + gravitational energy (J) of every environment into out (n,)."""
     for i in prange(X.shape[0]):
         x = X[i]
@@ -182,3 +185,10 @@ def energy_batch(X, P, out, W, MW):
         q = x[0:5]
         qd = x[5:10]
         out[i] = kinetic_energy(q, qd, P[i], MW[i], w[W_H : W_H + 5], w[W_JV : W_JV + 45]) + potential_energy(q, P[i])
+
+
+energy_batch = njit(parallel=True, **_JIT)(_energy_batch)
+energy_serial = njit(**_JIT)(_energy_batch)
+
+PARALLEL_MIN_ENVS = 32
+"""Below this batch size the serial kernels are faster than a parallel launch."""

@@ -209,39 +209,45 @@ def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q):
 
 @njit(**_JIT)
 def solve_free(M, rhs, free_idx, n, out):
-    """out[free] = M[free, free]^-1 rhs[free] by Cholesky (in place on M); out[locked] = 0.
+    """out[free] = M[free, free]^-1 rhs[free]; out[locked] = 0.  M and rhs are overwritten.
 
-    free_idx[:n] are the free joints' indices.  A block that is not positive definite gives NaN, which
-    the caller reports as a blow-up of that environment.
+    Locked rows and columns are replaced by the identity (and their rhs by 0), so the fixed 5x5
+    Cholesky below needs no index indirection.  A matrix that is not positive definite gives NaN,
+    which the caller reports as a blow-up of that environment.
     """
     for j in range(5):
-        out[j] = 0.0
-    for a in range(n):
-        ia = free_idx[a]
-        s = M[ia, ia]
+        is_free = False
+        for a in range(n):
+            if free_idx[a] == j:
+                is_free = True
+        if not is_free:
+            for k in range(5):
+                M[j, k] = 0.0
+                M[k, j] = 0.0
+            M[j, j] = 1.0
+            rhs[j] = 0.0
+    for a in range(5):
+        s = M[a, a]
         for c in range(a):
-            v = M[ia, free_idx[c]]
-            s -= v * v
+            s -= M[a, c] * M[a, c]
         d = math.sqrt(s) if s > 0.0 else np.nan
-        M[ia, ia] = d
-        for b in range(a + 1, n):
-            ib = free_idx[b]
-            t = M[ib, ia]
+        M[a, a] = d
+        inv = 1.0 / d
+        for b in range(a + 1, 5):
+            t = M[b, a]
             for c in range(a):
-                t -= M[ib, free_idx[c]] * M[ia, free_idx[c]]
-            M[ib, ia] = t / d
-    for a in range(n):
-        ia = free_idx[a]
-        t = rhs[ia]
+                t -= M[b, c] * M[a, c]
+            M[b, a] = t * inv
+    for a in range(5):
+        t = rhs[a]
         for c in range(a):
-            t -= M[ia, free_idx[c]] * out[free_idx[c]]
-        out[ia] = t / M[ia, ia]
-    for a in range(n - 1, -1, -1):
-        ia = free_idx[a]
-        t = out[ia]
-        for c in range(a + 1, n):
-            t -= M[free_idx[c], ia] * out[free_idx[c]]
-        out[ia] = t / M[ia, ia]
+            t -= M[a, c] * out[c]
+        out[a] = t / M[a, a]
+    for a in range(4, -1, -1):
+        t = out[a]
+        for c in range(a + 1, 5):
+            t -= M[c, a] * out[c]
+        out[a] = t / M[a, a]
 
 
 @njit(**_JIT)

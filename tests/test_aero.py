@@ -1,0 +1,160 @@
+"""Aerodynamics against eq. (23) written out independently, and the compensator's cruciform equivalence."""
+
+import math
+
+import numpy as np
+import pytest
+
+from rig_env.physics import aero
+from rig_env.physics.vec import mm, rot_x, rot_y, rot_z
+
+IDENT = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+
+
+def hawk_coefficients(params, F, M, V, alpha):
+    """Back out CL, CD, CY, Cl, CM, Cn from body-axis loads (level wings, beta from side force)."""
+    a = params.hawk_aero
+    qS = 0.5 * params.environment.air_density * V**2 * a.S
+    # wind axes in the x-z plane: drag along -v, lift perpendicular, pointing up
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    lift = F[0] * sa - F[2] * ca
+    drag = -(F[0] * ca + F[2] * sa)
+    return lift / qS, drag / qS, M[0] / (qS * a.b), M[1] / (qS * a.c), M[2] / (qS * a.b)
+
+
+@pytest.mark.parametrize("alpha_deg, de_deg, q_rate", [(0.0, 0.0, 0.0), (5.0, 2.0, 0.0), (-3.0, -4.0, 1.5), (8.0, 0.0, -2.0)])
+def test_hawk_eq23_linear(params, alpha_deg, de_deg, q_rate):
+    p = params.to_vector()
+    tabs = params.tables()
+    V = 20.0
+    al = math.radians(alpha_deg)
+    # body pitched up by alpha with the air along -x world: body velocity (V cos a, 0, V sin a) in body axes
+    A = rot_y(al)
+    v_air = (-V, 0.0, 0.0)
+    F, M = aero.hawk_aero(p, A, (0.0, 0.0, 0.0), tuple(np.array(A).reshape(3, 3) @ [0.0, q_rate, 0.0]), v_air,
+                          math.radians(de_deg), 0.0, 0.0, False, *tabs[:3])
+    Fb = np.array(A).reshape(3, 3).T @ F
+    Mb = np.array(A).reshape(3, 3).T @ M
+    CL, CD, Cl, CM, Cn = hawk_coefficients(params, Fb, Mb, V, al)
+    a = params.hawk_aero
+    qh = q_rate * a.c / (2 * V)
+    CL_ref = a.CL0 + a.CLalpha * (al - a.alpha0) + a.CLq * qh + a.CLde * math.radians(de_deg)
+    CD_ref = a.CD0 + CL_ref**2 / (math.pi * a.e_oswald * a.b**2 / a.S)
+    CM_ref = a.CM0 + a.CMalpha * (al - a.alpha0) + a.CMq * qh + a.CMde * math.radians(de_deg)
+    assert CL == pytest.approx(CL_ref, rel=1e-12, abs=1e-12)
+    assert CD == pytest.approx(CD_ref, rel=1e-12)
+    assert CM == pytest.approx(CM_ref, rel=1e-12, abs=1e-12)
+    assert abs(Cl) < 1e-12 and abs(Cn) < 1e-12
+
+
+def test_hawk_sideslip_and_gust(params):
+    """A lateral gust gives sideslip beta = asin(v/V); Cn = Cnbeta beta (weathercock), Cl = Clbeta beta."""
+    p = params.to_vector()
+    a = params.hawk_aero
+    V, vg = 20.0, 2.0
+    F, M = aero.hawk_aero(p, IDENT, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (-V, vg, 0.0), 0.0, 0.0, 0.0, False, *params.tables()[:3])
+    Vt = math.hypot(V, vg)
+    beta = math.asin(-vg / Vt)  # air from the right, relative velocity of the body to the left
+    qSb = 0.5 * params.environment.air_density * Vt**2 * a.S * a.b
+    assert M[2] / qSb == pytest.approx(a.Cnbeta * beta, rel=1e-12)
+    assert M[0] / qSb == pytest.approx(a.Clbeta * beta, rel=1e-12)
+    assert M[2] < 0.0  # nose turns into the wind (to the right, the gust's origin... negative yaw = nose left)
+
+
+def test_hawk_high_incidence_table(params):
+    p = params.to_vector()
+    tabs = params.tables()
+    V = 20.0
+    for alpha_deg in (4.0, 13.0, 20.0, 25.0):
+        al = math.radians(alpha_deg)
+        A = rot_y(al)
+        F, M = aero.hawk_aero(p, A, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (-V, 0.0, 0.0), 0.0, 0.0, 0.0, True, *tabs[:3])
+        R = np.array(A).reshape(3, 3)
+        CL, CD, Cl, CM, Cn = hawk_coefficients(params, R.T @ F, R.T @ M, V, al)
+        assert CL == pytest.approx(np.interp(alpha_deg, params.high_incidence.alpha_deg, params.high_incidence.hawk_CL), rel=1e-12)
+        assert CM == pytest.approx(np.interp(alpha_deg, params.high_incidence.alpha_deg, params.high_incidence.hawk_CM), rel=1e-12, abs=1e-14)
+    # stall: at 20 deg the table lift is below the linear model's
+    a = params.hawk_aero
+    assert np.interp(20.0, params.high_incidence.alpha_deg, params.high_incidence.hawk_CL) < a.CL0 + a.CLalpha * (math.radians(20) - a.alpha0)
+
+
+def comp(params, A=IDENT, v=(0.0, 0.0, 0.0), w=(0.0, 0.0, 0.0), V=20.0, da=0.0, de=0.0, dr=0.0, nonlinear=False):
+    flaps = np.array([aero.mix(da, de, dr, i) for i in range(4)])
+    tabs = params.tables()
+    F, M = aero.comp_aero(params.to_vector(), A, v, w, (-V, 0.0, 0.0), flaps, nonlinear, tabs[3], tabs[4])
+    R = np.array(A).reshape(3, 3)
+    return R.T @ np.array(F), R.T @ np.array(M)
+
+
+def test_compensator_is_table4_in_pitch_and_yaw(params):
+    """The X of four panels has the Table 4 derivatives of the compensator (exact cruciform equivalent
+    in the linear range; checked by central differences about zero incidence)."""
+    c = params.comp_aero
+    V = 20.0
+    qS = 0.5 * params.environment.air_density * V**2 * c.S
+    chord = c.S / c.span
+    e = 1e-5
+
+    def coeffs(al=0.0, be=0.0, de=0.0, dr=0.0, q=0.0, r=0.0):
+        A = mm(rot_z(-be), rot_y(al))
+        F, M = comp(params, A=A, w=(0.0, q, r), de=de, dr=dr)
+        Fw = np.array(A).reshape(3, 3) @ F  # world (wind) axes: lift is -z, side force +y
+        return -Fw[2] / qS, Fw[1] / qS, M[1] / (qS * chord), M[2] / (qS * chord), M[0]
+
+    def d(key):
+        return (np.array(coeffs(**{key: e})) - np.array(coeffs(**{key: -e}))) / (2 * e)
+
+    rate = 2 * V / chord  # d/dq of q c / 2V
+    assert d("al")[0] == pytest.approx(c.CLalpha, rel=1e-6)
+    assert d("de")[0] == pytest.approx(c.CLde, rel=1e-6)
+    assert d("q")[0] * rate == pytest.approx(c.CLq, rel=1e-6)
+    assert d("al")[2] == pytest.approx(c.CMalpha, rel=1e-6)
+    assert d("de")[2] == pytest.approx(c.CMde, rel=1e-6)
+    # pitching moves the upper and lower strips fore and aft: their drag differs and adds a small
+    # pitch damping of order CD0 (span / chord)^2 / 8 ~ 0.1 on top of Table 4's CMq
+    assert d("q")[2] * rate == pytest.approx(c.CMq, rel=0.01)
+    # yaw: the same derivatives (positive rudder: side force to starboard, sideslip from the left)
+    # (nose yawed left by beta: the flow meets the panels from starboard and pushes them to port)
+    assert d("be")[1] == pytest.approx(-c.CLalpha, rel=1e-6)
+    assert d("dr")[1] == pytest.approx(c.CLde, rel=1e-6)
+    assert d("be")[3] == pytest.approx(-c.CMalpha, rel=1e-6)  # weathercock: nose-left yaw gives nose-right moment
+    # pitch and yaw inputs give no roll; drag at zero incidence is CD0
+    for key in ("al", "de", "be", "dr"):
+        assert abs(d(key)[4]) < 1e-9
+    F0, M0 = comp(params)
+    assert -F0[0] / qS == pytest.approx(c.CD0, rel=1e-12)
+    assert np.allclose(M0, 0.0, atol=1e-12)
+
+
+def test_compensator_roll_from_strip_theory(params):
+    """Rolling moment of the aileron and roll damping equal the closed-form strip integrals."""
+    c, g = params.comp_aero, params.geometry
+    V = 20.0
+    rho = params.environment.air_density
+    r0, r1 = g.arm_radius, c.span / 2
+    chord_eff = (c.S / 2) / (r1 - r0)  # each panel carries half the reference area
+    da = math.radians(10.0)
+    F, M = comp(params, da=da)
+    # four panels, lift slope CLde/sqrt2 per panel, lever int r dr
+    ref = 4 * 0.5 * rho * V**2 * chord_eff * (c.CLde / math.sqrt(2)) * da * (r1**2 - r0**2) / 2
+    assert M[0] == pytest.approx(ref, rel=1e-9)
+    assert M[0] > 0  # positive aileron rolls the rig right-wing-down
+    p = 0.5
+    F, M = comp(params, w=(p, 0.0, 0.0))
+    # lift slope plus the panels' profile drag (CD0/2 each), which acts along the strip velocity
+    damp = -4 * 0.5 * rho * V**2 * chord_eff * (c.CLalpha + c.CD0 / 2) * (p / V) * (r1**3 - r0**3) / 3
+    assert M[0] == pytest.approx(damp, rel=1e-4)  # small-angle: atan(pr/V) ~ pr/V
+
+
+def test_mixing_signs_match_rig_code():
+    # flap_i = da +- de +- dr with signs (+,+,-), (+,-,-), (+,-,+), (+,+,+) (RIG_DATA, rig-code)
+    signs = [(1, 1, -1), (1, -1, -1), (1, -1, 1), (1, 1, 1)]
+    for i, (sa, se, sr) in enumerate(signs):
+        assert aero.mix(1.0, 0.0, 0.0, i) == sa
+        assert aero.mix(0.0, 1.0, 0.0, i) == se
+        assert aero.mix(0.0, 0.0, 1.0, i) == sr
+
+
+def test_wind_off_no_load(params):
+    F, M = comp(params, V=0.0)
+    assert np.all(F == 0) and np.all(M == 0)
