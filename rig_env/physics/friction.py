@@ -42,6 +42,8 @@ def stribeck(p, j, v):
 @njit(**_JIT)
 def torque(p, j, v, z):
     """Friction torque tau_f of eq. (21) for joint j at rate v (rad/s) and bristle state z (rad)."""
+    if v == 0.0 and z == 0.0:  # a locked joint, or a free one at rest and relaxed
+        return 0.0
     b = FRICTION_BASE[j]
     s0 = p[b + _S0]
     zdot = v - s0 * abs(v) * z / stribeck(p, j, v)

@@ -1,0 +1,246 @@
+"""Env-step throughput of rig_env's kernels against its peers, measured in one run.
+
+One env-step = one 80 Hz control step = 5 physics steps of 2.5 ms, all physics on (aero at 20 m/s,
+LuGre friction, stops, servos), all five joints free.  Measured:
+
+* the joint-space kernel (``rig_env.physics.integrator.step_batch``) and, when present, the DAE
+  kernel (``rig_env.physics.dae.step_batch_dae``), called directly (no Python bookkeeping per step)
+  at batch sizes 1, 64, 1024, 4096, 16384 (``--quick``: up to 4096, shorter windows);
+* JIT compile time of the joint kernel in a fresh subprocess with an empty numba cache directory,
+  and the load time from that cache in a second subprocess;
+* the peers: scipy ``solve_ivp`` on rig_env.reference's right-hand side (one env, rtol 1e-6, ideal
+  servos), and MuJoCo stepped from Python with aero applied each physics step (no friction, stops or
+  servos; benchmarks/mujoco_ref.py), 1 and a few envs; and ``speedup_vs_*`` = joint-kernel rate at
+  4096 envs over the best peer rate.
+
+Usage: ``python benchmarks/bench_step.py [--quick] [--json]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from rig_env import JOINTS, RigParams, param_batch  # noqa: E402
+from rig_env.physics import integrator as integ  # noqa: E402
+from rig_env.physics import layout as L  # noqa: E402
+from rig_env.simulate import _initial_demand, delay_line, flags_of  # noqa: E402
+
+H = 0.0025  # physics step, s
+N_SUB = 5  # physics steps per env-step
+AIRSPEED = 20.0  # m/s
+FLAGS = flags_of(aero=True, friction=True, stops=True, servo=True, nonlinear_aero=False)
+
+
+def machine() -> dict:
+    """CPU model, logical CPUs available to this process, numba threads, load at start."""
+    model = platform.processor() or "unknown"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    import numba
+
+    return {
+        "cpu": model,
+        "cpus_available": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count(),
+        "numba_threads": int(numba.config.NUMBA_NUM_THREADS),
+        "load_average_at_start": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
+        "python": platform.python_version(),
+        "numba": numba.__version__,
+    }
+
+
+def setup(params: RigParams, n: int, seed: int = 0) -> dict:
+    """Kernel arguments for n environments near trim, as rig_env.simulate lays them out."""
+    rng = np.random.default_rng(seed)
+    X = np.zeros((n, L.N_STATE))
+    X[:, 0:5] = rng.uniform(-0.2, 0.2, (n, 5))
+    X[:, 5:10] = rng.uniform(-0.5, 0.5, (n, 5))
+    P = param_batch(params, n)
+    U = np.zeros((n, L.N_INPUTS))
+    U[:, L.U_AIRSPEED] = AIRSPEED
+    delay_steps, n_buf = delay_line(P, H)
+    dbuf = np.zeros((n, n_buf, 7))
+    for k in range(7):
+        dbuf[:, :, k] = _initial_demand(U[0], P[0], k)
+    X[:, L.X_SERVO : L.X_SERVO + 7] = dbuf[:, 0, :]
+    free_idx = np.arange(5, dtype=np.int64)
+    W, MW = integ.new_work(n)
+    return dict(X=X, P=P, U=U, dbuf=dbuf, delay_steps=delay_steps, free_idx=free_idx, W=W, MW=MW, tabs=params.tables(), status=np.zeros(n, dtype=np.int8))
+
+
+def joint_stepper(a: dict):
+    k = [0]
+
+    def step() -> None:
+        integ.step_batch(a["X"], a["dbuf"], k[0], a["delay_steps"], a["P"], a["U"], FLAGS, a["free_idx"], 5, a["tabs"], H, N_SUB, a["status"], a["W"], a["MW"])
+        k[0] += N_SUB
+
+    return step
+
+
+def dae_stepper(a: dict):
+    from rig_env.physics import dae
+
+    n = a["X"].shape[0]
+    Y = np.zeros((n, dae.N_DAE))
+    dae.from_joint_state(a["X"], a["P"], Y)
+    work = dae.new_work_dae(n)
+    k = [0]
+
+    def step() -> None:
+        dae.step_batch_dae(Y, a["dbuf"], k[0], a["delay_steps"], a["P"], a["U"], FLAGS, a["free_idx"], 5, a["tabs"], H, N_SUB, a["status"], *work)
+        k[0] += N_SUB
+
+    return step
+
+
+def rate(step, n: int, seconds: float, min_calls: int = 3) -> float:
+    """Env-steps/s of ``step`` (one env-step of n envs per call) over about ``seconds`` of wall time."""
+    step()  # warm-up (and compile or cache load)
+    calls = 0
+    t0 = time.perf_counter()
+    while True:
+        step()
+        calls += 1
+        elapsed = time.perf_counter() - t0
+        if elapsed >= seconds and calls >= min_calls:
+            return calls * n / elapsed
+
+
+_COMPILE_SNIPPET = """
+import json, time
+t0 = time.perf_counter()
+import numpy as np
+from rig_env import RigParams
+import benchmarks.bench_step as b
+t1 = time.perf_counter()
+a = b.setup(RigParams.default(), 1)
+step = b.joint_stepper(a)
+t2 = time.perf_counter()
+step()
+t3 = time.perf_counter()
+step()
+t4 = time.perf_counter()
+print(json.dumps({"import_s": t1 - t0, "first_call_s": t3 - t2, "second_call_s": t4 - t3}))
+"""
+
+
+def compile_times() -> dict:
+    """First-call time of the joint kernel in fresh interpreters: empty numba cache, then warm cache."""
+    out = {}
+    with tempfile.TemporaryDirectory(prefix="rig_bench_numba_") as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+        for label in ("cold", "cached"):
+            r = subprocess.run([sys.executable, "-c", _COMPILE_SNIPPET], env=env, cwd=ROOT, capture_output=True, text=True, timeout=600)
+            if r.returncode != 0:
+                raise RuntimeError(f"compile subprocess failed: {r.stderr[-2000:]}")
+            out[label] = json.loads(r.stdout.strip().splitlines()[-1])
+    return {
+        "compile_s": out["cold"]["first_call_s"],
+        "cached_load_s": out["cached"]["first_call_s"],
+        "import_s": out["cold"]["import_s"],
+    }
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="batches 1..4096, short timing windows (< 1 min)")
+    ap.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+    args = ap.parse_args(argv)
+    batches = (1, 64, 1024, 4096) if args.quick else (1, 64, 1024, 4096, 16384)
+    window = 0.3 if args.quick else 2.0
+    peer_window = 0.7 if args.quick else 3.0
+    log = (lambda *a: print(*a, file=sys.stderr)) if args.json else print
+    params = RigParams.default()
+    info = machine()
+    log(f"machine: {info['cpu']}, {info['cpus_available']} CPUs available, numba threads {info['numba_threads']}, load {info['load_average_at_start']}")
+
+    results: dict[str, dict[str, float]] = {}
+    notes: dict[str, str] = {}
+    failed: dict[str, dict[str, int]] = {}
+    for name, make in (("joint", joint_stepper), ("dae", dae_stepper)):
+        results[name] = {}
+        failed[name] = {}
+        for n in batches:
+            try:
+                a = setup(params, n)
+                step = make(a)
+                results[name][str(n)] = rate(step, n, window)
+                failed[name][str(n)] = int(np.count_nonzero(a["status"]))
+            except (ImportError, AttributeError) as exc:
+                notes[name] = f"not available: {type(exc).__name__}: {exc}"
+                break
+            except Exception as exc:  # a kernel under concurrent development may not compile
+                notes[name] = f"failed: {type(exc).__name__}: {str(exc).splitlines()[0][:300]}"
+                break
+            log(f"{name:6s} {n:6d} envs: {results[name][str(n)]:14,.0f} env-steps/s  ({failed[name][str(n)]} envs flagged)")
+        if name in notes:
+            log(f"{name}: {notes[name]}")
+            if not results[name]:
+                del results[name]
+
+    compile_info = compile_times()
+    log(f"joint kernel JIT: compile {compile_info['compile_s']:.2f} s cold, {compile_info['cached_load_s']:.2f} s from cache")
+
+    from rig_env.reference import env_steps_per_s_scipy
+
+    scipy_rates = {m: env_steps_per_s_scipy(params, peer_window, m) for m in ("Radau", "RK45")}
+    for m, v in scipy_rates.items():
+        log(f"scipy solve_ivp {m:5s} (1 env, rtol 1e-6): {v:10,.1f} env-steps/s")
+
+    mujoco_rates: dict[str, float] = {}
+    try:
+        from benchmarks.mujoco_ref import mujoco_env_steps_per_s, mujoco_rollout_env_steps_per_s
+
+        for n in (1, 8):
+            mujoco_rates[f"python_aero_{n}env"] = mujoco_env_steps_per_s(params, n, peer_window)
+            log(f"MuJoCo + Python aero, {n} env(s): {mujoco_rates[f'python_aero_{n}env']:10,.0f} env-steps/s")
+        if not args.quick:
+            mujoco_rates["rollout_bare_mechanism_4096env"] = mujoco_rollout_env_steps_per_s(params, 4096, peer_window)
+            log(f"MuJoCo rollout, bare mechanism (no aero/friction), 4096 envs: {mujoco_rates['rollout_bare_mechanism_4096env']:10,.0f} env-steps/s")
+    except ImportError as exc:
+        notes["mujoco"] = f"not available: {exc}"
+
+    ref = results["joint"].get("4096")
+    best_scipy = max(scipy_rates.values())
+    aero_peers = [v for k, v in mujoco_rates.items() if k.startswith("python_aero")]
+    out = {
+        "env_steps_per_s": results,
+        "compile_s": compile_info["compile_s"],
+        "cached_load_s": compile_info["cached_load_s"],
+        "speedup_vs_scipy": ref / best_scipy if ref else None,
+        "speedup_vs_mujoco": ref / max(aero_peers) if ref and aero_peers else None,
+        "scipy_env_steps_per_s": scipy_rates,
+        "mujoco_env_steps_per_s": mujoco_rates,
+        "envs_flagged": failed,
+        "notes": notes,
+        "machine": info,
+        "command": " ".join([Path(sys.executable).name, *sys.argv]),
+        "env_step": f"{N_SUB} x {H * 1e3:g} ms physics steps, aero {AIRSPEED:g} m/s + friction + stops + servos, 5 joints free",
+    }
+    if ref:
+        log(f"speedup at 4096 envs: {out['speedup_vs_scipy']:,.0f}x scipy (best of Radau/RK45), {out['speedup_vs_mujoco'] or float('nan'):,.1f}x MuJoCo + Python aero")
+    if args.json:
+        print(json.dumps(out, indent=2))
+    return out
+
+
+if __name__ == "__main__":
+    main()
