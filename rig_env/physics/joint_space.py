@@ -32,7 +32,7 @@ from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.aero import comp_aero, hawk_aero
-from rig_env.physics.vec import add, col, cross, dot, inertia_world, mm, mv, rot_x, rot_y, rot_z, scale
+from rig_env.physics.vec import add, col, cross, dot, inertia_world, mm, mtv, mv, rot_x, rot_y, rot_z, scale
 
 _JIT = dict(cache=True, error_model="numpy", _nrt=False)
 
@@ -76,9 +76,36 @@ def point_bias(b, w, r):
 
 
 @njit(**_JIT)
-def mass_matrix_and_bias(q, qd, p, M, hvec, jv):
-    """Fill M (5x5) and h (5) of M qdd + h = Q; jv: scratch (45,) for the linear Jacobian columns.
+def point_inertia(m, r):
+    """m (|r|^2 E - r r^T): inertia of a point mass m at r about the origin (9-tuple)."""
+    rr = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+    return (
+        m * (rr - r[0] * r[0]), -m * r[0] * r[1], -m * r[0] * r[2],
+        -m * r[1] * r[0], m * (rr - r[1] * r[1]), -m * r[1] * r[2],
+        -m * r[2] * r[0], -m * r[2] * r[1], m * (rr - r[2] * r[2]),
+    )  # fmt: skip
 
+
+@njit(**_JIT)
+def madd(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3], a[4] + b[4], a[5] + b[5], a[6] + b[6], a[7] + b[7], a[8] + b[8])
+
+
+@njit(**_JIT)
+def mass_matrix_and_bias(q, qd, p, M, hvec, jv):
+    """Fill M (5x5) and h (5) of M qdd + h = Q (jv: unused scratch, kept for callers).
+
+    Every arm joint turns all three bodies about an axis through the pivot and every model joint
+    turns the Hawk about an axis through the model gimbal, so with J_v = a x r, J_w = a:
+
+        M_jk = a_j . I_pivot a_k                       (j, k arm joints)
+        M_jk = a_j . I_gimbal a_k                      (j, k model joints)
+        M_jk = a_j . (I_a + m_a((r_a.rho) E - rho r_a^T)) a_k   (j arm, k model)
+        h_k  = a_k . sum over the bodies moved by k of [r x m b_v + I b_w + w x I w]
+
+    with I_pivot, I_gimbal the inertias about the pivot and the gimbal (parallel-axis terms), r_a the
+    Hawk c.g. from the pivot, rho from the gimbal, b_v, b_w the bias accelerations.  This is
+    J^T M_body J and J^T (M_body b + gyroscopic) written without forming J.
     Returns the kinematics (As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a) for the force terms.
     """
     As, Aa, axes, G, rho, r_s, r_r, r_ref = frames(q, p)
@@ -95,50 +122,43 @@ def mass_matrix_and_bias(q, qd, p, M, hvec, jv):
     )
     I_a = inertia_world(Aa, p[L.P_MASS_HAWK_IXX], p[L.P_MASS_HAWK_IYY], p[L.P_MASS_HAWK_IZZ], p[L.P_MASS_HAWK_IXZ])
     r_a = add(G, rho)
-    for k in range(5):
-        ax = axes[k]
-        if k < 3:
-            vs = cross(ax, r_s)
-            vr = cross(ax, r_r)
-            va = cross(ax, r_a)
-        else:
-            vs = (0.0, 0.0, 0.0)
-            vr = (0.0, 0.0, 0.0)
-            va = cross(ax, rho)
-        for d in range(3):
-            jv[k * 3 + d] = vs[d]
-            jv[15 + k * 3 + d] = vr[d]
-            jv[30 + k * 3 + d] = va[d]
-    for j in range(5):
-        js = (jv[j * 3], jv[j * 3 + 1], jv[j * 3 + 2])
-        jr = (jv[15 + j * 3], jv[16 + j * 3], jv[17 + j * 3])
-        ja = (jv[30 + j * 3], jv[31 + j * 3], jv[32 + j * 3])
-        Iw_s_j = mv(I_s, axes[j]) if j < 3 else (0.0, 0.0, 0.0)
-        Iw_a_j = mv(I_a, axes[j])
+    I_gim = madd(I_a, point_inertia(m_a, rho))
+    I_piv = madd(madd(I_s, point_inertia(m_s, r_s)), madd(point_inertia(m_r, r_r), madd(I_a, point_inertia(m_a, r_a))))
+    ra_rho = dot(r_a, rho)
+    K = (
+        I_a[0] + m_a * (ra_rho - rho[0] * r_a[0]), I_a[1] - m_a * rho[0] * r_a[1], I_a[2] - m_a * rho[0] * r_a[2],
+        I_a[3] - m_a * rho[1] * r_a[0], I_a[4] + m_a * (ra_rho - rho[1] * r_a[1]), I_a[5] - m_a * rho[1] * r_a[2],
+        I_a[6] - m_a * rho[2] * r_a[0], I_a[7] - m_a * rho[2] * r_a[1], I_a[8] + m_a * (ra_rho - rho[2] * r_a[2]),
+    )  # fmt: skip
+    for j in range(3):
+        Ij = mv(I_piv, axes[j])
+        for k in range(j, 3):
+            v = dot(Ij, axes[k])
+            M[j, k] = v
+            M[k, j] = v
+        Kj = mtv(K, axes[j])  # a_j^T K
+        for k in range(3, 5):
+            v = dot(Kj, axes[k])
+            M[j, k] = v
+            M[k, j] = v
+    for j in range(3, 5):
+        Ij = mv(I_gim, axes[j])
         for k in range(j, 5):
-            ks = (jv[k * 3], jv[k * 3 + 1], jv[k * 3 + 2])
-            kr = (jv[15 + k * 3], jv[16 + k * 3], jv[17 + k * 3])
-            ka = (jv[30 + k * 3], jv[31 + k * 3], jv[32 + k * 3])
-            mjk = m_s * dot(js, ks) + m_r * dot(jr, kr) + m_a * dot(ja, ka) + dot(Iw_a_j, axes[k])
-            if k < 3:
-                mjk += dot(Iw_s_j, axes[k])
-            M[j, k] = mjk
-            M[k, j] = mjk
-    a_s = point_bias(b_s, w_s, r_s)
-    a_r = point_bias(b_s, w_s, r_r)
+            v = dot(Ij, axes[k])
+            M[j, k] = v
+            M[k, j] = v
+    # bias (velocity-product) generalised forces
     a_a = add(point_bias(b_s, w_s, G), point_bias(b_a, w_a, rho))
-    t_s = add(mv(I_s, b_s), cross(w_s, mv(I_s, w_s)))
-    t_a = add(mv(I_a, b_a), cross(w_a, mv(I_a, w_a)))
-    for k in range(5):
-        hk = (
-            m_s * (jv[k * 3] * a_s[0] + jv[k * 3 + 1] * a_s[1] + jv[k * 3 + 2] * a_s[2])
-            + m_r * (jv[15 + k * 3] * a_r[0] + jv[16 + k * 3] * a_r[1] + jv[17 + k * 3] * a_r[2])
-            + m_a * (jv[30 + k * 3] * a_a[0] + jv[31 + k * 3] * a_a[1] + jv[32 + k * 3] * a_a[2])
-            + dot(axes[k], t_a)
-        )
-        if k < 3:
-            hk += dot(axes[k], t_s)
-        hvec[k] = hk
+    f_a = scale(a_a, m_a)
+    t_hawk = add(add(mv(I_a, b_a), cross(w_a, mv(I_a, w_a))), cross(rho, f_a))  # about the gimbal
+    t_arm = add(
+        add(cross(r_s, scale(point_bias(b_s, w_s, r_s), m_s)), cross(r_r, scale(point_bias(b_s, w_s, r_r), m_r))),
+        add(add(mv(I_s, b_s), cross(w_s, mv(I_s, w_s))), add(t_hawk, cross(G, f_a))),
+    )
+    for k in range(3):
+        hvec[k] = dot(axes[k], t_arm)
+    for k in range(3, 5):
+        hvec[k] = dot(axes[k], t_hawk)
     return As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a
 
 
