@@ -266,7 +266,7 @@ def simulate(
         Wj, MWj = integ.new_work(n)
 
         def step(k0: int) -> None:
-            dae.step_batch_dae(Y, dbuf, k0, delay_steps, P, U, flags, free_idx, len(free_idx), tabs, h, n_sub, status, *work)
+            (dae.step_batch_dae if n >= integ.PARALLEL_MIN_ENVS else dae.step_serial_dae)(Y, dbuf, k0, delay_steps, P, U, flags, free_idx, len(free_idx), tabs, h, n_sub, status, *work)
             dae.to_joint_state(Y, P, X)
 
         def record(i: int) -> None:

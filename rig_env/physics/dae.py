@@ -43,9 +43,15 @@ the two agree to round-off.
 
 Integration (per physics step h, as ``integrator.physics_step``): LuGre bristle half step at the
 current joint rates; classical RK4 over h on (coordinates, velocities, servo states) with z frozen;
-drift control (Gauss-Newton projection of the positions onto C = 0 in the M^-1 metric with the
-quaternions renormalised, until max|C| < 1e-12, then the mass-orthogonal projection of the velocities
-onto J v = 0); bristle half step at the projected joint rates; servo limits.
+drift control (quaternions renormalised, Gauss-Newton projection of the positions onto C = 0 in the
+M^-1 metric until max|C| < 1e-12 -- one update when the residual is already below 1e-10, as the
+iteration converges quadratically -- then the mass-orthogonal projection of the velocities onto
+J v = 0); bristle half step at the projected joint rates; servo limits.  Drift control comes before
+the second bristle half step (the joint-space integrator has nothing to project), so the bristles see
+constraint-consistent joint rates; the difference is at the 1e-12 level.  Joint rates come from the
+body angular velocities through the dual bases of the joint axes (``joint_rates``).
+
+Cost per physics step: four Schur solves (10 + n_locked rows) and one for the projection.
 
 State row Y[i] (N_DAE = 56):
 
@@ -80,9 +86,21 @@ from rig_env.physics import servo as sv
 from rig_env.physics.aero import comp_aero, hawk_aero
 from rig_env.physics.integrator import push_demands
 from rig_env.physics.joint_space import air_velocity, frames, joint_torque, velocities
-from rig_env.physics.vec import add, col, cross, dot, mtv, mv, scale, sub
+from rig_env.physics import vec as _vec
 
-_JIT = dict(cache=True, error_model="numpy")
+_JIT = dict(cache=True, error_model="numpy", _nrt=False)  # allocation-free kernels: no NRT refcounting
+_JIT_BATCH = dict(cache=True, error_model="numpy")  # batch drivers that allocate small scratch
+
+
+def _plain(f):
+    """vec.py's helper compiled as an ordinary function: LLVM still inlines it, but numba's IR-level
+    ``inline="always"`` over the many call sites here would multiply the cold compile time."""
+    return njit(error_model="numpy")(f.py_func)
+
+
+add, col, cross, dot, mtv, mv, scale, sub = (
+    _plain(f) for f in (_vec.add, _vec.col, _vec.cross, _vec.dot, _vec.mtv, _vec.mv, _vec.scale, _vec.sub)
+)
 
 # ---- state row layout
 Y_RA = 0
@@ -109,7 +127,7 @@ N_RK = 46
 N_CMAX = 15  # 10 joint constraints + up to 5 locked joints
 
 # ---- velocity columns (v = Rdot_a, omega_a, Rdot_s, omega_s, Rdot_r)
-V_A, W_A, V_S, W_S, V_R = 0, 3, 6, 9, 12
+C_VA, C_WA, C_VS, C_WS, C_VR = 0, 3, 6, 9, 12
 GROUND, ARM, AIRCRAFT = 0, 1, 2
 
 # ---- scratch row of one environment
@@ -119,7 +137,7 @@ W_YT = 230
 W_UD = 276
 W_J = 283  # constraint Jacobian, N_CMAX x 15, row-major
 W_MJ = 508  # M^-1 J^T stored as rows (M^-1 J[r]), N_CMAX x 15
-W_S = 733  # Schur complement J M^-1 J^T and its Cholesky factor (lower), N_CMAX x N_CMAX
+W_SCHUR = 733  # Schur complement J M^-1 J^T and its Cholesky factor (lower), N_CMAX x N_CMAX
 W_C = 958  # constraint values
 W_B = 973  # velocity-product terms Jdot v
 W_F = 988  # applied + gyroscopic forces F (15)
@@ -132,6 +150,7 @@ RK_C = (0.0, 0.5, 0.5, 1.0)
 RK_W = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)
 PROJ_TOL = 1e-12
 PROJ_ITERS = 4
+PROJ_SKIP_RECHECK = 1e-10  # below this residual one Gauss-Newton update suffices
 
 
 def new_work_dae(n_envs: int) -> tuple[np.ndarray]:
@@ -313,6 +332,13 @@ def inertias(p):
 
 @njit(**_JIT)
 def applied_loads(y, z, flaps, u, p, flags, free_idx, n_free, tabs):
+    """Applied loads of state y; see :func:`loads_at`."""
+    Aa, As = body_matrices(y)
+    return loads_at(y, Aa, As, z, flaps, u, p, flags, free_idx, n_free, tabs)
+
+
+@njit(**_JIT)
+def loads_at(y, Aa, As, z, flaps, u, p, flags, free_idx, n_free, tabs):
     """Applied loads (world axes): (f_a, n_a, f_s, n_s, f_r), forces at each c.g. (N), moments (N m).
 
     Gravity on every body; Hawk aero at its c.g.; compensator aero force at the arm point
@@ -321,7 +347,6 @@ def applied_loads(y, z, flaps, u, p, flags, free_idx, n_free, tabs):
     velocity = sum tau_j qd_j).
     """
     g = p[L.P_ENVIRONMENT_GRAVITY]
-    Aa, As = body_matrices(y)
     w_a, w_s = world_rates(y, Aa, As)
     f_a = (0.0, 0.0, p[L.P_MASS_HAWK_MASS] * g)
     n_a = (0.0, 0.0, 0.0)
@@ -344,7 +369,7 @@ def applied_loads(y, z, flaps, u, p, flags, free_idx, n_free, tabs):
     if flags & (L.F_FRICTION | L.F_STOPS):
         bases = joint_bases(Aa, As)
         qd = joint_rates(Aa, As, w_a, w_s, bases)
-        q = joint_angles(Aa, As) if flags & L.F_STOPS else (0.0, 0.0, 0.0, 0.0, 0.0)
+        q = joint_angles(Aa, As) if flags & L.F_STOPS else (0.0, 0.0, 0.0, 0.0, 0.0)  # for the stops
         t_rig = (0.0, 0.0, 0.0)
         tau_mp = 0.0
         tau_my = 0.0
@@ -394,13 +419,13 @@ def _point_rows(J, c, b, r0, cR, pos, lever_s, lever_a, As, Aa, w_s, w_a, use_a)
     for k in range(3):
         ck = cross(lever_s, col(As, k))
         for d in range(3):
-            J[(r0 + d) * 15 + W_S + k] = ck[d]
+            J[(r0 + d) * 15 + C_WS + k] = ck[d]
     acc = scale(cross(w_s, cross(w_s, lever_s)), -1.0)
     if use_a:
         for k in range(3):
             ck = cross(lever_a, col(Aa, k))
             for d in range(3):
-                J[(r0 + d) * 15 + W_A + k] = ck[d]
+                J[(r0 + d) * 15 + C_WA + k] = ck[d]
         acc = sub(acc, cross(w_a, cross(w_a, lever_a)))
     for d in range(3):
         b[r0 + d] = acc[d]
@@ -416,9 +441,9 @@ def _dot_row(J, c, b, r, u, v, body1, body2, A1, A2, w1, w2, c0):
     n = cross(u, v)
     if body1 != GROUND:
         g1 = mtv(A1, n)
-        _put3(J, r, W_S if body1 == ARM else W_A, g1)
+        _put3(J, r, C_WS if body1 == ARM else C_WA, g1)
     g2 = scale(mtv(A2, n), -1.0)
-    _put3(J, r, W_S if body2 == ARM else W_A, g2)
+    _put3(J, r, C_WS if body2 == ARM else C_WA, g2)
     c[r] = dot(u, v) + c0
     b[r] = dot(sub(w1, w2), add(cross(cross(w1, u), v), cross(u, cross(w2, v))))
 
@@ -430,15 +455,21 @@ def constraint_system(y, tgt, p, locked, n_locked, J, c, b):
     m = 10 + n_locked; y: coordinates and velocities (first 32 entries); tgt: locked targets (5).
     """
     Aa, As = body_matrices(y)
+    return constraints_at(y, Aa, As, tgt, p, locked, n_locked, J, c, b)
+
+
+@njit(**_JIT)
+def constraints_at(y, Aa, As, tgt, p, locked, n_locked, J, c, b):
+    """:func:`constraint_system` with the body rotations already computed."""
     w_a, w_s = world_rates(y, Aa, As)
     zero = (0.0, 0.0, 0.0)
     l_f = scale(col(As, 0), p[L.P_GEOMETRY_ARM_LENGTH])
     rho = mv(Aa, (p[L.P_GEOMETRY_HAWK_CG_X], 0.0, p[L.P_GEOMETRY_HAWK_CG_Z]))
     r_s = mv(As, (p[L.P_GEOMETRY_ARM_CG_X], p[L.P_GEOMETRY_ARM_CG_Y], p[L.P_GEOMETRY_ARM_CG_Z]))
     r_r = mv(As, (p[L.P_GEOMETRY_COMP_CG_X], p[L.P_GEOMETRY_COMP_CG_Y], p[L.P_GEOMETRY_COMP_CG_Z]))
-    _point_rows(J, c, b, 0, V_A, vec3(y, Y_RA), l_f, rho, As, Aa, w_s, w_a, True)
-    _point_rows(J, c, b, 3, V_S, vec3(y, Y_RS), r_s, zero, As, Aa, w_s, w_a, False)
-    _point_rows(J, c, b, 6, V_R, vec3(y, Y_RR), r_r, zero, As, Aa, w_s, w_a, False)
+    _point_rows(J, c, b, 0, C_VA, vec3(y, Y_RA), l_f, rho, As, Aa, w_s, w_a, True)
+    _point_rows(J, c, b, 3, C_VS, vec3(y, Y_RS), r_s, zero, As, Aa, w_s, w_a, False)
+    _point_rows(J, c, b, 6, C_VR, vec3(y, Y_RR), r_r, zero, As, Aa, w_s, w_a, False)
     x_s, z_s = col(As, 0), col(As, 2)
     x_a, y_a = col(Aa, 0), col(Aa, 1)
     ez = (0.0, 0.0, 1.0)
@@ -463,40 +494,53 @@ def constraint_system(y, tgt, p, locked, n_locked, J, c, b):
 # ---------------------------------------------------------------------- Schur complement
 @njit(**_JIT)
 def _minv(src, s0, dst, d0, ima, ims, ma, ms, mr):
-    """dst[d0:d0+15] = M^-1 src[s0:s0+15] (block diagonal, body-frame inertias)."""
+    """dst[d0:d0+15] = M^-1 src[s0:s0+15] (block diagonal, body-frame inertias; ma, ms, mr inverse masses)."""
+    a0, a1, a2 = src[s0 + C_WA], src[s0 + C_WA + 1], src[s0 + C_WA + 2]
+    b0, b1, b2 = src[s0 + C_WS], src[s0 + C_WS + 1], src[s0 + C_WS + 2]
     for d in range(3):
-        dst[d0 + V_A + d] = src[s0 + V_A + d] / ma
-        dst[d0 + V_S + d] = src[s0 + V_S + d] / ms
-        dst[d0 + V_R + d] = src[s0 + V_R + d] / mr
-    ta = mv(ima, (src[s0 + W_A], src[s0 + W_A + 1], src[s0 + W_A + 2]))
-    ts = mv(ims, (src[s0 + W_S], src[s0 + W_S + 1], src[s0 + W_S + 2]))
+        dst[d0 + C_VA + d] = src[s0 + C_VA + d] * ma
+        dst[d0 + C_VS + d] = src[s0 + C_VS + d] * ms
+        dst[d0 + C_VR + d] = src[s0 + C_VR + d] * mr
     for d in range(3):
-        dst[d0 + W_A + d] = ta[d]
-        dst[d0 + W_S + d] = ts[d]
+        dst[d0 + C_WA + d] = ima[3 * d] * a0 + ima[3 * d + 1] * a1 + ima[3 * d + 2] * a2
+        dst[d0 + C_WS + d] = ims[3 * d] * b0 + ims[3 * d + 1] * b1 + ims[3 * d + 2] * b2
 
 
 @njit(**_JIT)
 def _factor(J, MJ, S, m, ima, ims, ma, ms, mr):
-    """MJ rows = M^-1 J[r]; S = J M^-1 J^T (m x m), Cholesky-factored in place (lower triangle)."""
+    """MJ rows = M^-1 J[r]; S = J M^-1 J^T (m x m), Cholesky-factored in place (lower triangle).
+
+    ma, ms, mr: inverse masses.  The diagonal of the factor holds the reciprocal pivots.
+    """
     for r in range(m):
         _minv(J, r * 15, MJ, r * 15, ima, ims, ma, ms, mr)
+    # The translational columns of J are the identity in rows 0-8 (eqs. 15-17) and zero elsewhere, so
+    # they add 1/m on the diagonal of those rows only; the rest comes from the two rotation blocks.
+    inv_m = (ma, ms, mr)
     for r in range(m):
+        ra = r * 15 + C_WA
+        rs = r * 15 + C_WS
         for q in range(r + 1):
-            s = 0.0
-            for k in range(15):
-                s += J[r * 15 + k] * MJ[q * 15 + k]
+            qa = q * 15 + C_WA
+            qs = q * 15 + C_WS
+            s = (
+                J[ra] * MJ[qa] + J[ra + 1] * MJ[qa + 1] + J[ra + 2] * MJ[qa + 2]
+                + J[rs] * MJ[qs] + J[rs + 1] * MJ[qs + 1] + J[rs + 2] * MJ[qs + 2]
+            )
+            if q == r and r < 9:
+                s += inv_m[r // 3]
             S[r * N_CMAX + q] = s
     for a in range(m):
         s = S[a * N_CMAX + a]
         for q in range(a):
             s -= S[a * N_CMAX + q] ** 2
-        d = math.sqrt(s) if s > 0.0 else np.nan
+        d = 1.0 / math.sqrt(s) if s > 0.0 else np.nan
         S[a * N_CMAX + a] = d
         for r in range(a + 1, m):
             t = S[r * N_CMAX + a]
             for q in range(a):
                 t -= S[r * N_CMAX + q] * S[a * N_CMAX + q]
-            S[r * N_CMAX + a] = t / d
+            S[r * N_CMAX + a] = t * d
 
 
 @njit(**_JIT)
@@ -506,12 +550,12 @@ def _chol_solve(S, m, x):
         t = x[a]
         for q in range(a):
             t -= S[a * N_CMAX + q] * x[q]
-        x[a] = t / S[a * N_CMAX + a]
+        x[a] = t * S[a * N_CMAX + a]
     for a in range(m - 1, -1, -1):
         t = x[a]
         for q in range(a + 1, m):
             t -= S[q * N_CMAX + a] * x[q]
-        x[a] = t / S[a * N_CMAX + a]
+        x[a] = t * S[a * N_CMAX + a]
 
 
 @njit(**_JIT)
@@ -524,31 +568,31 @@ def accelerations(y, tgt, z, flaps, u, p, flags, free_idx, n_free, locked, n_loc
     """
     J = w[W_J : W_J + N_CMAX * 15]
     MJ = w[W_MJ : W_MJ + N_CMAX * 15]
-    S = w[W_S : W_S + N_CMAX * N_CMAX]
+    S = w[W_SCHUR : W_SCHUR + N_CMAX * N_CMAX]
     c = w[W_C : W_C + N_CMAX]
     b = w[W_B : W_B + N_CMAX]
     F = w[W_F : W_F + 15]
     lam = w[W_LAM : W_LAM + N_CMAX]
     acc = w[W_ACC : W_ACC + 15]
-    loads = applied_loads(y, z, flaps, u, p, flags, free_idx, n_free, tabs)
-    f_a, n_a, f_s, n_s, f_r = loads
     Aa, As = body_matrices(y)
+    loads = loads_at(y, Aa, As, z, flaps, u, p, flags, free_idx, n_free, tabs)
+    f_a, n_a, f_s, n_s, f_r = loads
     Ia, Is = inertias(p)
     ima, ims = inv_inertias(p)
-    ma = p[L.P_MASS_HAWK_MASS]
-    ms = p[L.P_MASS_ARM_MASS]
-    mr = p[L.P_MASS_COMP_MASS]
+    ma = 1.0 / p[L.P_MASS_HAWK_MASS]
+    ms = 1.0 / p[L.P_MASS_ARM_MASS]
+    mr = 1.0 / p[L.P_MASS_COMP_MASS]
     om_a = vec3(y, Y_WA)
     om_s = vec3(y, Y_WS)
     t_a = sub(mtv(Aa, n_a), cross(om_a, mv(Ia, om_a)))
     t_s = sub(mtv(As, n_s), cross(om_s, mv(Is, om_s)))
     for d in range(3):
-        F[V_A + d] = f_a[d]
-        F[W_A + d] = t_a[d]
-        F[V_S + d] = f_s[d]
-        F[W_S + d] = t_s[d]
-        F[V_R + d] = f_r[d]
-    m = constraint_system(y, tgt, p, locked, n_locked, J, c, b)
+        F[C_VA + d] = f_a[d]
+        F[C_WA + d] = t_a[d]
+        F[C_VS + d] = f_s[d]
+        F[C_WS + d] = t_s[d]
+        F[C_VR + d] = f_r[d]
+    m = constraints_at(y, Aa, As, tgt, p, locked, n_locked, J, c, b)
     _factor(J, MJ, S, m, ima, ims, ma, ms, mr)
     _minv(F, 0, acc, 0, ima, ims, ma, ms, mr)
     for r in range(m):
@@ -606,25 +650,25 @@ def project(y, tgt, p, locked, n_locked, w):
     """
     J = w[W_J : W_J + N_CMAX * 15]
     MJ = w[W_MJ : W_MJ + N_CMAX * 15]
-    S = w[W_S : W_S + N_CMAX * N_CMAX]
+    S = w[W_SCHUR : W_SCHUR + N_CMAX * N_CMAX]
     c = w[W_C : W_C + N_CMAX]
     b = w[W_B : W_B + N_CMAX]
     lam = w[W_LAM : W_LAM + N_CMAX]
     dx = w[W_ACC : W_ACC + 15]
     ima, ims = inv_inertias(p)
-    ma = p[L.P_MASS_HAWK_MASS]
-    ms = p[L.P_MASS_ARM_MASS]
-    mr = p[L.P_MASS_COMP_MASS]
+    ma = 1.0 / p[L.P_MASS_HAWK_MASS]
+    ms = 1.0 / p[L.P_MASS_ARM_MASS]
+    mr = 1.0 / p[L.P_MASS_COMP_MASS]
     normalise_quats(y)
     err = 0.0
     m = 10 + n_locked
-    for it in range(PROJ_ITERS + 1):
+    for it in range(PROJ_ITERS):
         m = constraint_system(y, tgt, p, locked, n_locked, J, c, b)
         _factor(J, MJ, S, m, ima, ims, ma, ms, mr)
         err = 0.0
         for r in range(m):
             err = max(err, abs(c[r]))
-        if not err > PROJ_TOL or it == PROJ_ITERS:  # NaN falls through to the caller's check
+        if not err > PROJ_TOL:  # converged (NaN also stops here and is caught by the caller's check)
             break
         for r in range(m):
             lam[r] = c[r]
@@ -635,11 +679,15 @@ def project(y, tgt, p, locked, n_locked, w):
                 s -= lam[r] * MJ[r * 15 + k]
             dx[k] = s
         for d in range(3):
-            y[Y_RA + d] += dx[V_A + d]
-            y[Y_RS + d] += dx[V_S + d]
-            y[Y_RR + d] += dx[V_R + d]
-        rotate_quat(y, Y_QA, (dx[W_A], dx[W_A + 1], dx[W_A + 2]))
-        rotate_quat(y, Y_QS, (dx[W_S], dx[W_S + 1], dx[W_S + 2]))
+            y[Y_RA + d] += dx[C_VA + d]
+            y[Y_RS + d] += dx[C_VS + d]
+            y[Y_RR + d] += dx[C_VR + d]
+        rotate_quat(y, Y_QA, (dx[C_WA], dx[C_WA + 1], dx[C_WA + 2]))
+        rotate_quat(y, Y_QS, (dx[C_WS], dx[C_WS + 1], dx[C_WS + 2]))
+        if err < PROJ_SKIP_RECHECK:
+            # Gauss-Newton converges quadratically: the residual left is O(err^2), far below
+            # PROJ_TOL, so the factor at the pre-update positions serves the velocity projection.
+            break
     # velocities: v <- v - M^-1 J^T (J M^-1 J^T)^-1 J v, with J and its factor at the final positions
     for r in range(m):
         s = 0.0
@@ -759,8 +807,7 @@ def check_dae(y, p, locked, n_locked, w):
     return L.S_OK
 
 
-@njit(parallel=True, **_JIT)
-def step_batch_dae(Y, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W):
+def _step_batch_dae(Y, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W):
     """Advance all environments by one control step of n_sub physics steps of the DAE.
 
     Arguments as ``integrator.step_batch`` with Y: (n, N_DAE) DAE states (in place) and W the scratch
@@ -795,22 +842,26 @@ def step_batch_dae(Y, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs
                 y[k] = backup[k]
 
 
-@njit(parallel=True, **_JIT)
+
+step_batch_dae = njit(parallel=True, **_JIT_BATCH)(_step_batch_dae)
+step_serial_dae = njit(**_JIT_BATCH)(_step_batch_dae)
+"""Serial twin of step_batch_dae for small batches (see integrator.PARALLEL_MIN_ENVS)."""
+
+@njit(**_JIT_BATCH)
 def constraint_residual_batch(Y, P, free_idx, n_free, out):
     """Max-abs constraint residual (all 12 paper constraints + locked joints) per environment into out (n,)."""
     locked = np.empty(5, np.int64)
     n_locked = locked_joints(free_idx, n_free, locked)
-    scratch = np.empty((Y.shape[0], N_CMAX * 17))
-    for i in prange(Y.shape[0]):
-        s = scratch[i]
+    s = np.empty(N_CMAX * 17)
+    for i in range(Y.shape[0]):
         out[i] = residual(Y[i], P[i], locked, n_locked, s[: N_CMAX * 15], s[N_CMAX * 15 : N_CMAX * 16], s[N_CMAX * 16 :])
 
 
 # ---------------------------------------------------------------------- conversions
-@njit(parallel=True, **_JIT)
+@njit(**_JIT_BATCH)
 def from_joint_state(X, P, Y):
     """Fill Y (n, N_DAE) from joint-space states X (n, layout.N_STATE); locked targets = X's angles."""
-    for i in prange(X.shape[0]):
+    for i in range(X.shape[0]):
         x = X[i]
         y = Y[i]
         p = P[i]
@@ -845,13 +896,13 @@ def from_joint_state(X, P, Y):
             y[Y_SERVO + k] = x[L.X_SERVO + k]
 
 
-@njit(**_JIT)
+@njit(**_JIT_BATCH)
 def _nearest(a, ref):
     """a + 2 pi k closest to ref."""
     return a + 2.0 * math.pi * math.floor((ref - a) / (2.0 * math.pi) + 0.5)
 
 
-@njit(parallel=True, **_JIT)
+@njit(**_JIT_BATCH)
 def to_joint_state(Y, P, X):
     """Joint angles, rates, bristle and servo states of Y into X (n, layout.N_STATE), in place.
 
@@ -859,7 +910,7 @@ def to_joint_state(Y, P, X):
     2 pi branch nearest their previous value (so unlimited joints keep counting turns); rig_pitch is
     the principal value in [-pi/2, pi/2].
     """
-    for i in prange(Y.shape[0]):
+    for i in range(Y.shape[0]):
         y = Y[i]
         x = X[i]
         Aa, As = body_matrices(y)
@@ -874,10 +925,10 @@ def to_joint_state(Y, P, X):
             x[L.X_SERVO + k] = y[Y_SERVO + k]
 
 
-@njit(parallel=True, **_JIT)
+@njit(**_JIT_BATCH)
 def energy_batch_dae(Y, P, out):
     """Kinetic + gravitational energy (J) of every environment into out (n,), zero potential at the pivot."""
-    for i in prange(Y.shape[0]):
+    for i in range(Y.shape[0]):
         y = Y[i]
         p = P[i]
         Ia, Is = inertias(p)
@@ -897,7 +948,7 @@ def energy_batch_dae(Y, P, out):
         out[i] = t - g * (ma * y[Y_RA + 2] + ms * y[Y_RS + 2] + mr * y[Y_RR + 2])
 
 
-@njit(**_JIT)
+@njit(**_JIT_BATCH)
 def accelerations_batch(Y, U, P, flags, free_idx, n_free, tabs, ACC, LOADS):
     """Test helper: vdot (n, 15) and applied loads (n, 15: f_a, n_a, f_s, n_s, f_r, world) of states Y.
 
