@@ -807,6 +807,28 @@ def check_dae(y, p, locked, n_locked, w):
     return L.S_OK
 
 
+@njit(**_JIT)
+def advance_env_dae(y, w, p, u, db, d_comp, d_hawk, k0, flags, free_idx, n_free, locked, n_locked, tabs, h, n_sub):
+    """One environment over one control step of the DAE; returns its status (y restored on failure)."""
+    n_buf = db.shape[0]
+    ud = w[W_UD : W_UD + 7]
+    backup = w[W_BACK : W_BACK + N_DAE]
+    for k in range(N_DAE):
+        backup[k] = y[k]
+    for s in range(n_sub):
+        k = k0 + s
+        push_demands(db, k % n_buf, u, p)
+        for a in range(7):
+            d = d_comp if a < 4 else d_hawk
+            ud[a] = db[(k - d) % n_buf, a]
+        physics_step_dae(y, ud, u, p, flags, free_idx, n_free, locked, n_locked, tabs, h, w)
+    st = check_dae(y, p, locked, n_locked, w)
+    if st != L.S_OK:
+        for k in range(N_DAE):
+            y[k] = backup[k]
+    return st
+
+
 def _step_batch_dae(Y, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W):
     """Advance all environments by one control step of n_sub physics steps of the DAE.
 
@@ -815,32 +837,16 @@ def _step_batch_dae(Y, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tab
     exceeds layout.CONSTRAINT_LIMIT or whose joint rates exceed layout.RUNAWAY_RATE is frozen at its
     last good state and flagged in status.
     """
-    n = Y.shape[0]
-    n_buf = dbuf.shape[1]
     locked = np.empty(5, np.int64)
     n_locked = locked_joints(free_idx, n_free, locked)
-    for i in prange(n):
-        if status[i] != L.S_OK:
-            continue
-        y = Y[i]
-        w = W[i]
-        ud = w[W_UD : W_UD + 7]
-        backup = w[W_BACK : W_BACK + N_DAE]
-        for k in range(N_DAE):
-            backup[k] = y[k]
-        for s in range(n_sub):
-            k = k0 + s
-            push_demands(dbuf[i], k % n_buf, U[i], P[i])
-            for a in range(7):
-                d = delay_steps[i, 0] if a < 4 else delay_steps[i, 1]
-                ud[a] = dbuf[i, (k - d) % n_buf, a]
-            physics_step_dae(y, ud, U[i], P[i], flags, free_idx, n_free, locked, n_locked, tabs, h, w)
-        st = check_dae(y, P[i], locked, n_locked, w)
-        if st != L.S_OK:
-            status[i] = st
-            for k in range(N_DAE):
-                y[k] = backup[k]
-
+    for i in prange(Y.shape[0]):
+        if status[i] == L.S_OK:
+            st = advance_env_dae(
+                Y[i], W[i], P[i], U[i], dbuf[i], delay_steps[i, 0], delay_steps[i, 1],
+                k0, flags, free_idx, n_free, locked, n_locked, tabs, h, n_sub,
+            )  # fmt: skip
+            if st != L.S_OK:
+                status[i] = st
 
 
 step_batch_dae = njit(parallel=True, **_JIT_BATCH)(_step_batch_dae)

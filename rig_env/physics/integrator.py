@@ -23,7 +23,9 @@ from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.joint_space import accelerations, kinetic_energy, potential_energy
 
-_JIT = dict(cache=True, error_model="numpy", _nrt=False)
+_JIT = dict(cache=True, error_model="numpy", _nrt=False)  # allocation-free kernels: no NRT refcounting
+# batch drivers keep NRT: numba does not parallelise a prange loop compiled with _nrt=False
+_JIT_BATCH = dict(cache=True, error_model="numpy")
 
 N_Y = 24  # RK state: q (5), qd (5), servo positions (7), servo rates (7)
 # scratch layout of one environment's work row
@@ -139,6 +141,28 @@ def check(x):
     return L.S_OK
 
 
+@njit(**_JIT)
+def advance_env(x, w, M, p, u, db, d_comp, d_hawk, k0, flags, free_idx, n_free, tabs, h, n_sub):
+    """One environment over one control step; returns its status (x restored on failure)."""
+    n_buf = db.shape[0]
+    ud = w[W_UD : W_UD + 7]
+    backup = w[W_BACKUP : W_BACKUP + L.N_STATE]
+    for a in range(L.N_STATE):
+        backup[a] = x[a]
+    for s in range(n_sub):
+        k = k0 + s
+        push_demands(db, k % n_buf, u, p)
+        for a in range(7):
+            d = d_comp if a < 4 else d_hawk
+            ud[a] = db[(k - d) % n_buf, a]
+        physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w)
+    st = check(x)
+    if st != L.S_OK:
+        for a in range(L.N_STATE):
+            x[a] = backup[a]
+    return st
+
+
 def _step_batch(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W, MW):
     """Advance all environments by one control step of n_sub physics steps.
 
@@ -147,33 +171,18 @@ def _step_batch(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h
     physics steps; P: (n, N_PARAMS); U: (n, N_INPUTS) inputs held over the control step; status: (n,)
     int8, environments with a non-zero status are skipped; W, MW: scratch from ``new_work``.
     """
-    n = X.shape[0]
-    n_buf = dbuf.shape[1]
-    for i in prange(n):
-        if status[i] != L.S_OK:
-            continue
-        x = X[i]
-        w = W[i]
-        ud = w[W_UD : W_UD + 7]
-        backup = w[W_BACKUP : W_BACKUP + L.N_STATE]
-        for a in range(L.N_STATE):
-            backup[a] = x[a]
-        for s in range(n_sub):
-            k = k0 + s
-            push_demands(dbuf[i], k % n_buf, U[i], P[i])
-            for a in range(7):
-                d = delay_steps[i, 0] if a < 4 else delay_steps[i, 1]
-                ud[a] = dbuf[i, (k - d) % n_buf, a]
-            physics_step(x, ud, U[i], P[i], flags, free_idx, n_free, tabs, h, MW[i], w)
-        st = check(x)
-        if st != L.S_OK:
-            status[i] = st
-            for a in range(L.N_STATE):
-                x[a] = backup[a]
+    for i in prange(X.shape[0]):
+        if status[i] == L.S_OK:
+            st = advance_env(
+                X[i], W[i], MW[i], P[i], U[i], dbuf[i], delay_steps[i, 0], delay_steps[i, 1],
+                k0, flags, free_idx, n_free, tabs, h, n_sub,
+            )  # fmt: skip
+            if st != L.S_OK:
+                status[i] = st
 
 
-step_batch = njit(parallel=True, **_JIT)(_step_batch)
-step_serial = njit(**_JIT)(_step_batch)
+step_batch = njit(parallel=True, **_JIT_BATCH)(_step_batch)
+step_serial = njit(**_JIT_BATCH)(_step_batch)
 """Serial twin of step_batch for small batches, where a parallel launch costs more than it saves."""
 
 
@@ -187,8 +196,8 @@ def _energy_batch(X, P, out, W, MW):
         out[i] = kinetic_energy(q, qd, P[i], MW[i], w[W_H : W_H + 5], w[W_JV : W_JV + 45]) + potential_energy(q, P[i])
 
 
-energy_batch = njit(parallel=True, **_JIT)(_energy_batch)
-energy_serial = njit(**_JIT)(_energy_batch)
+energy_batch = njit(parallel=True, **_JIT_BATCH)(_energy_batch)
+energy_serial = njit(**_JIT_BATCH)(_energy_batch)
 
 PARALLEL_MIN_ENVS = 32
 """Below this batch size the serial kernels are faster than a parallel launch."""
