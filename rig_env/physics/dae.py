@@ -631,13 +631,7 @@ def rhs_dae(yr, tgt, z, ud, u, p, flags, free_idx, n_free, locked, n_locked, tab
         out[qb + 3] = 0.5 * (e0 * o2 + e1 * o1 - e2 * o0)
     for k in range(15):
         out[Y_V + k] = acc[k]
-    for k in range(7):
-        if flags & L.F_SERVO:
-            out[32 + k] = yr[39 + k]
-            out[39 + k] = sv.accel(p, k, ud[k], yr[32 + k], yr[39 + k])
-        else:
-            out[32 + k] = 0.0
-            out[39 + k] = 0.0
+    sv.derivatives(yr, 32, 39, ud, p, flags, out, 32, 39)
 
 
 @njit(**_JIT)

@@ -66,13 +66,7 @@ def rhs(y, z, ud, u, p, flags, free_idx, n_free, tabs, M, w, out):
         j = free_idx[a]
         out[j] = qd[j]
         out[5 + j] = qdd[j]
-    for k in range(7):
-        if flags & L.F_SERVO:
-            out[10 + k] = y[17 + k]
-            out[17 + k] = sv.accel(p, k, ud[k], y[10 + k], y[17 + k])
-        else:
-            out[10 + k] = 0.0
-            out[17 + k] = 0.0
+    sv.derivatives(y, 10, 17, ud, p, flags, out, 10, 17)
 
 
 @njit(**_JIT)

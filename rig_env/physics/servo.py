@@ -73,3 +73,18 @@ def project(p, k, x, v):
     if x < -lim:
         return -lim, max(v, 0.0)
     return x, v
+
+
+@njit(**_JIT)
+def derivatives(y, i_pos, i_rate, ud, p, flags, out, o_pos, o_rate):
+    """Servo state derivatives: out[o_pos+k] = x_k', out[o_rate+k] = v_k' from y[i_pos+k], y[i_rate+k].
+
+    Without servo dynamics (flags lacks F_SERVO) the servo states are not integrated: derivatives 0.
+    """
+    for k in range(7):
+        if flags & L.F_SERVO:
+            out[o_pos + k] = y[i_rate + k]
+            out[o_rate + k] = accel(p, k, ud[k], y[i_pos + k], y[i_rate + k])
+        else:
+            out[o_pos + k] = 0.0
+            out[o_rate + k] = 0.0
