@@ -43,3 +43,5 @@ __all__ = [
     "to_mjcf",
     "trim",
 ]
+
+import rig_env.envs  # noqa: E402,F401  (registers the rig_env/* gymnasium ids)

@@ -1,0 +1,265 @@
+"""``RigVectorEnv``: a batch of rig environments over one physics batch (Gymnasium VectorEnv, same-step autoreset).
+
+The environment owns the batch arrays of :mod:`rig_env.physics` (state ``X``, parameters ``P``,
+inputs ``U``, servo delay lines, status) and advances them with ``integrator.step_batch`` (or
+``step_serial`` below ``integrator.PARALLEL_MIN_ENVS`` environments).  The task
+(:mod:`rig_env.envs.tasks`) supplies references, rewards, initial states and success; the sensor model
+(:mod:`rig_env.envs.sensors`) turns the state into what the real-time loop measures.
+
+Seeding: ``reset(seed=s)`` gives environment ``i`` the stream of seed ``s + i`` (as
+``gymnasium.vector.SyncVectorEnv`` seeds its sub-environments); every random number of an episode is a
+counter-based function of (stream, episode number, control step) (:mod:`rig_env.envs.streams`).  So
+environment ``i`` of a batch reset with seed ``s`` runs exactly as ``RigEnv`` reset with seed
+``s + i``, also across automatic resets (each reset advances that environment's episode number;
+``reset(seed=None)`` advances every environment's).  ``reset(seed=None)`` before any seeded reset draws
+``s`` from the batch generator ``self.np_random``.
+
+Same-step autoreset (``metadata["autoreset_mode"] = AutoresetMode.SAME_STEP``): when environment ``i``
+terminates or truncates, ``step`` returns the first observation of its next episode and puts the
+last one in ``infos["final_obs"][i]`` and the episode's metrics in ``infos["final_info"]`` (arrays over
+the batch with ``_name`` masks, Gymnasium's convention).  ``final_info`` keys: ``success``,
+``status`` (0 ok, 1 non-finite state, 2 runaway rate; a blown-up environment is terminated, the others
+carry on), ``stop_exceeded``, and :data:`rig_env.envs.metrics.METRIC_NAMES`.
+
+Actions are ``(num_envs, 3)`` (``(num_envs, 6)`` with ``hawk_surfaces``): compensator aileron,
+elevator, rudder (then Hawk elevator, aileron, rudder), each in [-1, 1] for +-40 deg.  Out-of-range
+values are clipped; a non-finite value raises ``ValueError``.  Observations are float32, see
+:class:`rig_env.envs.env.RigEnv` for the table.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from rig_env.envs import streams as rs
+from rig_env.envs.config import RigEnvConfig
+from rig_env.envs.metrics import StepMetrics
+from rig_env.envs.sensors import Sensors
+from rig_env.envs.tasks import TASKS
+from rig_env.params import JOINTS, PARAM_INDEX, RigParams, param_batch
+from rig_env.physics import integrator as integ
+from rig_env.physics import layout as L
+from rig_env.simulate import flags_of, rates
+
+ACTION_SCALE_DEG = 40.0
+COMP_ACTIONS = ("comp_aileron", "comp_elevator", "comp_rudder")
+HAWK_ACTIONS = ("hawk_elevator", "hawk_aileron", "hawk_rudder")
+_DELAY_COLS = (L.P_SERVOS_COMPENSATOR_DELAY_S, L.P_SERVOS_HAWK_DELAY_S)
+
+
+class RigVectorEnv(VectorEnv):
+    """``num_envs`` rig environments stepped together; configuration as :class:`RigEnvConfig` fields.
+
+    ``RigVectorEnv(num_envs, config=None, **fields)``: ``fields`` override ``config`` (an unknown name
+    or out-of-range value is a ``ValueError``).  See the module docstring for seeding, autoreset and
+    infos, and :class:`rig_env.envs.env.RigEnv` for the observation and action tables.
+    """
+
+    metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
+
+    def __init__(self, num_envs: int = 1, config: RigEnvConfig | None = None, render_mode: str | None = None, **fields: Any) -> None:
+        if not isinstance(num_envs, (int, np.integer)) or isinstance(num_envs, bool) or not 1 <= num_envs <= 1_000_000:
+            raise ValueError(f"num_envs = {num_envs!r}: must be an integer in [1, 1000000]")
+        if render_mode is not None:
+            raise ValueError(f"render_mode = {render_mode!r}: rendering is not supported (allowed: None)")
+        cfg = (config or RigEnvConfig()).with_overrides(**fields)
+        self.config, self.num_envs, self.render_mode = cfg, int(num_envs), None
+        n = self.num_envs
+        task_cls = TASKS[cfg.task]
+        self.free_dofs: tuple[str, ...] = cfg.free_dofs or task_cls.default_free_dofs
+        self.airspeed_range: tuple[float, float] = cfg.airspeed or task_cls.default_airspeed
+        self.episode_seconds = float(cfg.episode_seconds or task_cls.default_episode_seconds)
+        self.dt, self.h, self.n_sub = rates(cfg.control_rate, cfg.physics_dt)
+        self.max_steps = max(1, int(round(self.episode_seconds / self.dt)))
+        bad = [j for j in cfg.locked_deg if j in self.free_dofs]
+        if bad:
+            raise ValueError(f"locked_deg: joint(s) {bad} are free; lock them by leaving them out of free_dofs")
+        self.q_locked = np.zeros(5)
+        for j, a in cfg.locked_deg.items():
+            self.q_locked[JOINTS.index(j)] = np.radians(a)
+        self.locked = np.array([k for k, j in enumerate(JOINTS) if j not in self.free_dofs], dtype=np.int64)
+        self.free_idx = np.array([JOINTS.index(j) for j in self.free_dofs], dtype=np.int64)
+
+        # parameters: base row, randomised columns in kernel units, corners validated once
+        self.params = RigParams.from_toml(cfg.params_file) if cfg.params_file else RigParams.default()
+        self.base_row = param_batch(self.params, 1)[0]
+        names = list(cfg.randomise)
+        self._rand_cols = np.array([PARAM_INDEX[k] for k in names], dtype=np.int64)
+        unit = np.array([np.pi / 180.0 if k.endswith(("_deg", "_deg_s")) else 1.0 for k in names])
+        self._rand_lo = np.array([cfg.randomise[k][0] for k in names]) * unit
+        self._rand_hi = np.array([cfg.randomise[k][1] for k in names]) * unit
+        if names:  # raises ParameterError (a ValueError) naming the parameter and its range
+            corners = param_batch(self.params, 2, {k: [cfg.randomise[k][0], cfg.randomise[k][1]] for k in names})
+        else:
+            corners = self.base_row[None]
+        self.P = np.ascontiguousarray(np.repeat(self.base_row[None], n, axis=0))
+        self.tabs = self.params.tables()
+        self.flags = flags_of(True, True, True, True, cfg.nonlinear_aero)
+        self.delay_steps = np.rint(self.P[:, _DELAY_COLS] / self.h).astype(np.int64)
+        n_buf = int(np.rint(np.concatenate([corners[:, _DELAY_COLS], self.base_row[None, _DELAY_COLS]]) / self.h).max()) + 1
+        self.X = np.zeros((n, L.N_STATE))
+        self.U = np.zeros((n, L.N_INPUTS))
+        self.dbuf = np.zeros((n, n_buf, L.N_SERVOS))
+        self.status = np.zeros(n, dtype=np.int8)
+        self.W, self.MW = integ.new_work(n)
+        self._kernel = integ.step_batch if n >= integ.PARALLEL_MIN_ENVS else integ.step_serial
+        self._k0 = 0
+
+        self.task = task_cls(n, self.free_dofs, self.dt, self.episode_seconds)
+        self.sensors = Sensors(
+            n, self.free_dofs, self.dt, rate_filter_hz=cfg.rate_filter_hz, delay_steps=cfg.link_delay_steps,
+            angle_noise=np.radians(cfg.angle_noise_deg), flap_noise=np.radians(cfg.flap_noise_deg),
+            airspeed_noise=cfg.airspeed_noise, quantise=cfg.quantise, pot_bits=cfg.pot_bits, encoder_bits=cfg.encoder_bits,
+        )
+        self._noisy = bool(np.any(self.sensors.sigma > 0))
+        self.metrics = StepMetrics(n, self.dt)
+        self.action_names = COMP_ACTIONS + (HAWK_ACTIONS if cfg.hawk_surfaces else ())
+        self.obs_labels = tuple(self.sensors.labels()) + tuple(task_cls.ref_labels)
+        low = np.concatenate([self.sensors.low, self.task.obs_low]).astype(np.float32)
+        high = np.concatenate([self.sensors.high, self.task.obs_high]).astype(np.float32)
+        self.single_observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.single_action_space = spaces.Box(-1.0, 1.0, (len(self.action_names),), dtype=np.float32)
+        self.observation_space = batch_space(self.single_observation_space, n)
+        self.action_space = batch_space(self.single_action_space, n)
+        self.reward_range = task_cls.reward_range
+
+        self.keys: np.ndarray | None = None
+        self.episode = np.zeros(n, dtype=np.uint64)
+        self.steps = np.zeros(n, dtype=np.int64)
+        self.t = np.zeros(n)
+        self.airspeed = np.zeros(n)
+        self.gust = np.zeros((n, 3))
+        self.prev_action = np.zeros((n, len(self.action_names)))
+        self._phi = float(np.exp(-self.dt / cfg.turbulence_tau))
+
+    # ------------------------------------------------------------------ reset
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        """Reset every environment (or those of ``options["reset_mask"]``); see the module doc for seeds."""
+        super().reset(seed=seed)
+        if seed is not None:
+            self.keys, self.episode[:] = rs.env_keys(seed, self.num_envs), 0
+        elif self.keys is None:
+            self.keys, self.episode[:] = rs.env_keys(int(self.np_random.integers(2**62)), self.num_envs), 0
+        else:
+            self.episode += np.uint64(1)
+        mask = np.ones(self.num_envs, dtype=bool)
+        if options and "reset_mask" in options:
+            mask = np.asarray(options["reset_mask"], dtype=bool)
+            if mask.shape != (self.num_envs,):
+                raise ValueError(f"options['reset_mask']: expected shape ({self.num_envs},), got {mask.shape}")
+        self._reset_envs(np.flatnonzero(mask))
+        return self._observe(), {}
+
+    def _reset_envs(self, idx: np.ndarray) -> None:
+        if idx.size == 0:
+            return
+        keys, ep = self.keys[idx], self.episode[idx]
+        if self._rand_cols.size:
+            u = rs.uniform(keys, ep, 0, rs.S_PARAMS, self._rand_cols.size)
+            rows = np.repeat(self.base_row[None], idx.size, axis=0)
+            rows[:, self._rand_cols] = self._rand_lo + (self._rand_hi - self._rand_lo) * u
+            self.P[idx] = rows
+            self.delay_steps[idx] = np.rint(rows[:, _DELAY_COLS] / self.h).astype(np.int64)
+        u = rs.uniform(keys, ep, 0, rs.S_INITIAL, 1)
+        lo, hi = self.airspeed_range
+        self.airspeed[idx] = lo + (hi - lo) * u[:, 0]
+        q0, qd0 = self.task.reset(idx, rs.uniform(keys, ep, 0, rs.S_REFERENCE, self.task.n_draws))
+        q0[:, self.locked] = self.q_locked[self.locked]
+        qd0[:, self.locked] = 0.0
+        self.X[idx] = 0.0
+        self.X[idx, L.X_Q : L.X_Q + 5] = q0
+        self.X[idx, L.X_QD : L.X_QD + 5] = qd0
+        self.dbuf[idx] = 0.0  # zero surface commands since forever: servos at rest at 0
+        self.gust[idx] = self.config.turbulence * self.airspeed[idx, None] * rs.normal(keys, ep, 0, rs.S_TURBULENCE, 3)
+        self.U[idx] = 0.0
+        self.U[idx, L.U_GUST : L.U_GUST + 3] = self.gust[idx]
+        self.U[idx, L.U_AIRSPEED] = self.airspeed[idx]
+        self.status[idx] = L.S_OK
+        self.steps[idx], self.t[idx], self.prev_action[idx] = 0, 0.0, 0.0
+        noise = rs.normal(keys, ep, 0, rs.S_SENSOR, self.sensors.n_channels) if self._noisy else None
+        x = self.X[idx]
+        self.sensors.reset(idx, x[:, self.free_idx], x[:, L.X_SERVO : L.X_SERVO + 4], self.airspeed[idx], noise)
+        self.metrics.reset(idx)
+
+    # ------------------------------------------------------------------ step
+    def _observe(self) -> np.ndarray:
+        ref = self.task.reference(self.t)
+        s = self.sensors
+        return np.concatenate([s.observation(), self.task.observation(ref, s.angles, s.rates)], axis=1).astype(np.float32)
+
+    def check_actions(self, actions: Any) -> np.ndarray:
+        """(num_envs, n_actions) float64 clipped to [-1, 1]; ValueError on wrong shape or non-finite values."""
+        a = np.asarray(actions, dtype=np.float64)
+        shape = (self.num_envs, len(self.action_names))
+        if a.shape != shape:
+            raise ValueError(f"actions: expected shape {shape} ({', '.join(self.action_names)}), got {a.shape}")
+        bad = ~np.all(np.isfinite(a), axis=1)
+        if np.any(bad):
+            raise ValueError(f"actions: non-finite value(s) in environment(s) {np.flatnonzero(bad)[:10].tolist()}; actions must be finite numbers in [-1, 1]")
+        return np.clip(a, -1.0, 1.0)
+
+    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        if self.keys is None:
+            raise RuntimeError("call reset() before step()")
+        a = self.check_actions(actions)
+        n_a = len(self.action_names)
+        self.U[:, :n_a] = np.radians(ACTION_SCALE_DEG) * a
+        if self.config.turbulence > 0.0:
+            nz = rs.normal(self.keys, self.episode, self.steps + 1, rs.S_TURBULENCE, 3)
+            sig = self.config.turbulence * self.airspeed[:, None]
+            self.gust = self._phi * self.gust + np.sqrt(1.0 - self._phi**2) * sig * nz
+            self.U[:, L.U_GUST : L.U_GUST + 3] = self.gust
+        self._kernel(self.X, self.dbuf, self._k0, self.delay_steps, self.P, self.U, self.flags, self.free_idx,
+                     len(self.free_idx), self.tabs, self.h, self.n_sub, self.status, self.W, self.MW)
+        self._k0 += self.n_sub
+        self.steps += 1
+        self.t = self.steps * self.dt
+        q, qd = self.X[:, L.X_Q : L.X_Q + 5], self.X[:, L.X_QD : L.X_QD + 5]
+        noise = rs.normal(self.keys, self.episode, self.steps, rs.S_SENSOR, self.sensors.n_channels) if self._noisy else None
+        self.sensors.update(q[:, self.free_idx], self.X[:, L.X_SERVO : L.X_SERVO + 4], self.airspeed, noise)
+        ref = self.task.reference(self.t)
+        reward = self.task.reward(q, qd, ref, a, self.prev_action)
+        on_stop, beyond = self.task.limits(q, self.P)
+        failed = self.status != L.S_OK
+        terminated = failed | beyond
+        reward = np.where(terminated, 0.0, reward)
+        truncated = (self.steps >= self.max_steps) & ~terminated
+        seg, y, r, err, band = self.task.tracked(self.t, q, qd, ref)
+        self.metrics.update(self.t, seg, y, r, err, band, a, self.prev_action, on_stop)
+        self.prev_action = a
+        obs = self._observe()
+        infos: dict[str, Any] = {}
+        done = terminated | truncated
+        if np.any(done):
+            idx = np.flatnonzero(done)
+            infos = self._final_infos(idx, obs, q, qd, ref, truncated, beyond)
+            self.episode[idx] += np.uint64(1)
+            self._reset_envs(idx)
+            obs[idx] = self._observe()[idx]
+        return obs, reward, terminated, truncated, infos
+
+    def _final_infos(self, idx, obs, q, qd, ref, truncated, beyond) -> dict[str, Any]:
+        n = self.num_envs
+        mask = np.zeros(n, dtype=bool)
+        mask[idx] = True
+        final_obs = np.full(n, None, dtype=object)
+        for i in idx:
+            final_obs[i] = obs[i].copy()
+        m = self.metrics.finish(idx, self.t)
+        m["success"] = truncated[idx] & self.task.success(q[idx], qd[idx], ref[idx], m)
+        m["status"] = self.status[idx].copy()
+        m["stop_exceeded"] = beyond[idx].copy()
+        fi: dict[str, Any] = {}
+        for k, v in m.items():
+            full = np.zeros(n, dtype=v.dtype)
+            full[idx] = v
+            fi[k], fi[f"_{k}"] = full, mask
+        return {"final_obs": final_obs, "_final_obs": mask, "final_info": fi, "_final_info": mask}
+
+    def close_extras(self, **kwargs: Any) -> None:
+        pass

@@ -1,0 +1,283 @@
+"""Gymnasium / SB3 environments: API conformance, determinism, batch-of-one equality, bounds, errors."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import rig_env
+import rig_env.envs  # registers the ids
+from rig_env.envs import ENV_IDS, RigEnv, RigVectorEnv
+from rig_env.envs.metrics import StepMetrics
+from rig_env.envs.sensors import Sensors
+from rig_env.physics import layout as L
+
+RANDOMISE = {
+    "mass.hawk_mass": (0.8, 1.5),
+    "geometry.hawk_cg_z": (0.0, 0.02),
+    "hawk_aero.CMalpha": (-0.7, -0.4),
+    "friction.rig_roll.Fc": (0.04, 0.059),
+    "servos.compensator.delay_s": (0.01, 0.02),
+}
+RICH = dict(randomise=RANDOMISE, turbulence=0.05, link_delay_steps=2, episode_seconds=1.0)
+
+
+def _actions(rng: np.random.Generator, n: int, k: int = 3) -> np.ndarray:
+    return rng.uniform(-1.2, 1.2, size=(n, k))
+
+
+def _same(a, b) -> bool:
+    return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=np.asarray(a).dtype.kind == "f")
+
+
+@pytest.mark.parametrize("env_id", list(ENV_IDS))
+def test_check_env_every_registered_id(env_id):
+    env = gym.make(env_id)
+    assert env.unwrapped.spec is not None and not env.unwrapped.spec.nondeterministic  # determinism is checked
+    check_env(env.unwrapped, skip_render_check=True)
+    env.close()
+
+
+def test_make_vec_uses_the_batch():
+    venv = gym.make_vec("rig_env/VelocityVectorRoll-v0", num_envs=1024, vectorization_mode="vector_entry_point")
+    assert isinstance(venv, RigVectorEnv) and venv.metadata["autoreset_mode"] == gym.vector.AutoresetMode.SAME_STEP
+    obs, _ = venv.reset(seed=0)
+    for _ in range(3):
+        obs, rew, term, trunc, _ = venv.step(np.zeros((1024, 3)))
+    assert obs.shape == (1024, 13) and np.all(np.isfinite(obs)) and not term.any()
+    g = gym.make("rig_env/ManoeuvreRig-v0", task="bank_to_bank", free_dofs=("rig_roll", "model_pitch"), airspeed=18.0)
+    assert g.observation_space.shape == (13 - 3 + 2,)  # rig_roll, model_pitch + bank task's 2 entries
+
+
+def test_same_seed_identical_rollouts_and_other_seed_differs():
+    runs = []
+    for seed in (7, 7, 8):
+        env = RigVectorEnv(3, **RICH)
+        obs, _ = env.reset(seed=seed)
+        rng = np.random.default_rng(0)
+        trace = [obs]
+        for _ in range(120):  # crosses one autoreset (80 steps per episode)
+            obs, rew, term, trunc, _ = env.step(_actions(rng, 3))
+            trace += [obs, rew, term, trunc]
+        runs.append(trace)
+    assert all(_same(a, b) for a, b in zip(runs[0], runs[1]))
+    assert not _same(runs[0][0], runs[2][0])
+
+
+@pytest.mark.parametrize("task", ["velocity_vector_roll", "bank_to_bank"])
+def test_scalar_env_equals_vector_env_step_by_step(task):
+    n, seed, check = 33, 100, (0, 17, 32)  # 33 >= PARALLEL_MIN_ENVS: the batch runs the parallel kernel
+    venv = RigVectorEnv(n, task=task, **RICH)
+    envs = {i: RigEnv(task=task, **RICH) for i in check}
+    vobs, _ = venv.reset(seed=seed)
+    sobs = {i: envs[i].reset(seed=seed + i)[0] for i in check}
+    rng = np.random.default_rng(1)
+    ends = 0
+    for _ in range(170):  # two autoresets
+        a = _actions(rng, n)
+        vobs, vr, vt, vtr, vinfo = venv.step(a)
+        for i in check:
+            o, r, te, tr, info = envs[i].step(a[i])
+            assert (te, tr) == (vt[i], vtr[i]) and r == vr[i]
+            if te or tr:
+                ends += 1
+                assert _same(o, vinfo["final_obs"][i])
+                for k, v in info.items():
+                    assert _same(v, vinfo["final_info"][k][i]), k
+                o, _ = envs[i].reset()
+            assert _same(o, vobs[i])
+    assert ends == 2 * len(check)
+
+
+@pytest.mark.parametrize("task", ["velocity_vector_roll", "bank_to_bank"])
+def test_rewards_in_bounds_and_observations_in_space(task):
+    env = RigVectorEnv(8, task=task, episode_seconds=2.0, turbulence=0.1)
+    lo, hi = env.reward_range
+    obs, _ = env.reset(seed=3)
+    rng = np.random.default_rng(2)
+    for k in range(400):
+        a = rng.uniform(-3, 3, size=(8, 3)) if k % 50 < 25 else np.sign(rng.standard_normal((8, 3)))
+        obs, rew, term, trunc, info = env.step(a)
+        assert obs.dtype == np.float32 and obs in env.observation_space
+        assert np.all((lo <= rew) & (rew <= hi))
+        if info:
+            for i in np.flatnonzero(info["_final_obs"]):
+                assert info["final_obs"][i] in env.single_observation_space
+
+
+def test_out_of_range_actions_are_clipped_and_nonfinite_raise():
+    a_env, b_env = RigVectorEnv(2), RigVectorEnv(2)
+    a_env.reset(seed=1), b_env.reset(seed=1)
+    oa = a_env.step(np.array([[5.0, -7.0, 0.3], [1.0, 2.0, -9.0]]))[0]
+    ob = b_env.step(np.array([[1.0, -1.0, 0.3], [1.0, 1.0, -1.0]]))[0]
+    assert _same(oa, ob)
+    with pytest.raises(ValueError, match="non-finite"):
+        a_env.step(np.array([[0.0, np.nan, 0.0], [0.0, 0.0, 0.0]]))
+    env = RigEnv()
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="non-finite"):
+        env.step(np.array([np.inf, 0.0, 0.0]))
+    with pytest.raises(ValueError, match="shape"):
+        env.step(np.zeros(6))
+
+
+@pytest.mark.parametrize(
+    "fields, match",
+    [
+        ({"colour": "red"}, "unknown configuration name"),
+        ({"task": "loop"}, "task"),
+        ({"airspeed": 100.0}, "airspeed"),
+        ({"airspeed": (20.0, 15.0)}, "airspeed"),
+        ({"control_rate": 80.0, "physics_dt": 0.003}, "integer multiple"),
+        ({"control_rate": 0.0}, "control_rate"),
+        ({"free_dofs": ("rig_roll", "tail")}, "free_dofs"),
+        ({"free_dofs": ("model_pitch",)}, "rig_roll"),
+        ({"locked_deg": {"rig_roll": 10.0}}, "free"),
+        ({"locked_deg": {"rig_pitch": 120.0}}, r"locked_deg.*\[-89"),
+        ({"link_delay_steps": -1}, "link_delay_steps"),
+        ({"turbulence": 0.5}, "turbulence"),
+        ({"randomise": {"mass.tail_mass": (1, 2)}}, "unknown parameter"),
+        ({"randomise": {"mass.hawk_mass": (0.01, 1.0)}}, r"mass.hawk_mass.*range"),
+        ({"quantise": "yes"}, "quantise"),
+    ],
+)
+def test_bad_configuration_raises_naming_the_field(fields, match):
+    with pytest.raises(ValueError, match=match):
+        RigVectorEnv(2, **fields)
+
+
+def test_bad_configuration_through_gymnasium_make():
+    with pytest.raises(ValueError, match="unknown configuration name"):
+        gym.make("rig_env/BankToBank-v0", max_bank=3)
+    with pytest.raises(ValueError, match="num_envs"):
+        RigVectorEnv(0)
+
+
+def test_blown_up_environment_is_terminated_and_reported_rest_carry_on():
+    ref, env = RigVectorEnv(4), RigVectorEnv(4)
+    ref.reset(seed=5), env.reset(seed=5)
+    a = np.full((4, 3), 0.3)
+    for _ in range(10):
+        ref.step(a), env.step(a)
+    env.X[2, L.X_QD + 3] = np.nan  # env 2's state turns non-finite during the next step
+    ro, rr, rt, _, _ = ref.step(a)
+    eo, er, et, etr, info = env.step(a)
+    assert et.tolist() == [False, False, True, False] and not etr.any()
+    assert info["_final_info"].tolist() == [False, False, True, False]
+    assert info["final_info"]["status"][2] == L.S_NONFINITE and not info["final_info"]["success"][2]
+    assert er[2] == 0.0 and np.all(np.isfinite(eo)) and np.all(np.isfinite(info["final_obs"][2]))
+    keep = [0, 1, 3]
+    assert _same(eo[keep], ro[keep]) and _same(er[keep], rr[keep])
+    assert env.status[2] == L.S_OK  # autoreset started a fresh episode
+    for _ in range(5):
+        ro, rr, *_ = ref.step(a)
+        eo, er, *_ = env.step(a)
+    assert _same(eo[keep], ro[keep])
+
+
+def test_parameter_randomisation_rows_equal_param_batch(params):
+    env = RigVectorEnv(6, randomise=RANDOMISE)
+    env.reset(seed=11)
+    cols = {k: rig_env.params.PARAM_INDEX[k] for k in RANDOMISE}
+    drawn = {k: env.P[:, c] * (180 / math.pi if k.endswith("_deg") else 1.0) for k, c in cols.items()}
+    for k, (lo, hi) in RANDOMISE.items():
+        assert np.all((lo <= drawn[k]) & (drawn[k] <= hi)) and np.ptp(drawn[k]) > 0
+    np.testing.assert_allclose(env.P, rig_env.param_batch(params, 6, drawn), rtol=0, atol=1e-15)
+    expected_delay = np.rint(drawn["servos.compensator.delay_s"] / env.h)
+    assert np.array_equal(env.delay_steps[:, 0], expected_delay)
+
+
+def test_sensors_quantise_delay_and_estimate_rates():
+    dt, d = 1 / 80, 3
+    s = Sensors(1, ("rig_roll", "model_pitch"), dt, rate_filter_hz=10.0, delay_steps=d, quantise=True)
+    rate = np.array([2.0, -0.5])  # rad/s
+    s.reset(np.array([0]), np.zeros((1, 2)), np.zeros((1, 4)), np.array([20.0]))
+    for k in range(1, 200):
+        s.update((rate * k * dt)[None], np.full((1, 4), 0.1), np.array([20.0]))
+        if k == d:  # still the held initial sample
+            assert np.all(s.angles == 0.0)
+    true = rate * (199 - d) * dt
+    lsb = np.array([2 * math.pi / 4096, 2 * math.pi / 8192])  # 12-bit potentiometer, 13-bit encoder
+    assert np.all(np.abs(s.angles[0] - true) <= lsb / 2 + 1e-15)
+    assert np.allclose(np.round(s.angles[0] / lsb) * lsb, s.angles[0], atol=1e-15)
+    np.testing.assert_allclose(s.rates[0], rate, rtol=0.02)  # a ramp's filtered difference -> its slope
+    assert abs(s.flaps[0, 0] - 0.1) <= math.pi / 8192
+
+
+def test_step_metrics_of_a_first_order_response_match_theory():
+    dt, tau = 0.001, 0.2
+    m = StepMetrics(1, dt)
+    t, z = 0.0, np.zeros((1, 3))
+    for k in range(1, 3001):
+        t = k * dt
+        y = 1.0 - math.exp(-(t - dt) / tau) if k > 1 else 0.0
+        m.update(np.array([t]), np.array([0]), np.array([y]), np.array([1.0]), np.array([1.0 - y]), np.array([0.0]), z, z, np.zeros(1, bool))
+    out = m.finish(np.array([0]), np.array([t]))
+    assert out["rise_time"][0] == pytest.approx(tau * math.log(9.0), abs=2 * dt)
+    assert out["settling_time"][0] == pytest.approx(tau * math.log(20.0), abs=2 * dt)
+    assert out["overshoot_pct"][0] == 0.0 and out["segments_settled"][0] == 1
+
+
+def _stop_terminations() -> dict:
+    # model-pitch upper stop at 0 deg: envs starting above +2 deg terminate on the first step
+    return dict(randomise={"stops.model_pitch.upper_deg": (0.0, 0.0)}, episode_seconds=0.5)
+
+
+def test_sb3_adapter_reset_semantics_match_dummy_vec_env():
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from rig_env.envs.sb3 import RigSB3VecEnv
+
+    n = 4
+    ours = RigSB3VecEnv(n, **_stop_terminations())
+    ref = DummyVecEnv([lambda: RigEnv(**_stop_terminations()) for _ in range(n)])
+    ours.seed(21), ref.seed(21)
+    assert _same(ours.reset(), ref.reset())
+    rng = np.random.default_rng(4)
+    seen = {"terminated": 0, "truncated": 0}
+    for _ in range(90):
+        a = rng.uniform(-1, 1, size=(n, 3)).astype(np.float32)
+        o1, r1, d1, i1 = ours.step(a)
+        o2, r2, d2, i2 = ref.step(a)
+        assert _same(o1, o2) and _same(r1, r2) and _same(d1, d2)
+        for x, y in zip(i1, i2):
+            assert set(x) == set(y)
+            for k in x:
+                assert _same(x[k], y[k]), k
+            if "terminal_observation" in x:
+                seen["truncated" if x["TimeLimit.truncated"] else "terminated"] += 1
+    assert seen["terminated"] > 0 and seen["truncated"] > 0
+    assert _same(ours.reset(), ref.reset())  # unseeded reset: next episode of every stream
+
+
+def test_sb3_ppo_trains_a_few_thousand_steps():
+    from stable_baselines3 import PPO
+
+    from rig_env.envs.sb3 import RigSB3VecEnv
+
+    venv = RigSB3VecEnv(8, episode_seconds=2.0)
+    model = PPO("MlpPolicy", venv, n_steps=64, batch_size=128, n_epochs=2, seed=0, device="cpu")
+    model.learn(total_timesteps=3072)
+    assert model.num_timesteps >= 3072
+    obs = venv.reset()
+    act, _ = model.predict(obs, deterministic=True)
+    assert act.shape == (8, 3) and np.all(np.abs(act) <= 1.0)
+
+
+def test_velocity_vector_roll_reference_angle_is_the_integral_of_its_rate():
+    from rig_env.envs.tasks import VelocityVectorRoll
+
+    n, dt = 5, 1e-4
+    task = VelocityVectorRoll(n, ("rig_roll", "model_pitch"), 1 / 80, 8.0)
+    task.reset(np.arange(n), np.random.default_rng(0).uniform(size=(n, task.n_draws)))
+    ts = np.arange(0.0, 8.0, dt)
+    refs = np.stack([task.reference(np.full(n, t)) for t in ts])  # (n_t, n, 2)
+    integral = refs[0, :, 0] + np.concatenate([np.zeros((1, n)), np.cumsum(0.5 * (refs[1:, :, 1] + refs[:-1, :, 1]) * dt, axis=0)])
+    np.testing.assert_allclose(refs[:, :, 0], integral, atol=1e-6)
+    np.testing.assert_allclose(refs[-1, :, 0], task.stop_angle(), atol=1e-12)
+    peak = np.degrees(np.abs(refs[:, :, 1]).max(axis=0))
+    assert np.all((90.0 <= peak) & (peak <= 360.0)) and np.all(refs[-1, :, 1] == 0.0)
