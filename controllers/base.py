@@ -1,0 +1,140 @@
+"""The one interface every control law of the compensator implements (LQR, PID family, RL).
+
+A law is built for a loop (:class:`LoopSpec`: task, free joints, observation and action layout,
+control period), is batched over environments, and sees only what the rig's real-time loop gives it:
+the observation vector.  So any law runs unchanged in :class:`rig_env.envs.RigVectorEnv`, in the
+comparison, and on the rig.
+
+    law = make_controller("pid", LoopSpec.from_env(env), num_envs=env.num_envs)
+    obs, _ = env.reset(seed=0)
+    law.reset()
+    while ...:
+        obs, rew, term, trunc, info = env.step(law.act(obs))
+        law.reset(term | trunc)          # same-step autoreset: restart the finished environments' laws
+
+Signals are found by name (``spec.index("rig_roll_rate")``), never by bare index.
+"""
+
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass
+from typing import Any, Callable, ClassVar
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class LoopSpec:
+    """What a law may know of the loop it flies: read off an environment, stored in a deployed artefact.
+
+    task: task name (``rig_env.envs.TASKS``); free_dofs: free joints (``rig_env.JOINTS`` order);
+    obs_labels: names of the observation entries; action_names: names of the action entries (each
+    normalised to [-1, 1] for +-``action_scale_deg``); dt: control period, s; airspeed_range: m/s.
+    """
+
+    task: str
+    free_dofs: tuple[str, ...]
+    obs_labels: tuple[str, ...]
+    action_names: tuple[str, ...]
+    dt: float
+    airspeed_range: tuple[float, float]
+    action_scale_deg: float = 40.0
+
+    @classmethod
+    def from_env(cls, env: Any) -> "LoopSpec":
+        """From a ``RigVectorEnv`` or ``RigEnv`` (or anything wrapping one: ``.unwrapped``/``.vec``)."""
+        vec = getattr(env, "vec", None) or getattr(getattr(env, "unwrapped", env), "vec", None) or getattr(env, "unwrapped", env)
+        from rig_env.envs.vector_env import ACTION_SCALE_DEG
+
+        return cls(
+            task=vec.config.task,
+            free_dofs=tuple(vec.free_dofs),
+            obs_labels=tuple(vec.obs_labels),
+            action_names=tuple(vec.action_names),
+            dt=float(vec.dt),
+            airspeed_range=tuple(float(v) for v in vec.airspeed_range),
+            action_scale_deg=float(ACTION_SCALE_DEG),
+        )
+
+    @property
+    def obs_dim(self) -> int:
+        return len(self.obs_labels)
+
+    @property
+    def n_actions(self) -> int:
+        return len(self.action_names)
+
+    def index(self, label: str) -> int:
+        """Column of the observation entry ``label``; a KeyError lists the available names."""
+        try:
+            return self.obs_labels.index(label)
+        except ValueError:
+            raise KeyError(f"observation has no entry {label!r}; entries: {list(self.obs_labels)}") from None
+
+    def action_index(self, name: str) -> int:
+        try:
+            return self.action_names.index(name)
+        except ValueError:
+            raise KeyError(f"action has no entry {name!r}; entries: {list(self.action_names)}") from None
+
+
+class Controller(abc.ABC):
+    """A control law over a batch of ``num_envs`` environments.
+
+    ``act`` takes observations ``(num_envs, obs_dim)`` and returns actions ``(num_envs, n_actions)``
+    in [-1, 1], float64; it advances the law's internal state (integrators, filters, estimators) by
+    one control period ``spec.dt``.  ``reset(mask)`` restarts the state of the masked environments
+    (all when ``mask`` is None); call it after every ``env.reset`` and for every finished environment.
+    """
+
+    kind: ClassVar[str]
+
+    def __init__(self, spec: LoopSpec, num_envs: int = 1) -> None:
+        if not isinstance(num_envs, (int, np.integer)) or isinstance(num_envs, bool) or num_envs < 1:
+            raise ValueError(f"num_envs = {num_envs!r}: must be a positive integer")
+        self.spec, self.num_envs = spec, int(num_envs)
+
+    @abc.abstractmethod
+    def reset(self, mask: np.ndarray | None = None) -> None: ...
+
+    @abc.abstractmethod
+    def act(self, obs: np.ndarray) -> np.ndarray: ...
+
+    def _check_obs(self, obs: np.ndarray) -> np.ndarray:
+        o = np.asarray(obs, dtype=np.float64)
+        if o.shape != (self.num_envs, self.spec.obs_dim):
+            raise ValueError(f"obs: expected shape {(self.num_envs, self.spec.obs_dim)}, got {o.shape}")
+        if not np.all(np.isfinite(o)):
+            raise ValueError("obs: non-finite value(s)")
+        return o
+
+    def _mask(self, mask: np.ndarray | None) -> np.ndarray:
+        if mask is None:
+            return np.ones(self.num_envs, dtype=bool)
+        m = np.asarray(mask, dtype=bool)
+        if m.shape != (self.num_envs,):
+            raise ValueError(f"mask: expected shape ({self.num_envs},), got {m.shape}")
+        return m
+
+
+CONTROLLERS: dict[str, Callable[..., Controller]] = {}
+"""Factories by kind (``"lqr"``, ``"pid"``, ``"ppo"``, ``"sac"``...), filled by the law modules."""
+
+
+def register(kind: str) -> Callable[[type[Controller]], type[Controller]]:
+    def deco(cls: type[Controller]) -> type[Controller]:
+        cls.kind = kind
+        CONTROLLERS[kind] = cls
+        return cls
+
+    return deco
+
+
+def make_controller(kind: str, spec: LoopSpec, num_envs: int = 1, **kwargs: Any) -> Controller:
+    """Build a law of ``kind`` for ``spec``; an unknown kind is a ValueError listing the known ones."""
+    import controllers  # noqa: F401  (registers the built-in laws)
+
+    if kind not in CONTROLLERS:
+        raise ValueError(f"controller kind {kind!r}: unknown; known kinds: {sorted(CONTROLLERS)}")
+    return CONTROLLERS[kind](spec, num_envs, **kwargs)
