@@ -9,6 +9,9 @@ and matplotlib's data-to-pixel transform of the view.
 from __future__ import annotations
 
 import math
+import os
+import subprocess
+import sys
 import time
 import warnings
 
@@ -218,6 +221,7 @@ def test_record_video_writes_a_playable_mp4(tmp_path) -> None:
     assert meta["fps"] == pytest.approx(80.0)
 
 
+@pytest.mark.filterwarnings("ignore:.*same-step")  # gymnasium's notice; here a frame after an end shows the last state
 def test_vector_record_video_of_the_first_environment(tmp_path) -> None:
     """gymnasium.wrappers.vector.RecordVideo over the native vector env: one frame per step drawn."""
     pytest.importorskip("moviepy")
@@ -235,3 +239,29 @@ def test_vector_record_video_of_the_first_environment(tmp_path) -> None:
     iio = pytest.importorskip("imageio.v3")
     # the wrapper starts at step 0 and stops once it holds more than video_length frames
     assert iio.imread(videos[0]).shape == (12 + 1, 448, 1024, 3)
+
+
+HUMAN_SCRIPT = """
+import time, numpy as np
+from rig_env.envs import RigEnv
+env = RigEnv(render_mode="human", control_rate=20.0)
+env.reset(seed=0)
+t0 = time.perf_counter()
+for _ in range(40):
+    env.step(np.zeros(3))
+w = env.vec.viewer._window
+print(time.perf_counter() - t0, w.shown, w.dropped)
+env.close()
+"""
+
+
+@pytest.mark.skipif(not os.environ.get("DISPLAY"), reason="needs a display (e.g. Xvfb) for an interactive backend")
+def test_human_mode_window_runs_in_real_time() -> None:
+    """TkAgg in a subprocess: 40 steps at 20 Hz take 2 s (the window paces them); every frame accounted for."""
+    pytest.importorskip("tkinter")
+    env = dict(os.environ, MPLBACKEND="TkAgg", PYTHONPATH=os.pathsep.join(sys.path))
+    out = subprocess.run([sys.executable, "-c", HUMAN_SCRIPT], env=env, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    elapsed, shown, dropped = out.stdout.split()[-3:]
+    assert 1.9 < float(elapsed) < 2.6
+    assert int(shown) + int(dropped) == 41 and int(shown) >= 10  # the reset frame and one per step

@@ -16,18 +16,25 @@ positions.
 
 Speed: one ``Figure`` on an Agg canvas, created on the first frame; the static parts (axes, grid,
 labels, wind arrows, support) are drawn once and kept as a bitmap; each frame restores that bitmap,
-updates the moving artists in place (``set_xy``, ``set_data``) and draws only those (blitting).
-About 5-10 ms per 1024 x 448 frame on this machine (tests/test_render.py measures it).
+updates the moving artists in place (``set_xy``, ``set_data``) and draws only those (blitting).  Text
+that changes every frame is stamped from glyph bitmaps rendered once (matplotlib would lay out and
+rasterise ~250 glyphs a frame, 30 ms).  About 5 ms per 1024 x 448 frame on an idle core of this
+machine, 10-15 ms while it is shared (tests/test_render.py measures it).
 
-``render_mode="human"`` shows the frames in a pyplot window at ``render_fps``.  Without an
-interactive backend (headless, ``MPLBACKEND=Agg``) it warns once and shows nothing; the environment
-runs on and ``render()`` returns None.  pyplot is imported only in human mode.
+Environments (:class:`EnvViewer`): ``RigEnv.render()`` is the frame of its batch of one;
+``RigVectorEnv.render()`` returns :class:`EnvFrames`, a sequence of ``num_envs`` frames drawn only
+when indexed (Gymnasium's ``VectorEnv.render`` contract at the cost of the frames actually used).  A
+frame after a step shows each environment's state, except that an environment whose episode ended on
+that step shows the ended episode's last state (held before the same-step autoreset).
+
+``render_mode="human"`` shows environment 0 in a pyplot window at ``render_fps`` on every step and
+reset (:mod:`rig_env.envs.human_window`: real-time pacing, frames dropped when the display is
+slower).  Without an interactive backend (headless, ``MPLBACKEND=Agg``) it warns once and shows
+nothing; the environment runs on and ``render()`` returns None.
 """
 
 from __future__ import annotations
 
-import time
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -39,6 +46,7 @@ from matplotlib.figure import Figure
 from matplotlib.font_manager import FontProperties
 from matplotlib.patches import Circle, FancyArrowPatch, Polygon
 
+from rig_env.envs.human_window import HumanWindow
 from rig_env.params import JOINTS
 from rig_env.physics import layout as L
 from rig_env.plotting import _COLORS, rig_outline
@@ -327,9 +335,7 @@ class EnvViewer:
         self.mode, self.fps, self.task = check_render_mode(render_mode), float(fps), task
         self._renderer: RigRenderer | None = None
         self._held: tuple[np.ndarray, Snapshot] | None = None
-        self._window: Any = None
-        self._next_show = 0.0
-        self._headless_warned = False
+        self._window: HumanWindow | None = None
 
     @property
     def renderer(self) -> RigRenderer:
@@ -363,36 +369,12 @@ class EnvViewer:
         return EnvFrames(self.renderer, self.snapshot(vec, np.arange(vec.num_envs)))
 
     def show(self, vec: RigVectorEnv, i: int = 0) -> None:
-        """Human mode: environment i in a pyplot window, paced to ``fps`` (absolute deadlines)."""
-        import matplotlib
-        from matplotlib.backends import BackendFilter, backend_registry
-
-        backend = matplotlib.get_backend().lower()
-        if backend in backend_registry.list_builtin(BackendFilter.NON_INTERACTIVE):
-            if not self._headless_warned:
-                warnings.warn(f"render_mode='human' needs an interactive matplotlib backend, the current one is {backend!r} "
-                              "(no display?): nothing is shown.  Use render_mode='rgb_array' to get frames.", stacklevel=3)
-                self._headless_warned = True
-            return
-        import matplotlib.pyplot as plt
-
-        img = self.frame(vec, i)
-        if self._window is None or not plt.fignum_exists(self._window[0].number):
-            fig = plt.figure("rig_env", figsize=(img.shape[1] / 100, img.shape[0] / 100), dpi=100)
-            ax = fig.add_axes((0, 0, 1, 1))
-            ax.set_axis_off()
-            self._window = (fig, ax.imshow(img))
-            plt.show(block=False)
-            self._next_show = time.perf_counter()
-        else:
-            self._window[1].set_data(img)
-        now = time.perf_counter()
-        self._next_show = max(self._next_show + 1.0 / self.fps, now)
-        plt.pause(max(self._next_show - now, 1e-3))
+        """Human mode: environment i in a pyplot window at ``fps`` (:mod:`rig_env.envs.human_window`)."""
+        if self._window is None:
+            self._window = HumanWindow(self.fps)
+        if self._window.due():
+            self._window.show(self.frame(vec, i))
 
     def close(self) -> None:
         if self._window is not None:
-            import matplotlib.pyplot as plt
-
-            plt.close(self._window[0])
-            self._window = None
+            self._window.close()
