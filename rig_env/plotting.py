@@ -63,7 +63,8 @@ _HAWK_PARTS = tuple(
 _GAMMA = np.array(PANEL_GAMMA)
 
 _FLAP_CHORD = 0.25  # flap chord / panel chord (Sec. III: full-length 25 % chord flaps)
-_COLORS = {"arm": "0.35", "hawk": "#2b6cb0", "comp": "#c05621", "flap": "#e53e3e", "world": "k", "frame_s": "#2f855a", "frame_a": "#6b46c1"}
+# colours of the parts, shared with the environment renderer (rig_env.envs.render)
+RIG_COLORS = {"arm": "0.35", "hawk": "#2b6cb0", "comp": "#c05621", "flap": "#e53e3e", "world": "k", "frame_s": "#2f855a", "frame_a": "#6b46c1"}
 
 
 def _rot(t: Sequence[float]) -> np.ndarray:
@@ -115,14 +116,19 @@ class _View:
             ax.text(tip[0], tip[1], label, color=color, fontsize=8, ha="center", va="center", zorder=z)
 
 
+# the two views: (horizontal world axis, vertical world axis, unit vector towards the viewer)
+VIEWS = {
+    "side": (0, 2, np.array([0.0, 1.0, 0.0])),  # x-z plane seen from starboard
+    "behind": (1, 2, np.array([-1.0, 0.0, 0.0])),  # y-z plane seen from behind, looking upstream
+}
+
+
 def _side_view(ax: Axes) -> _View:
-    """x-z plane seen from starboard: y towards the viewer."""
-    return _View(ax, 0, 2, np.array([0.0, 1.0, 0.0]), "side")
+    return _View(ax, *VIEWS["side"], "side")
 
 
 def _behind_view(ax: Axes) -> _View:
-    """y-z plane seen from behind, looking upstream: x away from the viewer."""
-    return _View(ax, 1, 2, np.array([-1.0, 0.0, 0.0]), "behind")
+    return _View(ax, *VIEWS["behind"], "behind")
 
 
 def _triad(view: _View, origin: np.ndarray, A: np.ndarray, length: float, color: str, sub: str) -> None:
@@ -271,36 +277,36 @@ def draw_rig(
         behind = v.name == "behind"
         # depth order: in the view from behind the compensator is nearest the viewer
         z_hawk, z_comp = (3, 5) if behind else (4, 3)
-        v.line(o.arm, color=_COLORS["arm"], lw=4, solid_capstyle="round", zorder=4)
+        v.line(o.arm, color=RIG_COLORS["arm"], lw=4, solid_capstyle="round", zorder=4)
         for pts in (fus, wing, tail, fin):
-            v.poly(pts, fc=to_rgba(_COLORS["hawk"], 0.3), ec=_COLORS["hawk"], lw=0.8, zorder=z_hawk)
+            v.poly(pts, fc=to_rgba(RIG_COLORS["hawk"], 0.3), ec=RIG_COLORS["hawk"], lw=0.8, zorder=z_hawk)
         if behind:
-            v.poly(sec, fc=to_rgba(_COLORS["hawk"], 0.3), ec=_COLORS["hawk"], lw=0.8, zorder=z_hawk)
+            v.poly(sec, fc=to_rgba(RIG_COLORS["hawk"], 0.3), ec=RIG_COLORS["hawk"], lw=0.8, zorder=z_hawk)
         for i in range(4):
-            v.poly(o.panels[i], fc=to_rgba(_COLORS["comp"], 0.4), ec=_COLORS["comp"], lw=0.8, zorder=z_comp)
-            v.poly(o.flaps[i], fc=to_rgba(_COLORS["flap"], 0.55), ec=_COLORS["flap"], lw=0.8, zorder=z_comp)
+            v.poly(o.panels[i], fc=to_rgba(RIG_COLORS["comp"], 0.4), ec=RIG_COLORS["comp"], lw=0.8, zorder=z_comp)
+            v.poly(o.flaps[i], fc=to_rgba(RIG_COLORS["flap"], 0.55), ec=RIG_COLORS["flap"], lw=0.8, zorder=z_comp)
         # gimbals and c.g. markers
         for centre, r in ((np.zeros(3), 0.034), (G, 0.03)):
             ax.add_patch(Circle(v.xy(centre)[0], r, fc="white", ec="k", lw=2.0, zorder=8))
-        for pt, col in ((G + rho, _COLORS["hawk"]), (r_s, _COLORS["arm"]), (r_r, _COLORS["comp"])):
+        for pt, col in ((G + rho, RIG_COLORS["hawk"]), (r_s, RIG_COLORS["arm"]), (r_r, RIG_COLORS["comp"])):
             c = v.xy(pt)[0]
             ax.plot([c[0]], [c[1]], marker="o", ms=6, mfc="white", mec=col, mew=1.5, zorder=9)
             ax.plot([c[0]], [c[1]], marker="o", ms=2, color=col, zorder=10)
         # frames: arm triad at the pivot, aircraft triad at the model gimbal
-        _triad(v, np.zeros(3), As, 0.16, _COLORS["frame_s"], "s")
+        _triad(v, np.zeros(3), As, 0.16, RIG_COLORS["frame_s"], "s")
         if np.linalg.norm(v.xy(G)[0]) > 0.08:  # seen along the arm, frame a would hide frame s
-            _triad(v, G, Aa, 0.14, _COLORS["frame_a"], "a")
+            _triad(v, G, Aa, 0.14, RIG_COLORS["frame_a"], "a")
         if labels:
             # flap numbers and deflection marks: the trailing edge moves towards -n for a positive flap
             for i in range(4):
                 tip = o.tips[i] + (np.array([0.035 * np.sign(o.tips[i][1]), 0, 0]) if not behind else 0.0)
-                v.text(tip, str(i + 1), color=_COLORS["comp"], fontsize=9, fontweight="bold", ha="center", va="center", zorder=9)
+                v.text(tip, str(i + 1), color=RIG_COLORS["comp"], fontsize=9, fontweight="bold", ha="center", va="center", zorder=9)
                 if behind and abs(flaps[i]) > 0.05:
                     n_w, base = o.normals[i], o.flap_mid[i]
                     end = base - 0.004 * flaps[i] * n_w
                     pa, pb = v.xy(base)[0], v.xy(end)[0]
-                    ax.add_patch(FancyArrowPatch(pa, pb, arrowstyle="-|>", mutation_scale=8, color=_COLORS["flap"], lw=1.5, zorder=9))
-                    ax.text(pb[0], pb[1], f"{flaps[i]:+.0f}°", color=_COLORS["flap"], fontsize=7, ha="center", va="center", zorder=9,
+                    ax.add_patch(FancyArrowPatch(pa, pb, arrowstyle="-|>", mutation_scale=8, color=RIG_COLORS["flap"], lw=1.5, zorder=9))
+                    ax.text(pb[0], pb[1], f"{flaps[i]:+.0f}°", color=RIG_COLORS["flap"], fontsize=7, ha="center", va="center", zorder=9,
                             bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.7))
             _rotation_mark(v, np.zeros(3), axes[L.J_RIG_PITCH], 0.09, r"$\theta$", "k")
             _rotation_mark(v, np.zeros(3), axes[L.J_RIG_ROLL], 0.09, r"$\phi$", "k")
@@ -319,7 +325,7 @@ def draw_rig(
         vs.ax.annotate("Hawk", vs.xy(G + Aa @ np.array([-0.3, 0, -0.1]))[0], xytext=(gg[0] - 0.3, gg[1] - 0.3), fontsize=8,
                        ha="center", arrowprops=dict(arrowstyle="-", color="0.4", lw=0.8), zorder=10)
         ma = vs.xy(0.45 * G)[0]
-        vs.ax.text(ma[0], ma[1] - 0.025, "arm", fontsize=8, color=_COLORS["arm"], ha="center", va="bottom", zorder=10)
+        vs.ax.text(ma[0], ma[1] - 0.025, "arm", fontsize=8, color=RIG_COLORS["arm"], ha="center", va="bottom", zorder=10)
 
 
 def _decorate(ax: Axes, name: str, lim: tuple[float, float, float, float], flow: str) -> None:
@@ -348,7 +354,7 @@ def _world_triad(ax: Axes, name: str, origin: tuple[float, float]) -> None:
     v = _side_view(ax) if name == "side" else _behind_view(ax)
     o = np.zeros(3)
     o[v.h], o[v.v] = origin
-    _triad(v, o, np.eye(3), 0.12, _COLORS["world"], "")
+    _triad(v, o, np.eye(3), 0.12, RIG_COLORS["world"], "")
     v.text(o + np.array([0.0, 0.0, -0.04]), "world", fontsize=7, ha="left", va="bottom")
 
 

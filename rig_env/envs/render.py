@@ -49,18 +49,17 @@ from matplotlib.patches import Circle, FancyArrowPatch, Polygon
 from rig_env.envs.human_window import HumanWindow
 from rig_env.params import JOINTS
 from rig_env.physics import layout as L
-from rig_env.plotting import _COLORS, rig_outline
+from rig_env.plotting import RIG_COLORS, VIEWS, rig_outline
 
 if TYPE_CHECKING:
     from rig_env.envs.vector_env import RigVectorEnv
 
 RENDER_MODES = ("rgb_array", "human")
 NEEDLE_M_PER_DEG = 0.004  # length of a flap's deflection needle in the view from behind
-_SIDE = (0, 2, np.array([0.0, 1.0, 0.0]))  # horizontal world axis, vertical world axis, towards the viewer
-_BEHIND = (1, 2, np.array([-1.0, 0.0, 0.0]))
 _XLIM = {"side": (-0.72, 1.28), "behind": (-0.78, 0.78)}  # m, world x resp. y
 _ZLIM = (-0.64, 0.64)  # m, world z (down), shown inverted
-_STATUS = {L.S_OK: "ok"}
+_STATUS = {L.S_OK: "ok", L.S_NONFINITE: "FAILED: non-finite state", L.S_RUNAWAY: "FAILED: runaway rate",
+           L.S_CONSTRAINT: "FAILED: constraint residual"}
 _RGB_OF_RGBA = np.dtype({"names": ["rgb"], "formats": ["V3"], "offsets": [0], "itemsize": 4})
 _DPI = 100.0
 
@@ -221,15 +220,15 @@ class RigRenderer:
 
     def _moving(self) -> None:
         """The artists updated every frame, per view: polygons (depth-sorted), arm, gimbals, needles."""
-        hawk = dict(fc=to_rgba(_COLORS["hawk"], 0.35), ec=_COLORS["hawk"], lw=0.8)
-        comp = dict(fc=to_rgba(_COLORS["comp"], 0.45), ec=_COLORS["comp"], lw=0.8)
-        flap = dict(fc=to_rgba(_COLORS["flap"], 0.9), ec="#9b2c2c", lw=0.9)
+        hawk = dict(fc=to_rgba(RIG_COLORS["hawk"], 0.35), ec=RIG_COLORS["hawk"], lw=0.8)
+        comp = dict(fc=to_rgba(RIG_COLORS["comp"], 0.45), ec=RIG_COLORS["comp"], lw=0.8)
+        flap = dict(fc=to_rgba(RIG_COLORS["flap"], 0.9), ec="#9b2c2c", lw=0.9)
         self.views = []
-        for ax, (h, v, out) in ((self.ax_side, _SIDE), (self.ax_behind, _BEHIND)):
+        for ax, (h, v, out) in ((self.ax_side, VIEWS["side"]), (self.ax_behind, VIEWS["behind"])):
             polys = [Polygon(np.zeros((3, 2)), closed=True, **hawk) for _ in range(5)]
             polys += [Polygon(np.zeros((4, 2)), closed=True, **comp) for _ in range(4)]
             polys += [Polygon(np.zeros((4, 2)), closed=True, **flap) for _ in range(4)]
-            (arm,) = ax.plot([], [], color=_COLORS["arm"], lw=4, solid_capstyle="round")
+            (arm,) = ax.plot([], [], color=RIG_COLORS["arm"], lw=4, solid_capstyle="round")
             # seen from behind the pivot is nearer than the Hawk: a ring, so the model shows through
             pivot_fc = "none" if ax is self.ax_behind else "white"
             gimbals = [Circle((0.0, 0.0), 0.032, fc=pivot_fc, ec="k", lw=2.0), Circle((0.0, 0.0), 0.028, fc="white", ec="k", lw=2.0)]
@@ -276,7 +275,7 @@ class RigRenderer:
         return float(x), float(self.height - y)
 
     def _labels(self, img: np.ndarray, o: Any) -> None:
-        comp = tuple(int(255 * c) for c in to_rgb(_COLORS["comp"]))
+        comp = tuple(int(255 * c) for c in to_rgb(RIG_COLORS["comp"]))
         vb = self.views[1]
         for i in range(4):
             x, y = self._pixel(self.ax_behind, (o.tips[i, vb["h"]], o.tips[i, vb["v"]]))

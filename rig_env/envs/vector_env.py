@@ -56,8 +56,9 @@ _DELAY_COLS = (L.P_SERVOS_COMPENSATOR_DELAY_S, L.P_SERVOS_HAWK_DELAY_S)
 class RigVectorEnv(VectorEnv):
     """``num_envs`` rig environments stepped together; configuration as :class:`RigEnvConfig` fields.
 
-    ``RigVectorEnv(num_envs, config=None, **fields)``: ``fields`` override ``config`` (an unknown name
-    or out-of-range value is a ``ValueError``).  See the module docstring for seeding, autoreset and
+    ``RigVectorEnv(num_envs, config=None, render_mode=None, **fields)``: ``fields`` override ``config``
+    (an unknown name or out-of-range value is a ``ValueError``); ``render_mode`` None, "rgb_array" or
+    "human" (:mod:`rig_env.envs.render`; ``metadata["render_fps"]`` is the control rate).  See the module docstring for seeding, autoreset and
     infos, and :class:`rig_env.envs.env.RigEnv` for the observation and action tables.
     """
 
