@@ -58,8 +58,9 @@ class RigVectorEnv(VectorEnv):
 
     ``RigVectorEnv(num_envs, config=None, render_mode=None, **fields)``: ``fields`` override ``config``
     (an unknown name or out-of-range value is a ``ValueError``); ``render_mode`` None, "rgb_array" or
-    "human" (:mod:`rig_env.envs.render`; ``metadata["render_fps"]`` is the control rate).  See the module docstring for seeding, autoreset and
-    infos, and :class:`rig_env.envs.env.RigEnv` for the observation and action tables.
+    "human" (:mod:`rig_env.envs.render`; ``metadata["render_fps"]`` is the control rate).  See the
+    module docstring for seeding, autoreset and infos, and :class:`rig_env.envs.env.RigEnv` for the
+    observation and action tables.
     """
 
     metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": list(RENDER_MODES)}
