@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -54,9 +54,17 @@ _HAWK_TAIL = [
     (-0.35, 0.02, -0.005), (-0.37, 0.13, 0.01), (-0.33, 0.13, 0.01), (-0.26, 0.02, -0.005),
 ]
 _HAWK_FIN = [(-0.22, 0.0, -0.03), (-0.33, 0.0, -0.15), (-0.38, 0.0, -0.15), (-0.37, 0.0, -0.025)]
+_HAWK_SECTION = [(0.0, 0.035 * math.cos(t), -0.01 + 0.035 * math.sin(t)) for t in np.linspace(0, 2 * math.pi, 25)]
+# fuselage profile, fuselage section, wing, tailplane, fin: RigOutline.hawk order
+_HAWK_PARTS = tuple(
+    np.array(pts, dtype=np.float64)
+    for pts in ([(x, 0.0, z) for x, z in _HAWK_FUSELAGE], _HAWK_SECTION, _HAWK_WING, _HAWK_TAIL, _HAWK_FIN)
+)
+_GAMMA = np.array(PANEL_GAMMA)
 
 _FLAP_CHORD = 0.25  # flap chord / panel chord (Sec. III: full-length 25 % chord flaps)
-_COLORS = {"arm": "0.35", "hawk": "#2b6cb0", "comp": "#c05621", "flap": "#e53e3e", "world": "k", "frame_s": "#2f855a", "frame_a": "#6b46c1"}
+# colours of the parts, shared with the environment renderer (rig_env.envs.render)
+RIG_COLORS = {"arm": "0.35", "hawk": "#2b6cb0", "comp": "#c05621", "flap": "#e53e3e", "world": "k", "frame_s": "#2f855a", "frame_a": "#6b46c1"}
 
 
 def _rot(t: Sequence[float]) -> np.ndarray:
@@ -108,6 +116,21 @@ class _View:
             ax.text(tip[0], tip[1], label, color=color, fontsize=8, ha="center", va="center", zorder=z)
 
 
+# the two views: (horizontal world axis, vertical world axis, unit vector towards the viewer)
+VIEWS = {
+    "side": (0, 2, np.array([0.0, 1.0, 0.0])),  # x-z plane seen from starboard
+    "behind": (1, 2, np.array([-1.0, 0.0, 0.0])),  # y-z plane seen from behind, looking upstream
+}
+
+
+def _side_view(ax: Axes) -> _View:
+    return _View(ax, *VIEWS["side"], "side")
+
+
+def _behind_view(ax: Axes) -> _View:
+    return _View(ax, *VIEWS["behind"], "behind")
+
+
 def _triad(view: _View, origin: np.ndarray, A: np.ndarray, length: float, color: str, sub: str) -> None:
     for k, name in enumerate("xyz"):
         view.arrow(origin, origin + length * A[:, k], color, lw=1.3, label=f"${name}_{{{sub}}}$" if sub else f"${name}$")
@@ -147,6 +170,85 @@ def _flap_list(flaps_deg: Sequence[float] | None) -> np.ndarray:
     return f[:4]
 
 
+class RigOutline(NamedTuple):
+    """World-frame points of the rig's drawing (m, from the pivot; x upstream, y starboard, z down).
+
+    | field | shape | what |
+    |---|---|---|
+    | As, Aa | (3, 3) | arm and aircraft rotations, body to world (``joint_space.frames``) |
+    | axes | (5, 3) | joint axes, world, rig_env.JOINTS order |
+    | G, rho, r_s, r_r, r_ref | (3,) | model gimbal; gimbal to Hawk c.g.; arm c.g.; compensator c.g.; compensator aero point |
+    | arm | (2, 3) | arm centre line, from behind the compensator to the model gimbal |
+    | hawk | 5 x (k, 3) | Hawk outline: fuselage profile, fuselage section, wing, tailplane, fin |
+    | panels, flaps | (4, 4, 3) | compensator panels 1-4 (fixed part) and their flaps (deflected), quadrilaterals |
+    | tips | (4, 3) | just beyond each panel tip (where its number goes) |
+    | normals, flap_mid | (4, 3) | panel normal n (world) and the flap's mid-span hinge point, for deflection marks |
+    """
+
+    As: np.ndarray
+    Aa: np.ndarray
+    axes: np.ndarray
+    G: np.ndarray
+    rho: np.ndarray
+    r_s: np.ndarray
+    r_r: np.ndarray
+    r_ref: np.ndarray
+    arm: np.ndarray
+    hawk: tuple[np.ndarray, ...]
+    panels: np.ndarray
+    flaps: np.ndarray
+    tips: np.ndarray
+    normals: np.ndarray
+    flap_mid: np.ndarray
+
+
+def rig_outline(p: np.ndarray, q: Sequence[float] | None, flaps_deg: Sequence[float] | None = None) -> RigOutline:
+    """Every point of the rig picture at joint angles q, from the model's kinematics (``joint_space.frames``).
+
+    p: (N_PARAMS,) kernel parameter vector (``RigParams.to_vector()``, or a row of an environment's
+    parameter batch); q: (5,) joint angles, rad, rig_env.JOINTS order (None: all zero); flaps_deg:
+    the four compensator flap deflections, deg (or the 7 servo positions in rig_env.SERVOS order).
+    The one geometry routine of both :func:`draw_rig` and the environment renderer
+    (:mod:`rig_env.envs.render`).
+    """
+    qv = np.zeros(5) if q is None else np.asarray(q, dtype=np.float64).ravel()
+    if qv.shape != (5,):
+        raise ValueError(f"q: expected 5 joint angles (rad, {list(JOINTS)}), got shape {np.shape(q)}")
+    flaps = _flap_list(flaps_deg)
+    As_t, Aa_t, axes_t, G_t, rho_t, r_s_t, r_r_t, r_ref_t = frames(qv, p)
+    As, Aa = _rot(As_t), _rot(Aa_t)
+    G = np.asarray(G_t)
+    chord = p[L.P_COMP_AERO_S] / p[L.P_COMP_AERO_SPAN]
+    x_aero, r0, r1 = p[L.P_GEOMETRY_COMP_AERO_X], p[L.P_GEOMETRY_ARM_RADIUS], p[L.P_COMP_AERO_SPAN] / 2
+
+    # compensator panels in arm axes: span direction e_r, normal n = x_s x e_r; a positive flap moves
+    # its trailing edge towards -n (docs/MODEL.md, "Compensator panels and mixing")
+    er = np.stack([np.zeros(4), np.cos(_GAMMA), np.sin(_GAMMA)], axis=1)  # (4, 3)
+    n = np.stack([np.zeros(4), -er[:, 2], er[:, 1]], axis=1)
+    x_le = x_aero + 0.25 * chord
+    x_hinge = x_aero - (0.75 - _FLAP_CHORD) * chord
+    c_f = _FLAP_CHORD * chord
+    d = np.radians(flaps)[:, None]
+    ex = np.array([1.0, 0.0, 0.0])
+    te = (x_hinge - c_f * np.cos(d)) * ex - c_f * np.sin(d) * n  # (4, 3) trailing edge offset
+    hinge = x_hinge * ex
+    panels = np.stack([x_le * ex + r0 * er, x_le * ex + r1 * er, hinge + r1 * er, hinge + r0 * er], axis=1)
+    flap_q = np.stack([hinge + r0 * er, hinge + r1 * er, te + r1 * er, te + r0 * er], axis=1)
+    tips = x_aero * ex + (r1 + 0.035) * er
+    flap_mid = (r0 + r1) / 2 * er + (x_hinge - c_f) * ex
+
+    def hawk(pts: np.ndarray) -> np.ndarray:  # aircraft axes at the model gimbal -> world
+        return G + pts @ Aa.T
+
+    arm_back = As @ np.array([x_aero - 0.75 * chord - 0.06, 0.0, 0.0])
+    return RigOutline(
+        As=As, Aa=Aa, axes=np.asarray(axes_t), G=G, rho=np.asarray(rho_t), r_s=np.asarray(r_s_t),
+        r_r=np.asarray(r_r_t), r_ref=np.asarray(r_ref_t), arm=np.stack([arm_back, G]),
+        hawk=tuple(hawk(h) for h in _HAWK_PARTS),
+        panels=panels @ As.T, flaps=flap_q @ As.T, tips=tips @ As.T, normals=n @ As.T, flap_mid=flap_mid @ As.T,
+    )
+
+
 def draw_rig(
     params: RigParams,
     q: Sequence[float] | None,
@@ -163,86 +265,48 @@ def draw_rig(
     deflections (deg, flaps 1-4, or the 7 servo positions in rig_env.SERVOS order); labels: joint,
     frame and part names.
     """
-    qv = np.zeros(5) if q is None else np.asarray(q, dtype=np.float64).ravel()
-    if qv.shape != (5,):
-        raise ValueError(f"q: expected 5 joint angles (rad, {list(JOINTS)}), got shape {np.shape(q)}")
     flaps = _flap_list(flaps_deg)
-    p = params.to_vector()
-    As_t, Aa_t, axes_t, G_t, rho_t, r_s_t, r_r_t, r_ref_t = frames(qv, p)
-    As, Aa = _rot(As_t), _rot(Aa_t)
-    axes = [np.asarray(a) for a in axes_t]
-    G, rho, r_s, r_r, r_ref = (np.asarray(v) for v in (G_t, rho_t, r_s_t, r_r_t, r_ref_t))
-    g = params.geometry
-    ca = params.comp_aero
-    chord = ca.S / ca.span
-    views = [
-        _View(ax_side, 0, 2, np.array([0.0, 1.0, 0.0]), "side"),
-        _View(ax_behind, 1, 2, np.array([-1.0, 0.0, 0.0]), "behind"),
-    ]
-    x_arm = As[:, 0]
+    o = rig_outline(params.to_vector(), q, flaps)
+    As, Aa, G, rho, r_s, r_r, r_ref = o.As, o.Aa, o.G, o.rho, o.r_s, o.r_r, o.r_ref
+    axes = list(o.axes)
+    fus, sec, wing, tail, fin = o.hawk
+    views = [_side_view(ax_side), _behind_view(ax_behind)]
 
-    # compensator panels (arm axes -> world)
-    panels, flap_polys, tips, normals = [], [], [], []
-    x_le = g.comp_aero_x + 0.25 * chord
-    x_hinge = g.comp_aero_x - (0.75 - _FLAP_CHORD) * chord
-    for i, gam in enumerate(PANEL_GAMMA):
-        er = np.array([0.0, math.cos(gam), math.sin(gam)])
-        n = np.array([0.0, -er[2], er[1]])
-        d = math.radians(flaps[i])
-        c_f = _FLAP_CHORD * chord
-        te = np.array([x_hinge - c_f * math.cos(d), 0.0, 0.0]) - c_f * math.sin(d) * n
-        r0, r1 = g.arm_radius, ca.span / 2
-        loc = [np.array([x_le, 0, 0]) + r0 * er, np.array([x_le, 0, 0]) + r1 * er, np.array([x_hinge, 0, 0]) + r1 * er, np.array([x_hinge, 0, 0]) + r0 * er]
-        fl = [np.array([x_hinge, 0, 0]) + r0 * er, np.array([x_hinge, 0, 0]) + r1 * er, te + r1 * er, te + r0 * er]
-        panels.append(np.array([As @ v for v in loc]))
-        flap_polys.append(np.array([As @ v for v in fl]))
-        tips.append(As @ (np.array([g.comp_aero_x, 0, 0]) + (r1 + 0.035) * er))
-        normals.append((As @ n, As @ ((r0 + r1) / 2 * er + np.array([x_hinge - c_f, 0, 0]))))
-
-    # Hawk outline (aircraft axes at the model gimbal -> world)
-    def hawk(pts: Sequence[Sequence[float]]) -> np.ndarray:
-        return np.array([G + Aa @ np.asarray(v, dtype=np.float64) for v in pts])
-
-    fus = hawk([(x, 0.0, z) for x, z in _HAWK_FUSELAGE])
-    sec = hawk([(0.0, 0.035 * math.cos(t), -0.01 + 0.035 * math.sin(t)) for t in np.linspace(0, 2 * math.pi, 25)])
-    wing, tail, fin = hawk(_HAWK_WING), hawk(_HAWK_TAIL), hawk(_HAWK_FIN)
-
-    arm_back = As @ np.array([g.comp_aero_x - 0.75 * chord - 0.06, 0.0, 0.0])
     for v in views:
         ax = v.ax
         behind = v.name == "behind"
         # depth order: in the view from behind the compensator is nearest the viewer
         z_hawk, z_comp = (3, 5) if behind else (4, 3)
-        v.line(np.array([arm_back, G]), color=_COLORS["arm"], lw=4, solid_capstyle="round", zorder=4)
+        v.line(o.arm, color=RIG_COLORS["arm"], lw=4, solid_capstyle="round", zorder=4)
         for pts in (fus, wing, tail, fin):
-            v.poly(pts, fc=to_rgba(_COLORS["hawk"], 0.3), ec=_COLORS["hawk"], lw=0.8, zorder=z_hawk)
+            v.poly(pts, fc=to_rgba(RIG_COLORS["hawk"], 0.3), ec=RIG_COLORS["hawk"], lw=0.8, zorder=z_hawk)
         if behind:
-            v.poly(sec, fc=to_rgba(_COLORS["hawk"], 0.3), ec=_COLORS["hawk"], lw=0.8, zorder=z_hawk)
+            v.poly(sec, fc=to_rgba(RIG_COLORS["hawk"], 0.3), ec=RIG_COLORS["hawk"], lw=0.8, zorder=z_hawk)
         for i in range(4):
-            v.poly(panels[i], fc=to_rgba(_COLORS["comp"], 0.4), ec=_COLORS["comp"], lw=0.8, zorder=z_comp)
-            v.poly(flap_polys[i], fc=to_rgba(_COLORS["flap"], 0.55), ec=_COLORS["flap"], lw=0.8, zorder=z_comp)
+            v.poly(o.panels[i], fc=to_rgba(RIG_COLORS["comp"], 0.4), ec=RIG_COLORS["comp"], lw=0.8, zorder=z_comp)
+            v.poly(o.flaps[i], fc=to_rgba(RIG_COLORS["flap"], 0.55), ec=RIG_COLORS["flap"], lw=0.8, zorder=z_comp)
         # gimbals and c.g. markers
         for centre, r in ((np.zeros(3), 0.034), (G, 0.03)):
             ax.add_patch(Circle(v.xy(centre)[0], r, fc="white", ec="k", lw=2.0, zorder=8))
-        for pt, col in ((G + rho, _COLORS["hawk"]), (r_s, _COLORS["arm"]), (r_r, _COLORS["comp"])):
+        for pt, col in ((G + rho, RIG_COLORS["hawk"]), (r_s, RIG_COLORS["arm"]), (r_r, RIG_COLORS["comp"])):
             c = v.xy(pt)[0]
             ax.plot([c[0]], [c[1]], marker="o", ms=6, mfc="white", mec=col, mew=1.5, zorder=9)
             ax.plot([c[0]], [c[1]], marker="o", ms=2, color=col, zorder=10)
         # frames: arm triad at the pivot, aircraft triad at the model gimbal
-        _triad(v, np.zeros(3), As, 0.16, _COLORS["frame_s"], "s")
+        _triad(v, np.zeros(3), As, 0.16, RIG_COLORS["frame_s"], "s")
         if np.linalg.norm(v.xy(G)[0]) > 0.08:  # seen along the arm, frame a would hide frame s
-            _triad(v, G, Aa, 0.14, _COLORS["frame_a"], "a")
+            _triad(v, G, Aa, 0.14, RIG_COLORS["frame_a"], "a")
         if labels:
             # flap numbers and deflection marks: the trailing edge moves towards -n for a positive flap
             for i in range(4):
-                tip = tips[i] + (np.array([0.035 * np.sign(tips[i][1]), 0, 0]) if not behind else 0.0)
-                v.text(tip, str(i + 1), color=_COLORS["comp"], fontsize=9, fontweight="bold", ha="center", va="center", zorder=9)
+                tip = o.tips[i] + (np.array([0.035 * np.sign(o.tips[i][1]), 0, 0]) if not behind else 0.0)
+                v.text(tip, str(i + 1), color=RIG_COLORS["comp"], fontsize=9, fontweight="bold", ha="center", va="center", zorder=9)
                 if behind and abs(flaps[i]) > 0.05:
-                    n_w, base = normals[i]
+                    n_w, base = o.normals[i], o.flap_mid[i]
                     end = base - 0.004 * flaps[i] * n_w
                     pa, pb = v.xy(base)[0], v.xy(end)[0]
-                    ax.add_patch(FancyArrowPatch(pa, pb, arrowstyle="-|>", mutation_scale=8, color=_COLORS["flap"], lw=1.5, zorder=9))
-                    ax.text(pb[0], pb[1], f"{flaps[i]:+.0f}°", color=_COLORS["flap"], fontsize=7, ha="center", va="center", zorder=9,
+                    ax.add_patch(FancyArrowPatch(pa, pb, arrowstyle="-|>", mutation_scale=8, color=RIG_COLORS["flap"], lw=1.5, zorder=9))
+                    ax.text(pb[0], pb[1], f"{flaps[i]:+.0f}°", color=RIG_COLORS["flap"], fontsize=7, ha="center", va="center", zorder=9,
                             bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.7))
             _rotation_mark(v, np.zeros(3), axes[L.J_RIG_PITCH], 0.09, r"$\theta$", "k")
             _rotation_mark(v, np.zeros(3), axes[L.J_RIG_ROLL], 0.09, r"$\phi$", "k")
@@ -261,7 +325,7 @@ def draw_rig(
         vs.ax.annotate("Hawk", vs.xy(G + Aa @ np.array([-0.3, 0, -0.1]))[0], xytext=(gg[0] - 0.3, gg[1] - 0.3), fontsize=8,
                        ha="center", arrowprops=dict(arrowstyle="-", color="0.4", lw=0.8), zorder=10)
         ma = vs.xy(0.45 * G)[0]
-        vs.ax.text(ma[0], ma[1] - 0.025, "arm", fontsize=8, color=_COLORS["arm"], ha="center", va="bottom", zorder=10)
+        vs.ax.text(ma[0], ma[1] - 0.025, "arm", fontsize=8, color=RIG_COLORS["arm"], ha="center", va="bottom", zorder=10)
 
 
 def _decorate(ax: Axes, name: str, lim: tuple[float, float, float, float], flow: str) -> None:
@@ -287,10 +351,10 @@ def _decorate(ax: Axes, name: str, lim: tuple[float, float, float, float], flow:
 
 
 def _world_triad(ax: Axes, name: str, origin: tuple[float, float]) -> None:
-    v = _View(ax, 0, 2, np.array([0.0, 1.0, 0.0]), name) if name == "side" else _View(ax, 1, 2, np.array([-1.0, 0.0, 0.0]), name)
+    v = _side_view(ax) if name == "side" else _behind_view(ax)
     o = np.zeros(3)
     o[v.h], o[v.v] = origin
-    _triad(v, o, np.eye(3), 0.12, _COLORS["world"], "")
+    _triad(v, o, np.eye(3), 0.12, RIG_COLORS["world"], "")
     v.text(o + np.array([0.0, 0.0, -0.04]), "world", fontsize=7, ha="left", va="bottom")
 
 

@@ -8,6 +8,7 @@ import gymnasium as gym
 import numpy as np
 
 from rig_env.envs.config import RigEnvConfig
+from rig_env.envs.render import RENDER_MODES
 from rig_env.envs.vector_env import RigVectorEnv
 
 
@@ -65,12 +66,21 @@ class RigEnv(gym.Env):
     ## Seeding
 
     ``reset(seed=s)`` runs exactly as environment ``j`` of a ``RigVectorEnv`` reset with seed ``s - j``.
+
+    ## Rendering
+
+    ``render_mode``: None, ``"rgb_array"`` (``render()`` returns a (448, 1024, 3) uint8 frame: the
+    rig from the side and from behind, :mod:`rig_env.envs.render`; after the last step of an episode
+    it shows that step's state until ``reset()``) or ``"human"`` (a pyplot window, drawn on every step
+    and reset; headless it warns once and shows nothing).  ``metadata["render_fps"]`` is the control
+    rate, so ``gymnasium.wrappers.RecordVideo`` plays in real time.
     """
 
-    metadata: dict[str, Any] = {"render_modes": []}
+    metadata: dict[str, Any] = {"render_modes": list(RENDER_MODES)}
 
     def __init__(self, config: RigEnvConfig | None = None, render_mode: str | None = None, **fields: Any) -> None:
         self.vec = RigVectorEnv(1, config, render_mode=render_mode, **fields)
+        self.render_mode, self.metadata = self.vec.render_mode, {**type(self).metadata, "render_fps": self.vec.metadata["render_fps"]}
         self.config = self.vec.config
         self.observation_space = self.vec.single_observation_space
         self.action_space = self.vec.single_action_space
@@ -82,6 +92,10 @@ class RigEnv(gym.Env):
         super().reset(seed=seed)
         if seed is None and options is None and self._next is not None:
             obs, info = self._next  # the batch already started the next episode of this stream
+            if self.vec.viewer is not None:
+                self.vec.viewer.clear_held()
+                if self.render_mode == "human":
+                    self.vec.viewer.show(self.vec)
         else:
             obs, info = self.vec.reset(seed=seed, options=options)
             obs = obs[0]
@@ -101,6 +115,18 @@ class RigEnv(gym.Env):
             obs = infos["final_obs"][0]
             info = {k: v[0].item() for k, v in infos["final_info"].items() if not k.startswith("_")}
         return obs[0] if obs.ndim == 2 else obs, float(rew[0]), bool(term[0]), bool(trunc[0]), info
+
+    def render(self) -> np.ndarray | None:
+        """rgb_array: (H, W, 3) uint8 frame; human: show it (also done on every step and reset), None."""
+        if self.vec.viewer is None:
+            return None
+        if self.render_mode == "human":
+            self.vec.viewer.show(self.vec)
+            return None
+        return self.vec.viewer.frame(self.vec, 0)
+
+    def close(self) -> None:
+        self.vec.close()
 
     @property
     def unwrapped_vec(self) -> RigVectorEnv:

@@ -39,6 +39,7 @@ from gymnasium.vector.utils import batch_space
 from rig_env.envs import streams as rs
 from rig_env.envs.config import RigEnvConfig
 from rig_env.envs.metrics import StepMetrics
+from rig_env.envs.render import RENDER_MODES, EnvFrames, EnvViewer, check_render_mode
 from rig_env.envs.sensors import Sensors
 from rig_env.envs.tasks import TASKS
 from rig_env.params import JOINTS, PARAM_INDEX, RigParams, param_batch
@@ -55,20 +56,20 @@ _DELAY_COLS = (L.P_SERVOS_COMPENSATOR_DELAY_S, L.P_SERVOS_HAWK_DELAY_S)
 class RigVectorEnv(VectorEnv):
     """``num_envs`` rig environments stepped together; configuration as :class:`RigEnvConfig` fields.
 
-    ``RigVectorEnv(num_envs, config=None, **fields)``: ``fields`` override ``config`` (an unknown name
-    or out-of-range value is a ``ValueError``).  See the module docstring for seeding, autoreset and
-    infos, and :class:`rig_env.envs.env.RigEnv` for the observation and action tables.
+    ``RigVectorEnv(num_envs, config=None, render_mode=None, **fields)``: ``fields`` override ``config``
+    (an unknown name or out-of-range value is a ``ValueError``); ``render_mode`` None, "rgb_array" or
+    "human" (:mod:`rig_env.envs.render`; ``metadata["render_fps"]`` is the control rate).  See the
+    module docstring for seeding, autoreset and infos, and :class:`rig_env.envs.env.RigEnv` for the
+    observation and action tables.
     """
 
-    metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
+    metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": list(RENDER_MODES)}
 
     def __init__(self, num_envs: int = 1, config: RigEnvConfig | None = None, render_mode: str | None = None, **fields: Any) -> None:
         if not isinstance(num_envs, (int, np.integer)) or isinstance(num_envs, bool) or not 1 <= num_envs <= 1_000_000:
             raise ValueError(f"num_envs = {num_envs!r}: must be an integer in [1, 1000000]")
-        if render_mode is not None:
-            raise ValueError(f"render_mode = {render_mode!r}: rendering is not supported (allowed: None)")
         cfg = (config or RigEnvConfig()).with_overrides(**fields)
-        self.config, self.num_envs, self.render_mode = cfg, int(num_envs), None
+        self.config, self.num_envs, self.render_mode = cfg, int(num_envs), check_render_mode(render_mode)
         n = self.num_envs
         task_cls = TASKS[cfg.task]
         self.free_dofs: tuple[str, ...] = cfg.free_dofs or task_cls.default_free_dofs
@@ -76,6 +77,9 @@ class RigVectorEnv(VectorEnv):
         self.episode_seconds = float(cfg.episode_seconds or task_cls.default_episode_seconds)
         self.dt, self.h, self.n_sub = rates(cfg.control_rate, cfg.physics_dt)
         self.max_steps = max(1, int(round(self.episode_seconds / self.dt)))
+        fps = float(cfg.control_rate)  # one frame per control step; metadata is per instance (rates differ)
+        self.metadata = {**type(self).metadata, "render_fps": int(fps) if fps.is_integer() else fps}
+        self.viewer = EnvViewer(self.render_mode, fps, cfg.task) if self.render_mode is not None else None
         bad = [j for j in cfg.locked_deg if j in self.free_dofs]
         if bad:
             raise ValueError(f"locked_deg: joint(s) {bad} are free; lock them by leaving them out of free_dofs")
@@ -153,6 +157,10 @@ class RigVectorEnv(VectorEnv):
             if mask.shape != (self.num_envs,):
                 raise ValueError(f"options['reset_mask']: expected shape ({self.num_envs},), got {mask.shape}")
         self._reset_envs(np.flatnonzero(mask))
+        if self.viewer is not None:
+            self.viewer.clear_held()
+            if self.render_mode == "human":
+                self.viewer.show(self)
         return self._observe(), {}
 
     def _reset_envs(self, idx: np.ndarray) -> None:
@@ -207,6 +215,8 @@ class RigVectorEnv(VectorEnv):
         if self.keys is None:
             raise RuntimeError("call reset() before step()")
         a = self.check_actions(actions)
+        if self.viewer is not None:
+            self.viewer.clear_held()
         n_a = len(self.action_names)
         self.U[:, :n_a] = np.radians(ACTION_SCALE_DEG) * a
         if self.config.turbulence > 0.0:
@@ -238,9 +248,13 @@ class RigVectorEnv(VectorEnv):
         if np.any(done):
             idx = np.flatnonzero(done)
             infos = self._final_infos(idx, obs, q, qd, ref, truncated, beyond)
+            if self.viewer is not None:
+                self.viewer.hold(self, idx)  # frames show an ended episode's last state until the next step
             self.episode[idx] += np.uint64(1)
             self._reset_envs(idx)
             obs[idx] = self._observe()[idx]
+        if self.render_mode == "human":
+            self.viewer.show(self)
         return obs, reward, terminated, truncated, infos
 
     def _final_infos(self, idx, obs, q, qd, ref, truncated, beyond) -> dict[str, Any]:
@@ -261,5 +275,17 @@ class RigVectorEnv(VectorEnv):
             fi[k], fi[f"_{k}"] = full, mask
         return {"final_obs": final_obs, "_final_obs": mask, "final_info": fi, "_final_info": mask}
 
+    def render(self) -> EnvFrames | None:
+        """rgb_array: the frames of every environment, drawn lazily when indexed (``frames[0]``: the
+        first; :class:`rig_env.envs.render.EnvFrames`).  human: shows environment 0 (also done on every
+        step and reset), returns None.  None without a render_mode.  See :mod:`rig_env.envs.render`."""
+        if self.viewer is None:
+            return None
+        if self.render_mode == "human":
+            self.viewer.show(self)
+            return None
+        return self.viewer.frames(self)
+
     def close_extras(self, **kwargs: Any) -> None:
-        pass
+        if self.viewer is not None:
+            self.viewer.close()
