@@ -23,7 +23,9 @@ carry on), ``stop_exceeded``, and :data:`rig_env.envs.metrics.METRIC_NAMES`.
 
 Actions are ``(num_envs, 3)`` (``(num_envs, 6)`` with ``hawk_surfaces``): compensator aileron,
 elevator, rudder (then Hawk elevator, aileron, rudder), each in [-1, 1] for +-40 deg.  Out-of-range
-values are clipped; a non-finite value raises ``ValueError``.  Observations are float32, see
+values are clipped; a non-finite value raises ``ValueError``.  The task's pilot inputs
+(:meth:`rig_env.envs.tasks.Task.pilot_inputs`: 3-2-1-1s, pulses) are the Hawk surface commands, held
+over each control step; with ``hawk_surfaces`` they are added to the action's Hawk commands.  Observations are float32, see
 :class:`rig_env.envs.env.RigEnv` for the table.
 """
 
@@ -71,7 +73,7 @@ class RigVectorEnv(VectorEnv):
         self.config, self.num_envs, self.render_mode = cfg, int(num_envs), None
         n = self.num_envs
         task_cls = TASKS[cfg.task]
-        self.free_dofs: tuple[str, ...] = cfg.free_dofs or task_cls.default_free_dofs
+        self.free_dofs: tuple[str, ...] = cfg.free_dofs or task_cls.free_dofs_for(cfg.task_options)
         self.airspeed_range: tuple[float, float] = cfg.airspeed or task_cls.default_airspeed
         self.episode_seconds = float(cfg.episode_seconds or task_cls.default_episode_seconds)
         self.dt, self.h, self.n_sub = rates(cfg.control_rate, cfg.physics_dt)
@@ -99,7 +101,8 @@ class RigVectorEnv(VectorEnv):
             corners = self.base_row[None]
         self.P = np.ascontiguousarray(np.repeat(self.base_row[None], n, axis=0))
         self.tabs = self.params.tables()
-        self.flags = flags_of(True, True, True, True, cfg.nonlinear_aero)
+        self.nonlinear_aero = task_cls.default_nonlinear_aero if cfg.nonlinear_aero is None else cfg.nonlinear_aero
+        self.flags = flags_of(True, True, True, True, self.nonlinear_aero)
         self.delay_steps = np.rint(self.P[:, _DELAY_COLS] / self.h).astype(np.int64)
         n_buf = int(np.rint(np.concatenate([corners[:, _DELAY_COLS], self.base_row[None, _DELAY_COLS]]) / self.h).max()) + 1
         self.X = np.zeros((n, L.N_STATE))
@@ -110,7 +113,7 @@ class RigVectorEnv(VectorEnv):
         self._kernel = integ.step_batch if n >= integ.PARALLEL_MIN_ENVS else integ.step_serial
         self._k0 = 0
 
-        self.task = task_cls(n, self.free_dofs, self.dt, self.episode_seconds)
+        self.task = task_cls(n, self.free_dofs, self.dt, self.episode_seconds, **cfg.task_options)
         self.sensors = Sensors(
             n, self.free_dofs, self.dt, rate_filter_hz=cfg.rate_filter_hz, delay_steps=cfg.link_delay_steps,
             angle_noise=np.radians(cfg.angle_noise_deg), flap_noise=np.radians(cfg.flap_noise_deg),
@@ -168,6 +171,7 @@ class RigVectorEnv(VectorEnv):
         u = rs.uniform(keys, ep, 0, rs.S_INITIAL, 1)
         lo, hi = self.airspeed_range
         self.airspeed[idx] = lo + (hi - lo) * u[:, 0]
+        self.task.conditions(idx, self.airspeed[idx], self.P[idx])
         q0, qd0 = self.task.reset(idx, rs.uniform(keys, ep, 0, rs.S_REFERENCE, self.task.n_draws))
         q0[:, self.locked] = self.q_locked[self.locked]
         qd0[:, self.locked] = 0.0
@@ -209,6 +213,10 @@ class RigVectorEnv(VectorEnv):
         a = self.check_actions(actions)
         n_a = len(self.action_names)
         self.U[:, :n_a] = np.radians(ACTION_SCALE_DEG) * a
+        # the task's pilot inputs (Hawk elevator, aileron, rudder, rad): the Hawk surface commands, or
+        # added to the action's Hawk commands with hawk_surfaces (the servo limits clip the sum)
+        hawk = slice(L.U_HAWK_ELEVATOR, L.U_HAWK_ELEVATOR + 3)
+        self.U[:, hawk] = self.task.pilot_inputs(self.t) + (self.U[:, hawk] if n_a > 3 else 0.0)
         if self.config.turbulence > 0.0:
             nz = rs.normal(self.keys, self.episode, self.steps + 1, rs.S_TURBULENCE, 3)
             sig = self.config.turbulence * self.airspeed[:, None]
@@ -220,6 +228,7 @@ class RigVectorEnv(VectorEnv):
         self.steps += 1
         self.t = self.steps * self.dt
         q, qd = self.X[:, L.X_Q : L.X_Q + 5], self.X[:, L.X_QD : L.X_QD + 5]
+        self.task.advance(self.t, q, qd)
         noise = rs.normal(self.keys, self.episode, self.steps, rs.S_SENSOR, self.sensors.n_channels) if self._noisy else None
         self.sensors.update(q[:, self.free_idx], self.X[:, L.X_SERVO : L.X_SERVO + 4], self.airspeed, noise)
         ref = self.task.reference(self.t)
