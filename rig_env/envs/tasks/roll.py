@@ -25,6 +25,7 @@ class VelocityVectorRoll(Task):
     Metrics: segment 0 the spin-up (roll rate to R, band 5 deg/s), segment 1 the stop (roll angle to
     the stop angle, band 2 deg); RMS error is the roll-angle error, deg.  Success: reached the time
     limit with |roll error| < 5 deg and |roll rate| < 20 deg/s.
+    Defaults: free rig_roll and model_pitch (rig_roll required), airspeed U(18, 22) m/s, 8 s.
     """
 
     name = "velocity_vector_roll"
@@ -100,6 +101,7 @@ class BankToBank(Task):
     Reward ``exp(-(e_phi / 15 deg)^2 - 0.25 (rig_yaw / 20 deg)^2 - 0.05 mean(a^2) - 0.05 mean(da^2))``
     (rig_yaw term only when it is free).  Metrics: one segment per bank step (band 2 deg); RMS error is
     the roll-angle error, deg.  Success: reached the time limit, every step settled, final |error| < 5 deg.
+    Defaults: the 4-DOF set above (rig_roll required), airspeed U(15, 20) m/s, 17 s.
     """
 
     name = "bank_to_bank"
