@@ -24,7 +24,7 @@ def three_two_one_one(t: np.ndarray, t0: np.ndarray, amp: np.ndarray, unit: floa
 
 
 class FreeHawkShortPeriod:
-    """Linear short period plus heave of the free Hawk, with its elevator servo; (n,) batch, RK4.
+    """Linear short period plus heave of the free Hawk, with its elevator servo; (n,) batch, RK4 substeps.
 
     State x = (alpha, q, theta, h, delta, delta'), perturbations from trimmed level flight at the
     airspeed V (held constant: the short-period approximation, e.g. Etkin & Reid, *Dynamics of
@@ -46,6 +46,7 @@ class FreeHawkShortPeriod:
     """
 
     N = 6
+    N_SUB = 4  # RK4 substeps per control step: the 6 Hz servo has wn dt = 0.47 at 80 Hz; per substep 0.12
 
     def __init__(self, n: int, dt: float) -> None:
         self.n, self.dt = n, float(dt)
@@ -99,14 +100,16 @@ class FreeHawkShortPeriod:
         ], axis=1)
 
     def step(self, u: np.ndarray) -> None:
-        """Advance every env one control step with u (n,) held (classical RK4); updates x and a_n."""
-        h, x = self.dt, self.x
-        k1 = self.derivatives(x, u)
-        k2 = self.derivatives(x + 0.5 * h * k1, u)
-        k3 = self.derivatives(x + 0.5 * h * k2, u)
-        k4 = self.derivatives(x + h * k3, u)
-        self.x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        self.an = self.normal_acceleration(self.x)
+        """Advance every env one control step with u (n,) held: N_SUB classical RK4 substeps; updates x, a_n."""
+        h, x = self.dt / self.N_SUB, self.x
+        for _ in range(self.N_SUB):
+            k1 = self.derivatives(x, u)
+            k2 = self.derivatives(x + 0.5 * h * k1, u)
+            k3 = self.derivatives(x + 0.5 * h * k2, u)
+            k4 = self.derivatives(x + h * k3, u)
+            x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        self.x = x
+        self.an = self.normal_acceleration(x)
 
 
 def rig_alpha(q: np.ndarray, qd: np.ndarray, V: np.ndarray, l: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
