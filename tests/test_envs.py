@@ -234,6 +234,17 @@ def test_step_metrics_of_a_first_order_response_match_theory():
     assert out["overshoot_pct"][0] == 0.0 and out["segments_settled"][0] == 1
 
 
+def test_step_metrics_a_segment_that_never_reaches_its_target_is_not_settled():
+    dt, z = 0.01, np.zeros((1, 3))
+    m = StepMetrics(1, dt)
+    for k in range(1, 201):  # segment 0: y stays at 0 while the target is 1; segment 1: target 0, already there
+        seg = 0 if k <= 100 else 1
+        m.update(np.array([k * dt]), np.array([seg]), np.zeros(1), np.array([1.0 - seg]), np.zeros(1), np.array([0.01]), z, z, np.zeros(1, bool))
+    out = m.finish(np.array([0]), np.array([2.0]))
+    assert out["segments"][0] == 2 and out["segments_settled"][0] == 1
+    assert out["settling_time"][0] == pytest.approx(dt)  # only segment 1's, settled on its first step
+
+
 def _stop_terminations() -> dict:
     # model-pitch upper stop at 0 deg: envs starting above +2 deg terminate on the first step
     return dict(randomise={"stops.model_pitch.upper_deg": (0.0, 0.0)}, episode_seconds=0.5)

@@ -12,26 +12,21 @@ RECOVERY_SCALES = (10.0 * D, 10.0 * D, 12.0 * D, 20.0 * D)
 T_RECOVER = 3.0  # s after the pilot releases the elevator
 
 
-def _rot(axis: int, a: np.ndarray) -> np.ndarray:
-    """(n, 3, 3) rotations about x (0), y (1) or z (2) by angles a (n,), rad."""
-    c, s = np.cos(a), np.sin(a)
-    R = np.zeros((a.size, 3, 3))
-    i, j = [(1, 2), (2, 0), (0, 1)][axis]
-    R[:, axis, axis] = 1.0
-    R[:, i, i] = R[:, j, j] = c
-    R[:, i, j], R[:, j, i] = -s, s
-    return R
-
-
 def static_alpha(q: np.ndarray) -> np.ndarray:
     """(n,) angle of attack, rad, of the model in the tunnel flow at joint angles q (n, 5), joint rates ignored.
 
     A_a = Rz(rig_yaw) Ry(rig_pitch) Rx(rig_roll) Rz(model_yaw) Ry(model_pitch) (rig_env.physics.
     joint_space); the flow seen by the body is V A_a^T e_x, so alpha = atan2(A_a[0, 2], A_a[0, 0]).
+    Only the first row of A_a is needed: written out below.
     """
-    Rs = _rot(2, q[:, 2]) @ _rot(1, q[:, 1]) @ _rot(0, q[:, 0])
-    row = np.einsum("nj,njk->nk", Rs[:, 0, :], _rot(2, q[:, 4]) @ _rot(1, q[:, 3]))
-    return np.arctan2(row[:, 2], row[:, 0])
+    cf, sf = np.cos(q[:, 0]), np.sin(q[:, 0])
+    ct, st = np.cos(q[:, 1]), np.sin(q[:, 1])
+    cp, sp = np.cos(q[:, 2]), np.sin(q[:, 2])
+    r0, r1, r2 = cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf  # first row of the arm's rotation
+    cy, sy = np.cos(q[:, 4]), np.sin(q[:, 4])
+    x, z = r0 * cy + r1 * sy, r2  # times Rz(model_yaw)
+    ca, sa = np.cos(q[:, 3]), np.sin(q[:, 3])
+    return np.arctan2(x * sa + z * ca, x * ca - z * sa)  # times Ry(model_pitch): columns 2 and 0
 
 
 def wrap(a: np.ndarray) -> np.ndarray:

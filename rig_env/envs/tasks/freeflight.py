@@ -1,8 +1,7 @@
 """Free-flight emulation (the rig's purpose): the model's heave-pitch response to a 3-2-1-1 should match the free Hawk's.
 
 :class:`FreeHawkShortPeriod` is the reference: the linear short-period and heave dynamics of the free
-Hawk from its own derivatives (no rig), integrated with RK4 at the control rate for all environments
-at once.  :class:`FreeFlightEmulation` is the task around it.
+Hawk from its own derivatives (no rig), advanced at the control rate for all environments at once.  :class:`FreeFlightEmulation` is the task around it.
 """
 
 from __future__ import annotations
@@ -10,6 +9,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.linalg import expm
 
 from rig_env.envs.tasks.base import D, G0, Task, sign_of
 from rig_env.physics import layout as L
@@ -24,7 +24,7 @@ def three_two_one_one(t: np.ndarray, t0: np.ndarray, amp: np.ndarray, unit: floa
 
 
 class FreeHawkShortPeriod:
-    """Linear short period plus heave of the free Hawk, with its elevator servo; (n,) batch, RK4 substeps.
+    """Linear short period plus heave of the free Hawk, with its elevator servo; (n,) batch at the control rate.
 
     State x = (alpha, q, theta, h, delta, delta'), perturbations from trimmed level flight at the
     airspeed V (held constant: the short-period approximation, e.g. Etkin & Reid, *Dynamics of
@@ -38,15 +38,17 @@ class FreeHawkShortPeriod:
         theta' = q,    h' = V (theta - alpha)                                       heave, up, m
         delta'' = wn^2 (u(t - d) - delta) - 2 zeta wn delta'                        the Hawk servo (rig_env.physics.servo)
 
-    m, Iyy: Hawk mass and pitch inertia about its c.g.; u: commanded elevator (rad), delay d rounded
-    to whole control steps.  The (alpha, q) characteristic equation is
-    ``s^2 + (Za - Mq) s - Za Mq - (1 - Zq) Ma = 0`` with Za = qbar S CLa / (m V), Zq = qbar S CLq c /
-    (2 m V^2), Ma = qbar S c CMa / Iyy, Mq = qbar S c^2 CMq / (2 V Iyy) (see :meth:`short_period`).
-    Servo rate and position limits are not modelled (inputs of a few deg stay far from them).
+    m, Iyy: Hawk mass and pitch inertia about its c.g.; u: commanded elevator (rad), held over each
+    control step (as the environment holds it) and delayed by d rounded to whole control steps.  The
+    linear system x' = A x + B u is discretised exactly for that zero-order hold (Phi = expm, per
+    environment at reset), so a step is one batched matrix-vector product.  The (alpha, q)
+    characteristic equation is ``s^2 + (Za - Mq) s - Za Mq - (1 - Zq) Ma = 0`` with Za = qbar S CLa /
+    (m V), Zq = qbar S CLq c / (2 m V^2), Ma = qbar S c CMa / Iyy, Mq = qbar S c^2 CMq / (2 V Iyy)
+    (:meth:`short_period`).  Servo rate and position limits are not modelled (inputs of a few deg stay
+    far from them).
     """
 
     N = 6
-    N_SUB = 4  # RK4 substeps per control step: the 6 Hz servo has wn dt = 0.47 at 80 Hz; per substep 0.12
 
     def __init__(self, n: int, dt: float) -> None:
         self.n, self.dt = n, float(dt)
@@ -55,6 +57,8 @@ class FreeHawkShortPeriod:
         self.V = np.ones(n)
         self.Za, self.Zq, self.Zd, self.Ma, self.Mq, self.Md = (np.zeros(n) for _ in range(6))
         self.wn, self.zeta, self.delay_steps = np.ones(n), np.ones(n), np.zeros(n, dtype=np.int64)
+        self.Phi = np.repeat(np.eye(self.N)[None], n, axis=0)
+        self.Gam = np.zeros((n, self.N))
 
     def configure(self, idx: np.ndarray, airspeed: np.ndarray, P: np.ndarray) -> None:
         """Coefficients of envs idx from airspeed (m,) m/s and parameter rows P (m, N_PARAMS); state zeroed."""
@@ -73,43 +77,42 @@ class FreeHawkShortPeriod:
         self.wn[idx] = 2.0 * math.pi * P[:, L.P_SERVOS_HAWK_NATURAL_FREQ_HZ]
         self.zeta[idx] = P[:, L.P_SERVOS_HAWK_DAMPING]
         self.delay_steps[idx] = np.rint(P[:, L.P_SERVOS_HAWK_DELAY_S] / self.dt).astype(np.int64)
+        A, B = self.matrices(idx)
+        aug = np.zeros((idx.size, self.N + 1, self.N + 1))
+        aug[:, : self.N, : self.N], aug[:, : self.N, self.N] = A, B
+        E = expm(aug * self.dt)  # zero-order-hold discretisation, batched
+        self.Phi[idx], self.Gam[idx] = E[:, : self.N, : self.N], E[:, : self.N, self.N]
         self.x[idx] = 0.0
         self.an[idx] = 0.0
 
+    def matrices(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(A (m, 6, 6), B (m, 6)) of envs idx: the equations of the class docstring."""
+        m = idx.size
+        V, Za, Zq, Zd = self.V[idx], self.Za[idx], self.Zq[idx], self.Zd[idx]
+        wn, zeta = self.wn[idx], self.zeta[idx]
+        A, B = np.zeros((m, self.N, self.N)), np.zeros((m, self.N))
+        A[:, 0, 0], A[:, 0, 1], A[:, 0, 4] = -Za, 1.0 - Zq, -Zd  # alpha' = q - a_n / V
+        A[:, 1, 0], A[:, 1, 1], A[:, 1, 4] = self.Ma[idx], self.Mq[idx], self.Md[idx]
+        A[:, 2, 1] = 1.0
+        A[:, 3, 0], A[:, 3, 2] = -V, V
+        A[:, 4, 5] = 1.0
+        A[:, 5, 4], A[:, 5, 5] = -(wn**2), -2.0 * zeta * wn
+        B[:, 5] = wn**2
+        return A, B
+
     def short_period(self) -> tuple[np.ndarray, np.ndarray]:
         """(n,) natural frequency (rad/s) and damping ratio of the closed-form characteristic equation."""
-        wn2 = -self.Za * self.Mq - (1.0 - self.Zq) * self.Ma
-        wn = np.sqrt(wn2)
+        wn = np.sqrt(-self.Za * self.Mq - (1.0 - self.Zq) * self.Ma)
         return wn, (self.Za - self.Mq) / (2.0 * wn)
 
     def normal_acceleration(self, x: np.ndarray) -> np.ndarray:
         """(n,) a_n, m/s^2, of states x (n, 6)."""
         return self.V * (self.Za * x[:, 0] + self.Zq * x[:, 1] + self.Zd * x[:, 4])
 
-    def derivatives(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """(n, 6) x' for states x (n, 6) and delayed elevator command u (n,), rad."""
-        al, q, th, de, ded = x[:, 0], x[:, 1], x[:, 2], x[:, 4], x[:, 5]
-        an = self.normal_acceleration(x)
-        return np.stack([
-            q - an / self.V,
-            self.Ma * al + self.Mq * q + self.Md * de,
-            q,
-            self.V * (th - al),
-            ded,
-            self.wn**2 * (u - de) - 2.0 * self.zeta * self.wn * ded,
-        ], axis=1)
-
     def step(self, u: np.ndarray) -> None:
-        """Advance every env one control step with u (n,) held: N_SUB classical RK4 substeps; updates x, a_n."""
-        h, x = self.dt / self.N_SUB, self.x
-        for _ in range(self.N_SUB):
-            k1 = self.derivatives(x, u)
-            k2 = self.derivatives(x + 0.5 * h * k1, u)
-            k3 = self.derivatives(x + 0.5 * h * k2, u)
-            k4 = self.derivatives(x + h * k3, u)
-            x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        self.x = x
-        self.an = self.normal_acceleration(x)
+        """Advance every env one control step with the elevator command u (n,) rad held; updates x, a_n."""
+        self.x = np.einsum("nij,nj->ni", self.Phi, self.x) + self.Gam * u[:, None]
+        self.an = self.normal_acceleration(self.x)
 
 
 def rig_alpha(q: np.ndarray, qd: np.ndarray, V: np.ndarray, l: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
