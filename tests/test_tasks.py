@@ -17,7 +17,7 @@ from rig_env.envs import TASKS, RigEnv, RigVectorEnv
 from rig_env.envs.metrics import METRIC_NAMES
 from rig_env.envs.tasks import DepartureRecovery, ForcedOscillation, FreeFlightEmulation, FreeHawkShortPeriod, PullUpPushOver
 from rig_env.envs.tasks.departure import static_alpha
-from rig_env.envs.tasks.freeflight import UNIT_3211, rig_alpha, three_two_one_one
+from rig_env.envs.tasks.freeflight import UNIT_3211, expm_batch, rig_alpha, three_two_one_one
 from rig_env.params import param_batch
 from rig_env.physics import layout as L
 from rig_env.physics.joint_space import frames
@@ -137,6 +137,13 @@ def test_free_hawk_short_period_matches_the_closed_form_characteristic_equation(
         assert zeta[i] == pytest.approx(-roots[0].real / abs(roots[0]), rel=1e-12)
     # the paper's "short period about 1.2 Hz" at 20 m/s (Sec. III), a well-damped mode
     assert 1.0 < wn[1] / (2 * math.pi) < 1.5 and 0.2 < zeta[1] < 0.6
+
+
+def test_batched_matrix_exponential_equals_scipy():
+    rng = np.random.default_rng(0)
+    M = rng.normal(size=(40, 7, 7)) * rng.uniform(1e-3, 30.0, size=(40, 1, 1))  # norms from 1e-3 to ~200
+    E, R = expm_batch(M), np.stack([expm(m) for m in M])
+    assert np.max(np.abs(E - R) / np.abs(R).max(axis=(1, 2))[:, None, None]) < 1e-10
 
 
 def test_free_hawk_3211_response_matches_the_exact_discretisation(params):
