@@ -46,8 +46,9 @@ class Task:
     | n_draws | uniforms consumed per reset |
 
     Options (``task_options`` of the configuration) are checked by :meth:`check_options`; the base
-    class accepts none.  Per-episode conditions set by the environment before :meth:`reset`:
-    ``self.V`` (n,) airspeed, m/s; ``self.prm`` (n, N_PARAMS) kernel parameter rows (SI, rad).
+    class accepts none.  Per-episode conditions set by the environment before :meth:`reset`
+    (:meth:`conditions`): ``self.V`` (n,) airspeed, m/s; ``self.l`` (n,) arm length (pivot to model
+    gimbal), m.  Tasks that need more of the (randomised) parameters override :meth:`conditions`.
     """
 
     name: ClassVar[str]
@@ -72,7 +73,7 @@ class Task:
         self.obs_low = -np.full(len(self.ref_labels), 5.0)
         self.obs_high = np.full(len(self.ref_labels), 5.0)
         self.V = np.zeros(n_envs)
-        self.prm = np.zeros((n_envs, L.N_PARAMS))
+        self.l = np.ones(n_envs)
         self._zero_pilot = np.zeros((n_envs, 3))
 
     # ------------------------------------------------------------------ options and defaults
@@ -94,9 +95,9 @@ class Task:
         return self.free.index(joint) if joint in self.free else -1
 
     def conditions(self, idx: np.ndarray, airspeed: np.ndarray, P: np.ndarray) -> None:
-        """Record the episode airspeed (m, ) m/s and parameter rows (m, N_PARAMS) of envs idx."""
+        """Episode conditions of envs idx: airspeed (m,) m/s and kernel parameter rows P (m, N_PARAMS)."""
         self.V[idx] = airspeed
-        self.prm[idx] = P
+        self.l[idx] = P[:, L.P_GEOMETRY_ARM_LENGTH]
 
     def initial_state(self, idx: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(m, 5) angles and rates: free joints uniform in +-3 deg, at rest (uses len(free) uniforms)."""

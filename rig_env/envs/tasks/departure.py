@@ -71,6 +71,9 @@ class DepartureRecovery(Task):
     after the release usually keeps the rates above 20 deg/s past that deadline.
     Defaults: free rig_roll, rig_pitch, model_pitch, model_yaw (Fig. 8's roll, model pitch and yaw,
     plus heave so the compensator can act on alpha; model_pitch required), airspeed U(18, 22) m/s, 8 s.
+    The deadline discriminates: without control the rig recovered 3.5-4.0 s after the release
+    (quartiles, 24 episodes; none of 32 within 3 s); a PD on rig roll (ailerons) and rig pitch and
+    its rate (elevator) recovered all 32 within 3 s (median 2.5 s).
     """
 
     name = "departure_recovery"

@@ -177,6 +177,9 @@ class FreeFlightEmulation(Task):
     with a normalised error sqrt(sum e_alpha^2 / sum alpha_ff^2) over [t0, end] below 0.5.
     Defaults: free rig_pitch and model_pitch (both required), airspeed U(18, 22) m/s, 6 s.  Initial
     state: rig pitch U(6, 8) deg, model pitch +- 1 deg, at rest.
+    The limit is within reach: without control the normalised error is about 1.5 (the rig's lightly
+    damped heave-pitch mode rings); a static law on the six task entries and the rig-pitch rate
+    (hand-searched gains, with feedforward of accel_ref) reached a median of 0.31 over 32 episodes.
     """
 
     name = "free_flight_emulation"
@@ -192,15 +195,18 @@ class FreeFlightEmulation(Task):
         super().__init__(n_envs, free_dofs, dt, episode_seconds)
         self.model = FreeHawkShortPeriod(n_envs, dt)
         z = np.zeros(n_envs)
-        self.t0, self.amp, self.alpha_b, self.l = z.copy(), z.copy(), z.copy(), np.ones(n_envs)
+        self.t0, self.amp, self.alpha_b = z.copy(), z.copy(), z.copy()
         self.e2, self.r2 = z.copy(), z.copy()
         self.k = np.zeros(n_envs, dtype=np.int64)
         self.cp, self.cm = self.col("rig_pitch"), self.col("model_pitch")
         self._pilot = np.zeros((n_envs, 3))
 
+    def conditions(self, idx: np.ndarray, airspeed: np.ndarray, P: np.ndarray) -> None:
+        """Also builds the free-Hawk reference model of envs idx from their airspeed and parameters."""
+        super().conditions(idx, airspeed, P)
+        self.model.configure(idx, airspeed, P)
+
     def reset(self, idx: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        self.model.configure(idx, self.V[idx], self.prm[idx])
-        self.l[idx] = self.prm[idx, L.P_GEOMETRY_ARM_LENGTH]
         self.t0[idx] = np.round((1.5 + 0.5 * u[:, 0]) / self.dt) * self.dt
         self.amp[idx] = sign_of(u[:, 1]) * (0.5 + 1.0 * u[:, 2]) * D
         self.alpha_b[idx] = self.e2[idx] = self.r2[idx] = 0.0

@@ -45,6 +45,8 @@ class ForcedOscillation(Task):
     time and overshoot are NaN (segment id -1 throughout).  Success: reached the time limit with RMS
     error below 0.3 A.  Defaults: free joints of the axis (the driven one required), airspeed
     U(18, 22) m/s, 10 s.  Initial state: driven joint theta_b +- 1 deg, the others +- 3 deg, at rest.
+    The criterion is within reach: a PID on osc_error / osc_rate_error (compensator elevator for heave,
+    rudder for sway; three hand-searched gains) succeeded in 31 of 32 heave and 24 of 32 sway episodes.
     """
 
     name = "forced_oscillation"
