@@ -15,9 +15,20 @@ import rig_env
 import rig_env.envs  # registers the ids
 from rig_env.envs import TASKS, RigEnv, RigVectorEnv
 from rig_env.envs.metrics import METRIC_NAMES
-from rig_env.envs.tasks import DepartureRecovery, ForcedOscillation, FreeFlightEmulation, FreeHawkShortPeriod, PullUpPushOver
+from rig_env.envs.tasks import (
+    BankToBank,
+    ForcedOscillation,
+    FreeFlightEmulation,
+    FreeHawkShortPeriod,
+    PullUpPushOver,
+)
 from rig_env.envs.tasks.departure import static_alpha
-from rig_env.envs.tasks.freeflight import UNIT_3211, expm_batch, rig_alpha, three_two_one_one
+from rig_env.envs.tasks.freeflight import (
+    UNIT_3211,
+    expm_batch,
+    rig_alpha,
+    three_two_one_one,
+)
 from rig_env.params import param_batch
 from rig_env.physics import layout as L
 from rig_env.physics.joint_space import frames
@@ -53,6 +64,19 @@ def test_pull_up_push_over_reference_gives_the_commanded_normal_acceleration():
     np.testing.assert_allclose(ref[hold, np.arange(n), 0], task.theta_1, atol=1e-12)  # held at the new height
     np.testing.assert_allclose(ref[-1, :, 0], task.theta_b, atol=1e-12)  # and back
     assert np.all(np.abs(ref[:, :, 0]) <= 20.0 * D + 1e-12) and np.all(peak / 9.81 <= 0.19)
+
+
+def test_bank_to_bank_reference_steps_every_four_seconds_alternating_sign():
+    n = 8
+    task = _task(BankToBank, n, ("rig_roll", "rig_yaw", "model_pitch", "model_yaw"), T=17.0)
+    ts = np.arange(0.0, 17.0, 1 / 80)
+    ref = np.stack([task.reference(np.full(n, t))[:, 0] for t in ts])  # (n_t, n)
+    steps = [ts[1:][np.diff(ref[:, i]) != 0.0] for i in range(n)]
+    for i in range(n):
+        np.testing.assert_allclose(steps[i], [1.0, 5.0, 9.0, 13.0], atol=1e-9)
+        banks = ref[np.searchsorted(ts, steps[i] + 0.1), i]
+        assert np.all((30 * D <= np.abs(banks)) & (np.abs(banks) <= 90 * D)) and np.all(np.sign(banks[1:]) == -np.sign(banks[:-1]))
+        assert abs(ref[0, i]) <= 5 * D
 
 
 @pytest.mark.parametrize("axis, joint", [("heave_pitch", 1), ("sway_yaw", 2)])
@@ -269,6 +293,7 @@ def test_scalar_equals_vector_through_the_reference_model_and_pilot_inputs():
     envs = {i: RigEnv(**fields) for i in check}
     vobs, _ = venv.reset(seed=seed)
     sobs = {i: envs[i].reset(seed=seed + i)[0] for i in check}
+    assert all(np.array_equal(sobs[i], vobs[i]) for i in check)
     rng = np.random.default_rng(5)
     ends = 0
     for _ in range(venv.max_steps + 20):

@@ -20,7 +20,8 @@ inside; the ``*_deg`` names and the metrics' display units are deg.
 from __future__ import annotations
 
 import math
-from typing import Any, ClassVar, Mapping
+from collections.abc import Mapping
+from typing import Any, ClassVar
 
 import numpy as np
 

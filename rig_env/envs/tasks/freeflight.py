@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from rig_env.envs.tasks.base import D, G0, Task, sign_of
+from rig_env.envs.tasks.base import G0, D, Task, sign_of
 from rig_env.physics import layout as L
 
 UNIT_3211 = 0.28  # s, unit period of the 3-2-1-1 (paper Sec. V)

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from rig_env.envs.tasks.base import D, G0, Task, sign_of
+from rig_env.envs.tasks.base import G0, D, Task, sign_of
 
 
 def pulse_heave(tau: np.ndarray, T: np.ndarray, A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
