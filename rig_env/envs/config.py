@@ -83,7 +83,8 @@ class RigEnvConfig:
             raise ValueError(f"task = {self.task!r}: unknown; valid names: {sorted(TASKS)}")
         if not isinstance(self.task_options, Mapping):
             raise ValueError(f"task_options = {self.task_options!r}: must be a mapping of option names to values")
-        object.__setattr__(self, "task_options", TASKS[self.task].check_options(dict(self.task_options)))
+        TASKS[self.task].check_options(self.task_options)  # ValueError naming a bad option; defaults stay the task's
+        object.__setattr__(self, "task_options", dict(self.task_options))
         if self.free_dofs is not None:
             fd = (self.free_dofs,) if isinstance(self.free_dofs, str) else tuple(self.free_dofs)
             bad = [j for j in fd if j not in JOINTS]

@@ -25,8 +25,8 @@ Actions are ``(num_envs, 3)`` (``(num_envs, 6)`` with ``hawk_surfaces``): compen
 elevator, rudder (then Hawk elevator, aileron, rudder), each in [-1, 1] for +-40 deg.  Out-of-range
 values are clipped; a non-finite value raises ``ValueError``.  The task's pilot inputs
 (:meth:`rig_env.envs.tasks.Task.pilot_inputs`: 3-2-1-1s, pulses) are the Hawk surface commands, held
-over each control step; with ``hawk_surfaces`` they are added to the action's Hawk commands.  Observations are float32, see
-:class:`rig_env.envs.env.RigEnv` for the table.
+over each control step; with ``hawk_surfaces`` they are added to the action's Hawk commands.
+Observations are float32, see :class:`rig_env.envs.env.RigEnv` for the table.
 """
 
 from __future__ import annotations

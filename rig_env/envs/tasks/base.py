@@ -11,6 +11,8 @@ batch and calls the task with (n, ...) arrays at the control rate, in this order
 | after ``advance`` | ``reference(t)``, ``reward``, ``tracked`` | reference signals, reward, metrics' signal |
 | time limit | ``success(q, qd, ref, metrics)`` | success flag of the envs that reached it |
 
+Disturbances: a task's pilot inputs on the Hawk surfaces (3-2-1-1s, pulses; :meth:`Task.pilot_inputs`)
+and, for every task, the configuration's gusts (``turbulence``, ``turbulence_tau``; off by default).
 Every reward is ``exp(-cost)`` with ``cost >= 0``, so it lies in (0, 1]; a step that ends the episode
 by failure (blow-up or a joint beyond its stop margin) earns 0 (the environment does that).  Episodes
 run to their time limit otherwise, so ending early never pays.  Angles in rad and rates in rad/s
