@@ -105,6 +105,23 @@ def test_forced_oscillation_amplitude_and_frequency_by_fft(axis, joint):
     assert np.all((2 * D <= task.A) & (task.A <= 6 * D)) and np.all((0.25 <= task.f) & (task.f <= 1.0))
 
 
+def test_forced_oscillation_gain_and_phase_metrics_recover_a_known_response():
+    n, dt = 3, 1 / 80
+    task = _task(ForcedOscillation, n, ("rig_pitch", "model_pitch"), T=12.0)
+    ratio, lag, offset = np.array([0.5, 1.0, 1.3]), np.radians([10.0, 45.0, 120.0]), np.array([0.01, -0.02, 0.0])
+    q = np.zeros((n, 5))
+    for k in range(1, int(12.0 / dt) + 1):
+        t = np.full(n, k * dt)
+        phi = 2 * math.pi * task.f * (t - task.T_LEAD)
+        q[:, 1] = task.theta_b + offset + ratio * task.A * np.sin(phi - lag)
+        task.advance(t, q, q)
+    m = task.episode_metrics(np.arange(n))
+    np.testing.assert_allclose(m["amplitude_ratio"], ratio, rtol=1e-9)
+    np.testing.assert_allclose(m["phase_lag_deg"], [10.0, 45.0, 120.0], atol=1e-7)
+    task.reset(np.arange(n), np.random.default_rng(1).uniform(size=(n, task.n_draws)))
+    assert np.all(np.isnan(task.episode_metrics(np.arange(n))["amplitude_ratio"]))  # no steady samples yet
+
+
 def test_three_two_one_one_timing_and_the_tasks_pilot_input():
     n, dt = 4, 1 / 80
     task = _task(FreeFlightEmulation, n, ("rig_pitch", "model_pitch"), T=6.0)
@@ -276,6 +293,9 @@ def test_open_loop_episode_runs_and_reports_metrics(task, options):
     assert np.all(fi["status"] == L.S_OK) and np.all(np.isfinite(fi["rms_error"])) and np.all(fi["rms_error"] > 0)
     assert np.all(fi["episode_time"] == pytest.approx(env.episode_seconds)) and np.all(fi["control_effort"] == 0.0)
     assert not fi["success"].any()  # doing nothing does not fly the manoeuvre
+    extra = {"forced_oscillation": {"amplitude_ratio", "phase_lag_deg"}, "free_flight_emulation": {"emulation_error"},
+             "departure_recovery": {"release_time"}}.get(task, set())
+    assert extra <= set(fi) and all(np.all(np.isfinite(fi[k])) for k in extra)
 
 
 def test_forced_oscillation_sway_yaw_through_gymnasium_make():

@@ -19,7 +19,8 @@ terminates or truncates, ``step`` returns the first observation of its next epis
 last one in ``infos["final_obs"][i]`` and the episode's metrics in ``infos["final_info"]`` (arrays over
 the batch with ``_name`` masks, Gymnasium's convention).  ``final_info`` keys: ``success``,
 ``status`` (0 ok, 1 non-finite state, 2 runaway rate; a blown-up environment is terminated, the others
-carry on), ``stop_exceeded``, and :data:`rig_env.envs.metrics.METRIC_NAMES`.
+carry on), ``stop_exceeded``, :data:`rig_env.envs.metrics.METRIC_NAMES` and the task's own
+(``Task.episode_metrics``, e.g. ``amplitude_ratio`` of the forced oscillation).
 
 Actions are ``(num_envs, 3)`` (``(num_envs, 6)`` with ``hawk_surfaces``): compensator aileron,
 elevator, rudder (then Hawk elevator, aileron, rudder), each in [-1, 1] for +-40 deg.  Out-of-range
@@ -260,6 +261,7 @@ class RigVectorEnv(VectorEnv):
         for i in idx:
             final_obs[i] = obs[i].copy()
         m = self.metrics.finish(idx, self.t)
+        m.update(self.task.episode_metrics(idx))
         m["success"] = truncated[idx] & self.task.success(q[idx], qd[idx], ref[idx], m)
         m["status"] = self.status[idx].copy()
         m["stop_exceeded"] = beyond[idx].copy()

@@ -9,7 +9,8 @@ batch and calls the task with (n, ...) arrays at the control rate, in this order
 | start of a control step | ``pilot_inputs(t)`` | Hawk elevator, aileron, rudder disturbances (rad), held over the step |
 | after the physics step | ``advance(t, q, qd)`` | internal states (reference models, captured baselines) |
 | after ``advance`` | ``reference(t)``, ``reward``, ``tracked`` | reference signals, reward, metrics' signal |
-| time limit | ``success(q, qd, ref, metrics)`` | success flag of the envs that reached it |
+| episode end of envs ``idx`` | ``episode_metrics(idx)`` | task-specific metrics, added to ``final_info`` |
+| time limit | ``success(q, qd, ref, metrics)`` | success flag of the envs that reached it (metrics include the task's) |
 
 Disturbances: a task's pilot inputs on the Hawk surfaces (3-2-1-1s, pulses; :meth:`Task.pilot_inputs`)
 and, for every task, the configuration's gusts (``turbulence``, ``turbulence_tau``; off by default).
@@ -134,6 +135,10 @@ class Task:
 
     def advance(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> None:
         """Update internal states to time t (n,) s from the true state q, qd (n, 5).  Default: nothing."""
+
+    def episode_metrics(self, idx: np.ndarray) -> dict[str, np.ndarray]:
+        """Task-specific metrics of the ending episodes of envs idx ((len(idx),) arrays).  Default: none."""
+        return {}
 
     # ------------------------------------------------------------------ hooks
     def reset(self, idx: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -66,8 +66,8 @@ class DepartureRecovery(Task):
     - sum_free (qdot_j / 60 deg/s)^2 - 0.05 mean(a^2) - 0.05 mean(da^2))``.
     Metrics: one segment from the start with r as the tracked signal, target 0, band 1: the settling
     time is the recovery time (from then on r < 1); overshoot is 0 by construction (r >= 0); RMS
-    error is E, deg.  Success: reached the time limit, recovered (settled) within 3 s of the pilot's
-    release and stayed recovered.  Without control the rig's lightly damped heave-pitch oscillation
+    error is E, deg; ``release_time`` the pilot's release, s.  Success: reached the time limit,
+    recovered (settled) within 3 s of the release and stayed recovered.  Without control the rig's lightly damped heave-pitch oscillation
     after the release usually keeps the rates above 20 deg/s past that deadline.
     Defaults: free rig_roll, rig_pitch, model_pitch, model_yaw (Fig. 8's roll, model pitch and yaw,
     plus heave so the compensator can act on alpha; model_pitch required), airspeed U(18, 22) m/s, 8 s.
@@ -110,8 +110,12 @@ class DepartureRecovery(Task):
         return self._pilot
 
     def reference(self, t: np.ndarray) -> np.ndarray:
-        """(n, 2): the pilot's elevator command, rad, and the recovery deadline, s (the target, level, is constant)."""
-        return np.stack([np.where(t < self.t_rel, self.de, 0.0), self.t_rel + T_RECOVER], axis=1)
+        """(n, 1): the pilot's elevator command, rad (the target, level, is constant)."""
+        return np.where(t < self.t_rel, self.de, 0.0)[:, None]
+
+    def episode_metrics(self, idx: np.ndarray) -> dict[str, np.ndarray]:
+        """``release_time``: when the pilot let go of the elevator, s."""
+        return {"release_time": self.t_rel[idx].copy()}
 
     def _angles(self, angles: np.ndarray) -> np.ndarray:
         """(n, 5) joint angles from the measured free ones, locked joints at 0."""
@@ -152,4 +156,5 @@ class DepartureRecovery(Task):
 
     def success(self, q, qd, ref, metrics):
         settled = metrics["segments_settled"] == 1
-        return settled & (metrics["settling_time"] <= ref[:, 1]) & (self.recovery_distance(q, qd) < 1.0)
+        in_time = metrics["settling_time"] <= metrics["release_time"] + T_RECOVER
+        return settled & in_time & (self.recovery_distance(q, qd) < 1.0)

@@ -43,7 +43,10 @@ class ForcedOscillation(Task):
 
     Reward ``exp(-(e / 2 deg)^2 - (e_rate / 15 deg/s)^2 - 0.05 mean(a^2) - 0.05 mean(da^2))``.
     Metrics: RMS error of the driven angle, deg; an oscillation has no step, so rise time, settling
-    time and overshoot are NaN (segment id -1 throughout).  Success: reached the time limit with RMS
+    time and overshoot are NaN (segment id -1 throughout).  Over the steady part (t >= 1.5 s) the
+    driven angle is fitted by least squares with ``theta_b + c0 + a sin(phi) + b cos(phi)``:
+    ``amplitude_ratio`` = hypot(a, b) / A and ``phase_lag_deg`` = atan2(-b, a) (response behind the
+    command, deg) are added to the episode's info (NaN with fewer than 3 samples).  Success: reached the time limit with RMS
     error below 0.3 A.  Defaults: free joints of the axis (the driven one required), airspeed
     U(18, 22) m/s, 10 s.  Initial state: driven joint theta_b +- 1 deg, the others +- 3 deg, at rest.
     The criterion is within reach: a PID on osc_error / osc_rate_error (compensator elevator for heave,
@@ -80,12 +83,14 @@ class ForcedOscillation(Task):
             raise ValueError(f"task {self.name!r} (axis {self.axis!r}) needs free joint(s) {[driven]}; free_dofs = {list(free_dofs)}")
         self.j, self.c = JOINTS.index(driven), self.col(driven)
         self.A, self.f, self.theta_b = np.zeros(n_envs), np.ones(n_envs), np.zeros(n_envs)
+        self.sums = np.zeros((n_envs, 9))  # least-squares sums: 1, s, c, s^2, s c, c^2, y, y s, y c
 
     def reset(self, idx: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         lo, hi = self.base_deg
         self.A[idx] = (2.0 + 4.0 * u[:, 0]) * D
         self.f[idx] = 0.25 + 0.75 * u[:, 1]
         self.theta_b[idx] = (lo + (hi - lo) * u[:, 2]) * D
+        self.sums[idx] = 0.0
         q0, qd0 = self.initial_state(idx, u[:, 3:])
         q0[:, self.j] = self.theta_b[idx] + q0[:, self.j] / 3.0
         return q0, qd0
@@ -101,6 +106,25 @@ class ForcedOscillation(Task):
         th = self.theta_b + self.A * e * np.sin(phi)
         thd = self.A * (de * np.sin(phi) + e * w * np.cos(phi))
         return np.stack([th, thd, phi, self.A, self.f], axis=1)
+
+    def advance(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> None:
+        """Accumulate the least-squares sums of the steady part (envelope 1)."""
+        steady = t >= self.T_LEAD + self.T_RAMP - 1e-9
+        phi = 2.0 * math.pi * self.f * (t - self.T_LEAD)
+        sn, cs, y = np.sin(phi), np.cos(phi), q[:, self.j] - self.theta_b
+        terms = np.stack([np.ones_like(y), sn, cs, sn * sn, sn * cs, cs * cs, y, y * sn, y * cs], axis=1)
+        self.sums += np.where(steady[:, None], terms, 0.0)
+
+    def episode_metrics(self, idx: np.ndarray) -> dict[str, np.ndarray]:
+        """``amplitude_ratio`` (-) and ``phase_lag_deg`` of the steady response of envs idx."""
+        S = self.sums[idx]
+        G = np.stack([S[:, [0, 1, 2]], S[:, [1, 3, 4]], S[:, [2, 4, 5]]], axis=1)  # normal equations (m, 3, 3)
+        ok = S[:, 0] >= 3.0
+        G[~ok] = np.eye(3)
+        c = np.linalg.solve(G, S[:, 6:9][:, :, None])[:, :, 0]
+        ratio = np.where(ok, np.hypot(c[:, 1], c[:, 2]) / self.A[idx], np.nan)
+        lag = np.where(ok, np.degrees(np.arctan2(-c[:, 2], c[:, 1])), np.nan)
+        return {"amplitude_ratio": ratio, "phase_lag_deg": lag}
 
     def observation(self, ref: np.ndarray, angles: np.ndarray, rates: np.ndarray) -> np.ndarray:
         on = ref[:, 2] > 0.0
