@@ -31,7 +31,7 @@ from rig_env.envs.tasks.freeflight import (
 )
 from rig_env.params import param_batch
 from rig_env.physics import layout as L
-from rig_env.physics.joint_space import frames
+from rig_env.physics.joint_space import frames, velocities
 
 D = math.pi / 180.0
 
@@ -236,14 +236,17 @@ def test_rig_alpha_and_static_alpha_follow_the_rig_kinematics(params):
     for i in range(20):
         Aa = np.array(frames(q[i], p)[1]).reshape(3, 3)  # the physics' own aircraft rotation (row-major 9-tuple)
         assert static_alpha(q[i : i + 1])[0] == pytest.approx(math.atan2(Aa[0, 2], Aa[0, 0]), abs=1e-12)
-    # heave-pitch plane: a climbing gimbal lowers alpha by atan(l theta' cos theta / (V - l theta' sin theta))
-    q2 = np.zeros((1, 5))
-    q2[0, 1], q2[0, 3] = 0.1, 0.05
-    qd2 = np.zeros((1, 5))
-    qd2[0, 1] = 0.5
-    alpha, rate = rig_alpha(q2, qd2, np.array([20.0]), np.array([0.8]))
-    gamma = math.atan2(0.8 * 0.5 * math.cos(0.1), 20.0 - 0.8 * 0.5 * math.sin(0.1))
-    assert alpha[0] == pytest.approx(0.15 - gamma) and rate[0] == 0.5
+    # heave-pitch plane: alpha and pitch rate of the body at the gimbal, from the physics' own kinematics
+    for _ in range(10):
+        q2, qd2 = np.zeros(5), np.zeros(5)
+        q2[[1, 3]], qd2[[1, 3]] = rng.uniform(-0.4, 0.4, 2), rng.uniform(-2.0, 2.0, 2)
+        _, Aa, axes, G, *_ = frames(q2, p)
+        w_s, w_a, _, _ = velocities(axes, qd2)
+        Aa = np.array(Aa).reshape(3, 3)
+        vb = Aa.T @ (np.cross(w_s, G) - np.array([-20.0, 0.0, 0.0]))  # gimbal velocity relative to the air, body axes
+        alpha, rate = rig_alpha(q2[None], qd2[None], np.array([20.0]), np.array([p[L.P_GEOMETRY_ARM_LENGTH]]))
+        assert alpha[0] == pytest.approx(math.atan2(vb[2], vb[0]), abs=1e-12)
+        assert rate[0] == pytest.approx((Aa.T @ np.array(w_a))[1], abs=1e-12)
 
 
 # ---------------------------------------------------------------------- the pilot-input path of the environment
