@@ -48,7 +48,8 @@ class FreeHawkShortPeriod:
     State x = (alpha, q, theta, h, delta, delta'), perturbations from trimmed level flight at the
     airspeed V (held constant: the short-period approximation, e.g. Etkin & Reid, *Dynamics of
     Flight*, longitudinal modes; Cook, *Flight Dynamics Principles*, short-period approximation).
-    With qbar = rho V^2 / 2 and the Hawk's derivatives of eq. (23) (``RigParams.hawk_aero``; CMq is
+    With qbar = rho V^2 / 2 and the Hawk's derivatives of eq. (23) (``RigParams.hawk_aero``, the same
+    ones the rig's Hawk flies with: in the default file Table 4's CL and Table 3's CM terms; CMq is
     CMq + CMalphadot, lumped on q as the rig's aero model does):
 
         a_n    = (qbar S / m) (CLa alpha + CLq q c / (2V) + CLde delta)            normal acceleration, up, m/s^2
@@ -198,7 +199,6 @@ class FreeFlightEmulation(Task):
         z = np.zeros(n_envs)
         self.t0, self.amp, self.alpha_b = z.copy(), z.copy(), z.copy()
         self.e2, self.r2 = z.copy(), z.copy()
-        self.k = np.zeros(n_envs, dtype=np.int64)
         self.cp, self.cm = self.col("rig_pitch"), self.col("model_pitch")
         self._pilot = np.zeros((n_envs, 3))
 
@@ -211,7 +211,6 @@ class FreeFlightEmulation(Task):
         self.t0[idx] = np.round((1.5 + 0.5 * u[:, 0]) / self.dt) * self.dt
         self.amp[idx] = sign_of(u[:, 1]) * (0.5 + 1.0 * u[:, 2]) * D
         self.alpha_b[idx] = self.e2[idx] = self.r2[idx] = 0.0
-        self.k[idx] = 0
         q0, qd0 = self.initial_state(idx, u[:, 3:])
         q0[:, 1] = (7.0 + q0[:, 1] / (3.0 * D)) * D
         q0[:, 3] = q0[:, 3] / 3.0
@@ -225,7 +224,6 @@ class FreeFlightEmulation(Task):
         m = self.model
         u = three_two_one_one(t - self.dt * (1 + m.delay_steps), self.t0, self.amp)  # command held over the step, delayed
         m.step(u)
-        self.k += 1
         alpha, _ = rig_alpha(q, qd, self.V, self.l)
         start = np.abs(t - self.t0) < 0.5 * self.dt
         self.alpha_b = np.where(start, alpha, self.alpha_b)
