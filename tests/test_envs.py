@@ -11,7 +11,7 @@ from gymnasium.utils.env_checker import check_env
 
 import rig_env
 import rig_env.envs  # registers the ids
-from rig_env.envs import ENV_IDS, RigEnv, RigVectorEnv
+from rig_env.envs import ENV_IDS, TASKS, RigEnv, RigVectorEnv
 from rig_env.envs.metrics import StepMetrics
 from rig_env.envs.sensors import Sensors
 from rig_env.physics import layout as L
@@ -24,6 +24,9 @@ RANDOMISE = {
     "servos.compensator.delay_s": (0.01, 0.02),
 }
 RICH = dict(randomise=RANDOMISE, turbulence=0.05, link_delay_steps=2, episode_seconds=1.0)
+# every task, and the forced oscillation on both axes: (task, task_options)
+TASK_CASES = [(t, {}) for t in TASKS] + [("forced_oscillation", {"axis": "sway_yaw"})]
+CASE_IDS = [f"{t}-{o.get('axis', '')}".rstrip("-") for t, o in TASK_CASES]
 
 
 def _actions(rng: np.random.Generator, n: int, k: int = 3) -> np.ndarray:
@@ -53,10 +56,11 @@ def test_make_vec_uses_the_batch():
     assert g.observation_space.shape == (13 - 3 + 2,)  # rig_roll, model_pitch + bank task's 2 entries
 
 
-def test_same_seed_identical_rollouts_and_other_seed_differs():
+@pytest.mark.parametrize("task, options", TASK_CASES, ids=CASE_IDS)
+def test_same_seed_identical_rollouts_and_other_seed_differs(task, options):
     runs = []
     for seed in (7, 7, 8):
-        env = RigVectorEnv(3, **RICH)
+        env = RigVectorEnv(3, task=task, task_options=options, **RICH)
         obs, _ = env.reset(seed=seed)
         rng = np.random.default_rng(0)
         trace = [obs]
@@ -68,11 +72,11 @@ def test_same_seed_identical_rollouts_and_other_seed_differs():
     assert not _same(runs[0][0], runs[2][0])
 
 
-@pytest.mark.parametrize("task", ["velocity_vector_roll", "bank_to_bank"])
-def test_scalar_env_equals_vector_env_step_by_step(task):
+@pytest.mark.parametrize("task, options", TASK_CASES, ids=CASE_IDS)
+def test_scalar_env_equals_vector_env_step_by_step(task, options):
     n, seed, check = 33, 100, (0, 17, 32)  # 33 >= PARALLEL_MIN_ENVS: the batch runs the parallel kernel
-    venv = RigVectorEnv(n, task=task, **RICH)
-    envs = {i: RigEnv(task=task, **RICH) for i in check}
+    venv = RigVectorEnv(n, task=task, task_options=options, **RICH)
+    envs = {i: RigEnv(task=task, task_options=options, **RICH) for i in check}
     vobs, _ = venv.reset(seed=seed)
     sobs = {i: envs[i].reset(seed=seed + i)[0] for i in check}
     rng = np.random.default_rng(1)
@@ -93,9 +97,9 @@ def test_scalar_env_equals_vector_env_step_by_step(task):
     assert ends == 2 * len(check)
 
 
-@pytest.mark.parametrize("task", ["velocity_vector_roll", "bank_to_bank"])
-def test_rewards_in_bounds_and_observations_in_space(task):
-    env = RigVectorEnv(8, task=task, episode_seconds=2.0, turbulence=0.1)
+@pytest.mark.parametrize("task, options", TASK_CASES, ids=CASE_IDS)
+def test_rewards_in_bounds_and_observations_in_space(task, options):
+    env = RigVectorEnv(8, task=task, task_options=options, episode_seconds=2.0, turbulence=0.1)
     lo, hi = env.reward_range
     obs, _ = env.reset(seed=3)
     rng = np.random.default_rng(2)
@@ -143,6 +147,14 @@ def test_out_of_range_actions_are_clipped_and_nonfinite_raise():
         ({"randomise": {"mass.tail_mass": (1, 2)}}, "unknown parameter"),
         ({"randomise": {"mass.hawk_mass": (0.01, 1.0)}}, r"mass.hawk_mass.*range"),
         ({"quantise": "yes"}, "quantise"),
+        ({"task_options": {"axis": "heave_pitch"}}, "takes no options"),
+        ({"task": "forced_oscillation", "task_options": {"axis": "roll"}}, r"axis.*allowed"),
+        ({"task": "forced_oscillation", "task_options": {"amplitude": 3}}, "unknown name"),
+        ({"task": "forced_oscillation", "task_options": {"axis": "sway_yaw"}, "free_dofs": ("rig_pitch",)}, "rig_yaw"),
+        ({"task": "pull_up_push_over", "free_dofs": ("model_pitch",)}, "rig_pitch"),
+        ({"task": "free_flight_emulation", "free_dofs": ("rig_pitch",)}, "model_pitch"),
+        ({"task": "departure_recovery", "free_dofs": ("rig_roll",)}, "model_pitch"),
+        ({"nonlinear_aero": "on"}, "nonlinear_aero"),
     ],
 )
 def test_bad_configuration_raises_naming_the_field(fields, match):
@@ -220,6 +232,17 @@ def test_step_metrics_of_a_first_order_response_match_theory():
     assert out["rise_time"][0] == pytest.approx(tau * math.log(9.0), abs=2 * dt)
     assert out["settling_time"][0] == pytest.approx(tau * math.log(20.0), abs=2 * dt)
     assert out["overshoot_pct"][0] == 0.0 and out["segments_settled"][0] == 1
+
+
+def test_step_metrics_a_segment_that_never_reaches_its_target_is_not_settled():
+    dt, z = 0.01, np.zeros((1, 3))
+    m = StepMetrics(1, dt)
+    for k in range(1, 201):  # segment 0: y stays at 0 while the target is 1; segment 1: target 0, already there
+        seg = 0 if k <= 100 else 1
+        m.update(np.array([k * dt]), np.array([seg]), np.zeros(1), np.array([1.0 - seg]), np.zeros(1), np.array([0.01]), z, z, np.zeros(1, bool))
+    out = m.finish(np.array([0]), np.array([2.0]))
+    assert out["segments"][0] == 2 and out["segments_settled"][0] == 1
+    assert out["settling_time"][0] == pytest.approx(dt)  # only segment 1's, settled on its first step
 
 
 def _stop_terminations() -> dict:

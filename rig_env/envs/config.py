@@ -1,12 +1,13 @@
 """``RigEnvConfig``: every setting of a rig environment, validated on construction.
 
 Errors are ``ValueError`` naming the field and its allowed range.  ``None`` in a task-dependent field
-(``free_dofs``, ``airspeed``, ``episode_seconds``) means "the task's default" (see
+(``free_dofs``, ``airspeed``, ``episode_seconds``, ``nonlinear_aero``) means "the task's default" (see
 :mod:`rig_env.envs.tasks`); :meth:`RigEnvConfig.with_overrides` rejects unknown names.
 
 | field | default | unit / range | meaning |
 |---|---|---|---|
 | task | "velocity_vector_roll" | name in ``tasks.TASKS`` | the task object |
+| task_options | {} | name -> value, checked by the task | e.g. ``{"axis": "sway_yaw"}`` for forced_oscillation |
 | free_dofs | None (task's) | subset of rig_env.JOINTS | free joints; the others are locked |
 | locked_deg | {} | joint -> deg, [-89, 89] | angles of locked joints (default 0) |
 | airspeed | None (task's) | m/s, float or (lo, hi), [0, 40] | tunnel speed, drawn per episode |
@@ -24,7 +25,7 @@ Errors are ``ValueError`` naming the field and its allowed range.  ``None`` in a
 | turbulence_tau | 0.2 | s, [0.01, 10] | gust correlation time (first-order Gauss-Markov) |
 | randomise | {} | param -> (lo, hi), file units | per-episode uniform draw of rig parameters |
 | hawk_surfaces | False | bool | Hawk elevator, aileron, rudder are actions too |
-| nonlinear_aero | False | bool | high-incidence tables |
+| nonlinear_aero | None (task's) | bool | high-incidence tables (departure_recovery: on by default) |
 | params_file | None | path | rig parameter file (None: the default rig) |
 """
 
@@ -53,6 +54,7 @@ class RigEnvConfig:
     """Configuration of a rig environment; see the module docstring for the table of fields."""
 
     task: str = "velocity_vector_roll"
+    task_options: Mapping[str, Any] = field(default_factory=dict)
     free_dofs: tuple[str, ...] | None = None
     locked_deg: Mapping[str, float] = field(default_factory=dict)
     airspeed: float | tuple[float, float] | None = None
@@ -71,7 +73,7 @@ class RigEnvConfig:
     turbulence_tau: float = 0.2
     randomise: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     hawk_surfaces: bool = False
-    nonlinear_aero: bool = False
+    nonlinear_aero: bool | None = None
     params_file: str | None = None
 
     def __post_init__(self) -> None:
@@ -79,6 +81,10 @@ class RigEnvConfig:
 
         if self.task not in TASKS:
             raise ValueError(f"task = {self.task!r}: unknown; valid names: {sorted(TASKS)}")
+        if not isinstance(self.task_options, Mapping):
+            raise ValueError(f"task_options = {self.task_options!r}: must be a mapping of option names to values")
+        TASKS[self.task].check_options(self.task_options)  # ValueError naming a bad option; defaults stay the task's
+        object.__setattr__(self, "task_options", dict(self.task_options))
         if self.free_dofs is not None:
             fd = (self.free_dofs,) if isinstance(self.free_dofs, str) else tuple(self.free_dofs)
             bad = [j for j in fd if j not in JOINTS]
@@ -131,8 +137,9 @@ class RigEnvConfig:
             rnd[name] = (lo, hi)
         object.__setattr__(self, "randomise", rnd)
         for name in ("quantise", "hawk_surfaces", "nonlinear_aero"):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(f"{name} = {getattr(self, name)!r}: must be True or False")
+            v = getattr(self, name)
+            if not isinstance(v, bool) and not (name == "nonlinear_aero" and v is None):
+                raise ValueError(f"{name} = {v!r}: must be True or False" + (" (or None: the task's default)" if name == "nonlinear_aero" else ""))
 
     def with_overrides(self, **overrides: Any) -> "RigEnvConfig":
         """A copy with fields replaced; an unknown name is a ValueError listing the valid ones."""

@@ -16,7 +16,9 @@ class RigEnv(gym.Env):
     """The Bristol 5-DOF manoeuvre rig in a wind tunnel, seen through its real-time loop.
 
     ``RigEnv(config=None, **fields)`` with the fields of :class:`rig_env.envs.config.RigEnvConfig`
-    (task, free DOFs, airspeed, control rate, sensors, delay, turbulence, randomisation, Hawk surfaces).
+    (task and task options, free DOFs, airspeed, control rate, sensors, delay, turbulence, randomisation,
+    Hawk surfaces).  The task (one of Table 1's manoeuvres, :mod:`rig_env.envs.tasks`) sets the
+    reference, reward, pilot-input disturbances (3-2-1-1s, elevator pulses on the Hawk) and success.
 
     ## Action space
 
@@ -28,7 +30,7 @@ class RigEnv(gym.Env):
     | 0 | compensator aileron (mixed onto the four flaps) | +-40 deg |
     | 1 | compensator elevator | +-40 deg |
     | 2 | compensator rudder | +-40 deg |
-    | 3-5 | Hawk elevator, aileron, rudder (``hawk_surfaces`` only) | +-40 deg |
+    | 3-5 | Hawk elevator, aileron, rudder (``hawk_surfaces`` only; the task's pilot input is added) | +-40 deg |
 
     Out-of-range values are clipped to [-1, 1]; NaN or inf raises ``ValueError``.  The servos then add
     their delay, lag, rate limit and +-40 deg stop (rig_env.physics.servo).
@@ -47,7 +49,9 @@ class RigEnv(gym.Env):
     | 1 | airspeed | / 40 m/s | [0, 1.5] |
     | task | e.g. roll error, reference (see the task's docstring) | task's | [-5, 5] |
 
-    Default ``velocity_vector_roll`` (rig_roll, model_pitch free): 13 entries; ``bank_to_bank`` (4 DOF): 17.
+    Default ``velocity_vector_roll`` (rig_roll, model_pitch free): 13 entries; ``bank_to_bank`` (4 DOF): 17;
+    ``pull_up_push_over`` 13, ``forced_oscillation`` 15 (sway-yaw 16), ``free_flight_emulation`` 15,
+    ``departure_recovery`` 19 (tasks: :mod:`rig_env.envs.tasks`).
 
     ## Rewards
 

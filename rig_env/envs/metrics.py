@@ -82,7 +82,7 @@ class StepMetrics:
         new = seg != self.seg
         if np.any(new):
             idx = np.flatnonzero(new)
-            self._close(idx, t)
+            self._close(idx, t - self.dt)  # the old segment's last step ended one step ago
             self.seg[idx] = seg[idx]
             self.y0[idx], self.r[idx], self.t0[idx] = y[idx], r[idx], t[idx] - self.dt
             self.t10[idx] = self.t90[idx] = np.nan

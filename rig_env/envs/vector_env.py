@@ -19,12 +19,15 @@ terminates or truncates, ``step`` returns the first observation of its next epis
 last one in ``infos["final_obs"][i]`` and the episode's metrics in ``infos["final_info"]`` (arrays over
 the batch with ``_name`` masks, Gymnasium's convention).  ``final_info`` keys: ``success``,
 ``status`` (0 ok, 1 non-finite state, 2 runaway rate; a blown-up environment is terminated, the others
-carry on), ``stop_exceeded``, and :data:`rig_env.envs.metrics.METRIC_NAMES`.
+carry on), ``stop_exceeded``, :data:`rig_env.envs.metrics.METRIC_NAMES` and the task's own
+(``Task.episode_metrics``, e.g. ``amplitude_ratio`` of the forced oscillation).
 
 Actions are ``(num_envs, 3)`` (``(num_envs, 6)`` with ``hawk_surfaces``): compensator aileron,
 elevator, rudder (then Hawk elevator, aileron, rudder), each in [-1, 1] for +-40 deg.  Out-of-range
-values are clipped; a non-finite value raises ``ValueError``.  Observations are float32, see
-:class:`rig_env.envs.env.RigEnv` for the table.
+values are clipped; a non-finite value raises ``ValueError``.  The task's pilot inputs
+(:meth:`rig_env.envs.tasks.Task.pilot_inputs`: 3-2-1-1s, pulses) are the Hawk surface commands, held
+over each control step; with ``hawk_surfaces`` they are added to the action's Hawk commands.
+Observations are float32, see :class:`rig_env.envs.env.RigEnv` for the table.
 """
 
 from __future__ import annotations
@@ -72,7 +75,7 @@ class RigVectorEnv(VectorEnv):
         self.config, self.num_envs, self.render_mode = cfg, int(num_envs), check_render_mode(render_mode)
         n = self.num_envs
         task_cls = TASKS[cfg.task]
-        self.free_dofs: tuple[str, ...] = cfg.free_dofs or task_cls.default_free_dofs
+        self.free_dofs: tuple[str, ...] = cfg.free_dofs or task_cls.free_dofs_for(cfg.task_options)
         self.airspeed_range: tuple[float, float] = cfg.airspeed or task_cls.default_airspeed
         self.episode_seconds = float(cfg.episode_seconds or task_cls.default_episode_seconds)
         self.dt, self.h, self.n_sub = rates(cfg.control_rate, cfg.physics_dt)
@@ -103,7 +106,8 @@ class RigVectorEnv(VectorEnv):
             corners = self.base_row[None]
         self.P = np.ascontiguousarray(np.repeat(self.base_row[None], n, axis=0))
         self.tabs = self.params.tables()
-        self.flags = flags_of(True, True, True, True, cfg.nonlinear_aero)
+        self.nonlinear_aero = task_cls.default_nonlinear_aero if cfg.nonlinear_aero is None else cfg.nonlinear_aero
+        self.flags = flags_of(True, True, True, True, self.nonlinear_aero)
         self.delay_steps = np.rint(self.P[:, _DELAY_COLS] / self.h).astype(np.int64)
         n_buf = int(np.rint(np.concatenate([corners[:, _DELAY_COLS], self.base_row[None, _DELAY_COLS]]) / self.h).max()) + 1
         self.X = np.zeros((n, L.N_STATE))
@@ -114,7 +118,7 @@ class RigVectorEnv(VectorEnv):
         self._kernel = integ.step_batch if n >= integ.PARALLEL_MIN_ENVS else integ.step_serial
         self._k0 = 0
 
-        self.task = task_cls(n, self.free_dofs, self.dt, self.episode_seconds)
+        self.task = task_cls(n, self.free_dofs, self.dt, self.episode_seconds, **cfg.task_options)
         self.sensors = Sensors(
             n, self.free_dofs, self.dt, rate_filter_hz=cfg.rate_filter_hz, delay_steps=cfg.link_delay_steps,
             angle_noise=np.radians(cfg.angle_noise_deg), flap_noise=np.radians(cfg.flap_noise_deg),
@@ -176,6 +180,7 @@ class RigVectorEnv(VectorEnv):
         u = rs.uniform(keys, ep, 0, rs.S_INITIAL, 1)
         lo, hi = self.airspeed_range
         self.airspeed[idx] = lo + (hi - lo) * u[:, 0]
+        self.task.conditions(idx, self.airspeed[idx], self.P[idx])
         q0, qd0 = self.task.reset(idx, rs.uniform(keys, ep, 0, rs.S_REFERENCE, self.task.n_draws))
         q0[:, self.locked] = self.q_locked[self.locked]
         qd0[:, self.locked] = 0.0
@@ -219,6 +224,10 @@ class RigVectorEnv(VectorEnv):
             self.viewer.clear_held()
         n_a = len(self.action_names)
         self.U[:, :n_a] = np.radians(ACTION_SCALE_DEG) * a
+        # the task's pilot inputs (Hawk elevator, aileron, rudder, rad): the Hawk surface commands, or
+        # added to the action's Hawk commands with hawk_surfaces (the servo limits clip the sum)
+        hawk = slice(L.U_HAWK_ELEVATOR, L.U_HAWK_ELEVATOR + 3)
+        self.U[:, hawk] = self.task.pilot_inputs(self.t) + (self.U[:, hawk] if n_a > 3 else 0.0)
         if self.config.turbulence > 0.0:
             nz = rs.normal(self.keys, self.episode, self.steps + 1, rs.S_TURBULENCE, 3)
             sig = self.config.turbulence * self.airspeed[:, None]
@@ -230,6 +239,7 @@ class RigVectorEnv(VectorEnv):
         self.steps += 1
         self.t = self.steps * self.dt
         q, qd = self.X[:, L.X_Q : L.X_Q + 5], self.X[:, L.X_QD : L.X_QD + 5]
+        self.task.advance(self.t, q, qd)
         noise = rs.normal(self.keys, self.episode, self.steps, rs.S_SENSOR, self.sensors.n_channels) if self._noisy else None
         self.sensors.update(q[:, self.free_idx], self.X[:, L.X_SERVO : L.X_SERVO + 4], self.airspeed, noise)
         ref = self.task.reference(self.t)
@@ -265,6 +275,7 @@ class RigVectorEnv(VectorEnv):
         for i in idx:
             final_obs[i] = obs[i].copy()
         m = self.metrics.finish(idx, self.t)
+        m.update(self.task.episode_metrics(idx))
         m["success"] = truncated[idx] & self.task.success(q[idx], qd[idx], ref[idx], m)
         m["status"] = self.status[idx].copy()
         m["stop_exceeded"] = beyond[idx].copy()

@@ -1,103 +1,10 @@
-"""Tasks: reference generator, reward, termination, initial conditions and success, vectorised over envs.
-
-A task never integrates anything; the environment (:mod:`rig_env.envs.vector_env`) owns the physics
-batch and calls the task with (n, ...) arrays at the control rate.  Choose a task by name
-(``TASKS``).  Every reward is ``exp(-cost)`` with ``cost >= 0``, so it lies in (0, 1]; a step that
-ends the episode by failure (blow-up or a joint beyond its stop margin) earns 0.  Episodes run to
-their time limit otherwise, so ending early never pays.
-
-Angles in rad and rates in rad/s inside; the ``*_deg`` names and the metrics' display units are deg.
-"""
+"""Roll tasks of Table 1: velocity-vector roll (Sec. VI) and bank-to-bank (Sec. VIII)."""
 
 from __future__ import annotations
 
-import math
-from typing import ClassVar
-
 import numpy as np
 
-from rig_env.params import JOINTS, LIMITED_JOINTS
-from rig_env.physics import layout as L
-
-D = math.pi / 180.0
-STOP_MARGIN = 2.0 * D  # beyond a stop by more than this: terminated
-_STOP_COL = {j: getattr(L, f"P_STOPS_{j.upper()}_LOWER_DEG") for j in LIMITED_JOINTS}
-
-
-class Task:
-    """Base class.  Subclasses set the class constants and implement the five vectorised hooks.
-
-    n_draws: uniforms consumed per reset.  ref_labels: names of the observation entries the task
-    appends (bounds ``obs_low``/``obs_high``).  band: absolute settling band of the metrics (unit of
-    the tracked signal).  required: joints that must be free.
-    """
-
-    name: ClassVar[str]
-    default_free_dofs: ClassVar[tuple[str, ...]]
-    default_airspeed: ClassVar[tuple[float, float]]
-    default_episode_seconds: ClassVar[float]
-    required: ClassVar[tuple[str, ...]] = ("rig_roll",)
-    ref_labels: ClassVar[tuple[str, ...]]
-    n_draws: ClassVar[int]
-    reward_range: ClassVar[tuple[float, float]] = (0.0, 1.0)
-
-    def __init__(self, n_envs: int, free_dofs: tuple[str, ...], dt: float, episode_seconds: float) -> None:
-        missing = [j for j in self.required if j not in free_dofs]
-        if missing:
-            raise ValueError(f"task {self.name!r} needs free joint(s) {missing}; free_dofs = {list(free_dofs)}")
-        self.n, self.free, self.dt, self.T = n_envs, free_dofs, dt, episode_seconds
-        self.free_idx = np.array([JOINTS.index(j) for j in free_dofs])
-        self.meas_roll = free_dofs.index("rig_roll")  # column of rig_roll in the measured joints
-        self.limited = np.array([JOINTS.index(j) for j in free_dofs if j in LIMITED_JOINTS], dtype=np.int64)
-        self.obs_low = -np.full(len(self.ref_labels), 5.0)
-        self.obs_high = np.full(len(self.ref_labels), 5.0)
-
-    # ------------------------------------------------------------------ shared pieces
-    def initial_state(self, idx: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(m, 5) angles and rates: free joints other than rig_roll uniform in +-3 deg, at rest."""
-        q = np.zeros((idx.size, 5))
-        q[:, self.free_idx] = (2.0 * u[:, : len(self.free_idx)] - 1.0) * 3.0 * D
-        return q, np.zeros((idx.size, 5))
-
-    def limits(self, q: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(on a stop, beyond a stop by more than STOP_MARGIN), each (n,) bool, free limited joints."""
-        on = np.zeros(q.shape[0], dtype=bool)
-        beyond = np.zeros(q.shape[0], dtype=bool)
-        for j in self.limited:
-            col = _STOP_COL[JOINTS[j]]
-            lo, hi = P[:, col], P[:, col + 1]  # rad (to_vector converts *_deg)
-            on |= (q[:, j] <= lo) | (q[:, j] >= hi)
-            beyond |= (q[:, j] < lo - STOP_MARGIN) | (q[:, j] > hi + STOP_MARGIN)
-        return on, beyond
-
-    @staticmethod
-    def _control_cost(a: np.ndarray, a_prev: np.ndarray) -> np.ndarray:
-        return 0.05 * np.mean(a**2, axis=1) + 0.05 * np.mean((a - a_prev) ** 2, axis=1)
-
-    # ------------------------------------------------------------------ hooks
-    def reset(self, idx: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Draw references and initial states of envs idx from uniforms u (m, n_draws); returns (q0, qd0)."""
-        raise NotImplementedError
-
-    def reference(self, t: np.ndarray) -> np.ndarray:
-        """(n, k) reference signals at times t (n,), s."""
-        raise NotImplementedError
-
-    def observation(self, ref: np.ndarray, angles: np.ndarray, rates: np.ndarray) -> np.ndarray:
-        """(n, len(ref_labels)) from the reference and the measured angles/rates of the free joints."""
-        raise NotImplementedError
-
-    def reward(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, a: np.ndarray, a_prev: np.ndarray) -> np.ndarray:
-        """(n,) in (0, 1] from the true state (q, qd: (n, 5)) and normalised actions."""
-        raise NotImplementedError
-
-    def tracked(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, ...]:
-        """(segment id, y, segment target, error in display units, settling band) for the metrics."""
-        raise NotImplementedError
-
-    def success(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, metrics: dict[str, np.ndarray]) -> np.ndarray:
-        """(m,) bool for envs that reached their time limit (rows of q, qd, ref, metrics)."""
-        raise NotImplementedError
+from rig_env.envs.tasks.base import D, Task
 
 
 class VelocityVectorRoll(Task):
@@ -118,12 +25,14 @@ class VelocityVectorRoll(Task):
     Metrics: segment 0 the spin-up (roll rate to R, band 5 deg/s), segment 1 the stop (roll angle to
     the stop angle, band 2 deg); RMS error is the roll-angle error, deg.  Success: reached the time
     limit with |roll error| < 5 deg and |roll rate| < 20 deg/s.
+    Defaults: free rig_roll and model_pitch (rig_roll required), airspeed U(18, 22) m/s, 8 s.
     """
 
     name = "velocity_vector_roll"
     default_free_dofs = ("rig_roll", "model_pitch")
     default_airspeed = (18.0, 22.0)
     default_episode_seconds = 8.0
+    required = ("rig_roll",)
     ref_labels = ("roll_error", "roll_rate_ref", "roll_rate_error")
     n_draws = 5 + 5  # 4 reference draws (+1 spare), 5 initial angles
     T_START, T_RAMP = 0.5, 0.5
@@ -192,12 +101,14 @@ class BankToBank(Task):
     Reward ``exp(-(e_phi / 15 deg)^2 - 0.25 (rig_yaw / 20 deg)^2 - 0.05 mean(a^2) - 0.05 mean(da^2))``
     (rig_yaw term only when it is free).  Metrics: one segment per bank step (band 2 deg); RMS error is
     the roll-angle error, deg.  Success: reached the time limit, every step settled, final |error| < 5 deg.
+    Defaults: the 4-DOF set above (rig_roll required), airspeed U(15, 20) m/s, 17 s.
     """
 
     name = "bank_to_bank"
     default_free_dofs = ("rig_roll", "rig_yaw", "model_pitch", "model_yaw")
     default_airspeed = (15.0, 20.0)
     default_episode_seconds = 17.0
+    required = ("rig_roll",)
     ref_labels = ("roll_error", "roll_ref")
     T_START, T_SEG = 1.0, 4.0
     N_SEG = 8  # enough for 33 s; later steps repeat the last bank
@@ -246,6 +157,3 @@ class BankToBank(Task):
     def success(self, q, qd, ref, metrics):
         every = (metrics["segments"] > 0) & (metrics["segments_settled"] == metrics["segments"])
         return every & (np.abs(ref[:, 0] - q[:, 0]) < 5 * D)
-
-
-TASKS: dict[str, type[Task]] = {cls.name: cls for cls in (VelocityVectorRoll, BankToBank)}

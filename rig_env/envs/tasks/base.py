@@ -1,0 +1,177 @@
+"""``Task``: the base class of every manoeuvre task (reference, observation entries, reward, success).
+
+A task never integrates the rig; the environment (:mod:`rig_env.envs.vector_env`) owns the physics
+batch and calls the task with (n, ...) arrays at the control rate, in this order:
+
+| when | hook | purpose |
+|---|---|---|
+| reset of envs ``idx`` | ``conditions(idx, airspeed, P)`` then ``reset(idx, u)`` | episode airspeed and parameter rows, then the task's draws and initial state |
+| start of a control step | ``pilot_inputs(t)`` | Hawk elevator, aileron, rudder disturbances (rad), held over the step |
+| after the physics step | ``advance(t, q, qd)`` | internal states (reference models, captured baselines) |
+| after ``advance`` | ``reference(t)``, ``reward``, ``tracked`` | reference signals, reward, metrics' signal |
+| episode end of envs ``idx`` | ``episode_metrics(idx)`` | task-specific metrics, added to ``final_info`` |
+| time limit | ``success(q, qd, ref, metrics)`` | success flag of the envs that reached it (metrics include the task's) |
+
+Disturbances: a task's pilot inputs on the Hawk surfaces (3-2-1-1s, pulses; :meth:`Task.pilot_inputs`)
+and, for every task, the configuration's gusts (``turbulence``, ``turbulence_tau``; off by default).
+Every reward is ``exp(-cost)`` with ``cost >= 0``, so it lies in (0, 1]; a step that ends the episode
+by failure (blow-up or a joint beyond its stop margin) earns 0 (the environment does that).  Episodes
+run to their time limit otherwise, so ending early never pays.  Angles in rad and rates in rad/s
+inside; the ``*_deg`` names and the metrics' display units are deg.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from rig_env.params import JOINTS, LIMITED_JOINTS
+from rig_env.physics import layout as L
+
+D = math.pi / 180.0
+G0 = 9.81  # m/s^2, for load factors in observations and docstrings (the physics uses P's gravity)
+STOP_MARGIN = 2.0 * D  # beyond a stop by more than this: terminated
+_STOP_COL = {j: getattr(L, f"P_STOPS_{j.upper()}_LOWER_DEG") for j in LIMITED_JOINTS}
+
+
+class Task:
+    """Base class.  Subclasses set the class constants and implement the vectorised hooks.
+
+    | class constant | meaning |
+    |---|---|
+    | name | key in ``TASKS`` (the ``task`` configuration field) |
+    | default_free_dofs, default_airspeed, default_episode_seconds | used when the configuration leaves them ``None`` |
+    | default_nonlinear_aero | high-incidence tables on when ``nonlinear_aero`` is ``None`` |
+    | required | joints that must be free (a ``ValueError`` otherwise) |
+    | ref_labels | names of the observation entries the task appends (bounds ``obs_low``/``obs_high``) |
+    | n_draws | uniforms consumed per reset |
+
+    Options (``task_options`` of the configuration) are checked by :meth:`check_options`; the base
+    class accepts none.  Per-episode conditions set by the environment before :meth:`reset`
+    (:meth:`conditions`): ``self.V`` (n,) airspeed, m/s; ``self.l`` (n,) arm length (pivot to model
+    gimbal), m.  Tasks that need more of the (randomised) parameters override :meth:`conditions`.
+    """
+
+    name: ClassVar[str]
+    default_free_dofs: ClassVar[tuple[str, ...]]
+    default_airspeed: ClassVar[tuple[float, float]]
+    default_episode_seconds: ClassVar[float]
+    default_nonlinear_aero: ClassVar[bool] = False
+    required: ClassVar[tuple[str, ...]] = ()
+    ref_labels: ClassVar[tuple[str, ...]]
+    n_draws: ClassVar[int]
+    reward_range: ClassVar[tuple[float, float]] = (0.0, 1.0)
+
+    def __init__(self, n_envs: int, free_dofs: tuple[str, ...], dt: float, episode_seconds: float, **options: Any) -> None:
+        missing = [j for j in self.required if j not in free_dofs]
+        if missing:
+            raise ValueError(f"task {self.name!r} needs free joint(s) {missing}; free_dofs = {list(free_dofs)}")
+        self.options = self.check_options(options)
+        self.n, self.free, self.dt, self.T = n_envs, free_dofs, dt, episode_seconds
+        self.free_idx = np.array([JOINTS.index(j) for j in free_dofs])
+        self.meas_roll = self.col("rig_roll")  # column of rig_roll in the measured joints (-1: locked)
+        self.limited = np.array([JOINTS.index(j) for j in free_dofs if j in LIMITED_JOINTS], dtype=np.int64)
+        self.obs_low = -np.full(len(self.ref_labels), 5.0)
+        self.obs_high = np.full(len(self.ref_labels), 5.0)
+        self.V = np.zeros(n_envs)
+        self.l = np.ones(n_envs)
+        self._zero_pilot = np.zeros((n_envs, 3))
+
+    # ------------------------------------------------------------------ options and defaults
+    @classmethod
+    def check_options(cls, options: Mapping[str, Any]) -> dict[str, Any]:
+        """Validated task options; the base class takes none (any name is a ValueError)."""
+        if options:
+            raise ValueError(f"task_options: task {cls.name!r} takes no options, got {sorted(options)}")
+        return {}
+
+    @classmethod
+    def free_dofs_for(cls, options: Mapping[str, Any]) -> tuple[str, ...]:
+        """Default free joints for these options (most tasks: ``default_free_dofs``)."""
+        return cls.default_free_dofs
+
+    # ------------------------------------------------------------------ shared pieces
+    def col(self, joint: str) -> int:
+        """Column of ``joint`` in the measured (free-joint) arrays, -1 when it is locked."""
+        return self.free.index(joint) if joint in self.free else -1
+
+    def conditions(self, idx: np.ndarray, airspeed: np.ndarray, P: np.ndarray) -> None:
+        """Episode conditions of envs idx: airspeed (m,) m/s and kernel parameter rows P (m, N_PARAMS)."""
+        self.V[idx] = airspeed
+        self.l[idx] = P[:, L.P_GEOMETRY_ARM_LENGTH]
+
+    def initial_state(self, idx: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(m, 5) angles and rates: free joints uniform in +-3 deg, at rest (uses len(free) uniforms)."""
+        q = np.zeros((idx.size, 5))
+        q[:, self.free_idx] = (2.0 * u[:, : len(self.free_idx)] - 1.0) * 3.0 * D
+        return q, np.zeros((idx.size, 5))
+
+    def limits(self, q: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(on a stop, beyond a stop by more than STOP_MARGIN), each (n,) bool, free limited joints."""
+        on = np.zeros(q.shape[0], dtype=bool)
+        beyond = np.zeros(q.shape[0], dtype=bool)
+        for j in self.limited:
+            col = _STOP_COL[JOINTS[j]]
+            lo, hi = P[:, col], P[:, col + 1]  # rad (to_vector converts *_deg)
+            on |= (q[:, j] <= lo) | (q[:, j] >= hi)
+            beyond |= (q[:, j] < lo - STOP_MARGIN) | (q[:, j] > hi + STOP_MARGIN)
+        return on, beyond
+
+    @staticmethod
+    def _control_cost(a: np.ndarray, a_prev: np.ndarray) -> np.ndarray:
+        return 0.05 * np.mean(a**2, axis=1) + 0.05 * np.mean((a - a_prev) ** 2, axis=1)
+
+    # ------------------------------------------------------------------ hooks with defaults
+    def pilot_inputs(self, t: np.ndarray) -> np.ndarray:
+        """(n, 3) Hawk elevator, aileron, rudder disturbance, rad, at the step's start time t (n,), s.
+
+        The environment writes it to the Hawk surface inputs (``U_HAWK_*``) and holds it over the
+        control step; with ``hawk_surfaces=True`` it is added to the action's command.  Default: zeros.
+        """
+        return self._zero_pilot
+
+    def advance(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> None:
+        """Update internal states to time t (n,) s from the true state q, qd (n, 5).  Default: nothing."""
+
+    def episode_metrics(self, idx: np.ndarray) -> dict[str, np.ndarray]:
+        """Task-specific metrics of the ending episodes of envs idx ((len(idx),) arrays).  Default: none."""
+        return {}
+
+    # ------------------------------------------------------------------ hooks
+    def reset(self, idx: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Draw references and initial states of envs idx from uniforms u (m, n_draws); returns (q0, qd0)."""
+        raise NotImplementedError
+
+    def reference(self, t: np.ndarray) -> np.ndarray:
+        """(n, k) reference signals at times t (n,), s."""
+        raise NotImplementedError
+
+    def observation(self, ref: np.ndarray, angles: np.ndarray, rates: np.ndarray) -> np.ndarray:
+        """(n, len(ref_labels)) from the reference and the measured angles/rates of the free joints."""
+        raise NotImplementedError
+
+    def reward(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, a: np.ndarray, a_prev: np.ndarray) -> np.ndarray:
+        """(n,) in (0, 1] from the true state (q, qd: (n, 5)) and normalised actions."""
+        raise NotImplementedError
+
+    def tracked(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(segment id, y, segment target, error in display units, settling band) for the metrics."""
+        raise NotImplementedError
+
+    def success(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, metrics: dict[str, np.ndarray]) -> np.ndarray:
+        """(m,) bool for envs that reached their time limit (rows of q, qd, ref, metrics)."""
+        raise NotImplementedError
+
+
+def smooth_ramp(x: np.ndarray) -> np.ndarray:
+    """0 for x <= 0, 1 for x >= 1, ``x^2 (3 - 2 x)`` between (zero slope at both ends)."""
+    s = np.clip(x, 0.0, 1.0)
+    return s * s * (3.0 - 2.0 * s)
+
+
+def sign_of(u: np.ndarray) -> np.ndarray:
+    """+1 or -1 from uniforms in [0, 1) (each with probability 1/2)."""
+    return np.where(u < 0.5, -1.0, 1.0)

@@ -1,0 +1,334 @@
+"""Manoeuvre tasks: each reference generator against its definition, the free-flight model against theory,
+the pilot-input path, and open-loop episodes that report their metrics."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+from scipy.linalg import expm
+
+import rig_env
+import rig_env.envs  # registers the ids
+from rig_env.envs import TASKS, RigEnv, RigVectorEnv
+from rig_env.envs.metrics import METRIC_NAMES
+from rig_env.envs.tasks import (
+    BankToBank,
+    ForcedOscillation,
+    FreeFlightEmulation,
+    FreeHawkShortPeriod,
+    PullUpPushOver,
+)
+from rig_env.envs.tasks.departure import static_alpha
+from rig_env.envs.tasks.freeflight import (
+    UNIT_3211,
+    expm_batch,
+    rig_alpha,
+    three_two_one_one,
+)
+from rig_env.params import param_batch
+from rig_env.physics import layout as L
+from rig_env.physics.joint_space import frames, velocities
+
+D = math.pi / 180.0
+
+
+def _task(cls, n: int, free: tuple[str, ...], dt: float = 1 / 80, T: float = 10.0, seed: int = 0, airspeed=20.0, params=None, **opts):
+    task = cls(n, free, dt, T, **opts)
+    P = param_batch(params or rig_env.RigParams.default(), n)
+    task.conditions(np.arange(n), np.broadcast_to(np.asarray(airspeed, dtype=float), (n,)).copy(), P)
+    task.reset(np.arange(n), np.random.default_rng(seed).uniform(size=(n, task.n_draws)))
+    return task
+
+
+# ---------------------------------------------------------------------- references against their definitions
+def test_pull_up_push_over_reference_gives_the_commanded_normal_acceleration():
+    n, h = 6, 1e-3
+    task = _task(PullUpPushOver, n, ("rig_pitch", "model_pitch"))
+    ts = np.arange(0.0, 8.0, h)
+    ref = np.stack([task.reference(np.full(n, t)) for t in ts])  # (n_t, n, 3)
+    l = task.l
+    height = l * np.sin(ref[:, :, 0])
+    accel = (height[2:] - 2 * height[1:-1] + height[:-2]) / h**2  # d2/dt2 (l sin theta_ref)
+    np.testing.assert_allclose(accel, ref[1:-1, :, 2], atol=2e-3 * np.abs(ref[:, :, 2]).max())
+    rate = (ref[2:, :, 0] - ref[:-2, :, 0]) / (2 * h)
+    np.testing.assert_allclose(rate, ref[1:-1, :, 1], atol=1e-5)
+    # the commanded history: a one-period sine of amplitude 2 pi H / T^2, H the heave of the step
+    H = l * (np.sin(task.theta_1) - np.sin(task.theta_b))
+    peak = np.abs(ref[:, :, 2]).max(axis=0)
+    np.testing.assert_allclose(peak, 2 * math.pi * np.abs(H) / task.Tm**2, rtol=1e-4)
+    hold = np.searchsorted(ts, task.T_LEAD + task.Tm + 0.5 * task.Th)
+    np.testing.assert_allclose(ref[hold, np.arange(n), 0], task.theta_1, atol=1e-12)  # held at the new height
+    np.testing.assert_allclose(ref[-1, :, 0], task.theta_b, atol=1e-12)  # and back
+    assert np.all(np.abs(ref[:, :, 0]) <= 20.0 * D + 1e-12) and np.all(peak / 9.81 <= 0.19)
+
+
+def test_bank_to_bank_reference_steps_every_four_seconds_alternating_sign():
+    n = 8
+    task = _task(BankToBank, n, ("rig_roll", "rig_yaw", "model_pitch", "model_yaw"), T=17.0)
+    ts = np.arange(0.0, 17.0, 1 / 80)
+    ref = np.stack([task.reference(np.full(n, t))[:, 0] for t in ts])  # (n_t, n)
+    steps = [ts[1:][np.diff(ref[:, i]) != 0.0] for i in range(n)]
+    for i in range(n):
+        np.testing.assert_allclose(steps[i], [1.0, 5.0, 9.0, 13.0], atol=1e-9)
+        banks = ref[np.searchsorted(ts, steps[i] + 0.1), i]
+        assert np.all((30 * D <= np.abs(banks)) & (np.abs(banks) <= 90 * D)) and np.all(np.sign(banks[1:]) == -np.sign(banks[:-1]))
+        assert abs(ref[0, i]) <= 5 * D
+
+
+@pytest.mark.parametrize("axis, joint", [("heave_pitch", 1), ("sway_yaw", 2)])
+def test_forced_oscillation_amplitude_and_frequency_by_fft(axis, joint):
+    n, h = 5, 1e-3
+    free = ("rig_pitch", "model_pitch") if axis == "heave_pitch" else ("rig_yaw", "model_yaw")
+    task = _task(ForcedOscillation, n, free, T=30.0, axis=axis)
+    assert task.j == joint
+    t_on = task.T_LEAD + task.T_RAMP
+    for i in range(n):
+        f, A = task.f[i], task.A[i]
+        periods = np.floor(20.0 * f)  # a whole number of periods after the ramp: f falls on a bin
+        ts = t_on + np.arange(int(round(periods / f / h))) * h
+        y = np.stack([task.reference(np.full(n, t))[i, 0] for t in ts]) - task.theta_b[i]
+        spec = np.fft.rfft(y) * 2 / len(y)
+        freqs = np.fft.rfftfreq(len(y), h)
+        k = np.argmax(np.abs(spec))
+        assert freqs[k] == pytest.approx(f, rel=1e-3)
+        assert abs(spec[k]) == pytest.approx(A, rel=1e-3)
+        assert np.sum(np.abs(spec) ** 2) - abs(spec[k]) ** 2 < 1e-6 * A**2  # one pure tone
+    ts = np.arange(0.0, 3.0, h)
+    ref = np.stack([task.reference(np.full(n, t)) for t in ts])
+    # rate = derivative (central differences; 1e-4 rad/s off only where the ramp's curvature jumps)
+    np.testing.assert_allclose((ref[2:, :, 0] - ref[:-2, :, 0]) / (2 * h), ref[1:-1, :, 1], atol=3e-4)
+    assert np.all(ref[ts < task.T_LEAD, :, 0] == task.theta_b)  # at rest before the lead-in
+    assert np.all((2 * D <= task.A) & (task.A <= 6 * D)) and np.all((0.25 <= task.f) & (task.f <= 1.0))
+
+
+def test_forced_oscillation_gain_and_phase_metrics_recover_a_known_response():
+    n, dt = 3, 1 / 80
+    task = _task(ForcedOscillation, n, ("rig_pitch", "model_pitch"), T=12.0)
+    ratio, lag, offset = np.array([0.5, 1.0, 1.3]), np.radians([10.0, 45.0, 120.0]), np.array([0.01, -0.02, 0.0])
+    q = np.zeros((n, 5))
+    for k in range(1, int(12.0 / dt) + 1):
+        t = np.full(n, k * dt)
+        phi = 2 * math.pi * task.f * (t - task.T_LEAD)
+        q[:, 1] = task.theta_b + offset + ratio * task.A * np.sin(phi - lag)
+        task.advance(t, q, q)
+    m = task.episode_metrics(np.arange(n))
+    np.testing.assert_allclose(m["amplitude_ratio"], ratio, rtol=1e-9)
+    np.testing.assert_allclose(m["phase_lag_deg"], [10.0, 45.0, 120.0], atol=1e-7)
+    task.reset(np.arange(n), np.random.default_rng(1).uniform(size=(n, task.n_draws)))
+    assert np.all(np.isnan(task.episode_metrics(np.arange(n))["amplitude_ratio"]))  # no steady samples yet
+
+
+def test_three_two_one_one_timing_and_the_tasks_pilot_input():
+    n, dt = 4, 1 / 80
+    task = _task(FreeFlightEmulation, n, ("rig_pitch", "model_pitch"), T=6.0)
+    assert np.allclose(np.round(task.t0 / dt) * dt, task.t0) and np.all((1.5 <= task.t0) & (task.t0 <= 2.0))
+    h = 1e-4
+    ts = np.arange(0.0, 6.0, h)
+    u = np.stack([task.pilot_inputs(np.full(n, t))[:, 0].copy() for t in ts])  # (n_t, n)
+    for i in range(n):
+        amp = task.amp[i]
+        assert 0.5 * D <= abs(amp) <= 1.5 * D
+        jumps = ts[1:][np.diff(u[:, i]) != 0.0]
+        expected = task.t0[i] + UNIT_3211 * np.array([0.0, 3.0, 5.0, 6.0, 7.0])
+        np.testing.assert_allclose(jumps, expected, atol=1.5 * h)
+        levels = [u[np.searchsorted(ts, tj + 0.01), i] for tj in expected]
+        assert levels == pytest.approx([amp, -amp, amp, -amp, 0.0])
+        assert np.sum(u[:, i]) * h == pytest.approx(amp * UNIT_3211, rel=1e-3)  # 3 - 2 + 1 - 1 units
+    assert np.all(task.pilot_inputs(np.full(n, 0.5))[:, 1:] == 0.0)  # elevator only
+
+
+# ---------------------------------------------------------------------- the free Hawk against theory
+def _derivatives(p: rig_env.RigParams, V: float) -> dict[str, float]:
+    """Dimensional short-period derivatives written out from eq. (23) and the Hawk's mass data."""
+    a, m = p.hawk_aero, p.mass
+    qbar = 0.5 * p.environment.air_density * V**2
+    return {
+        "Za": qbar * a.S * a.CLalpha / (m.hawk_mass * V),
+        "Zq": qbar * a.S * a.CLq * a.c / (2 * m.hawk_mass * V**2),
+        "Zd": qbar * a.S * a.CLde / (m.hawk_mass * V),
+        "Ma": qbar * a.S * a.c * a.CMalpha / m.hawk_Iyy,
+        "Mq": qbar * a.S * a.c**2 * a.CMq / (2 * V * m.hawk_Iyy),
+        "Md": qbar * a.S * a.c * a.CMde / m.hawk_Iyy,
+    }
+
+
+def test_free_hawk_short_period_matches_the_closed_form_characteristic_equation(params):
+    speeds = np.array([15.0, 20.0, 25.0])
+    dt = 1 / 80
+    model = FreeHawkShortPeriod(3, dt)
+    model.configure(np.arange(3), speeds, param_batch(params, 3))
+    # one-step map of the (alpha, q) block from unit initial states, zero input
+    M = np.zeros((3, 2, 2))
+    for k in range(2):
+        model.x[:] = 0.0
+        model.x[:, k] = 1.0
+        model.step(np.zeros(3))
+        M[:, :, k] = model.x[:, :2]
+    wn, zeta = model.short_period()
+    for i, V in enumerate(speeds):
+        d = _derivatives(params, V)
+        roots = np.roots([1.0, d["Za"] - d["Mq"], -d["Za"] * d["Mq"] - (1 - d["Zq"]) * d["Ma"]])
+        s = np.log(np.linalg.eigvals(M[i]).astype(complex)) / dt  # continuous roots of the discrete map
+        np.testing.assert_allclose(np.sort_complex(s), np.sort_complex(roots), rtol=1e-9)  # exact discretisation
+        assert wn[i] == pytest.approx(abs(roots[0]), rel=1e-12)
+        assert zeta[i] == pytest.approx(-roots[0].real / abs(roots[0]), rel=1e-12)
+    # the paper's "short period about 1.2 Hz" at 20 m/s (Sec. III), a well-damped mode
+    assert 1.0 < wn[1] / (2 * math.pi) < 1.5 and 0.2 < zeta[1] < 0.6
+
+
+def test_batched_matrix_exponential_equals_scipy():
+    rng = np.random.default_rng(0)
+    M = rng.normal(size=(40, 7, 7)) * rng.uniform(1e-3, 30.0, size=(40, 1, 1))  # norms from 1e-3 to ~200
+    E, R = expm_batch(M), np.stack([expm(m) for m in M])
+    assert np.max(np.abs(E - R) / np.abs(R).max(axis=(1, 2))[:, None, None]) < 1e-10
+
+
+def test_free_hawk_3211_response_matches_the_exact_discretisation(params):
+    V, dt, amp = 20.0, 1 / 80, 1.0 * D
+    model = FreeHawkShortPeriod(1, dt)
+    model.configure(np.arange(1), np.array([V]), param_batch(params, 1))
+    d = _derivatives(params, V)
+    wn_s, z_s = 2 * math.pi * params.servos.hawk.natural_freq_hz, params.servos.hawk.damping
+    # x = (alpha, q, theta, h, delta, delta'), written out independently
+    A = np.zeros((6, 6))
+    A[0] = [-d["Za"], 1 - d["Zq"], 0, 0, -d["Zd"], 0]
+    A[1] = [d["Ma"], d["Mq"], 0, 0, d["Md"], 0]
+    A[2, 1] = 1.0
+    A[3, 0], A[3, 2] = -V, V
+    A[4, 5] = 1.0
+    A[5, 4], A[5, 5] = -(wn_s**2), -2 * z_s * wn_s
+    B = np.zeros(6)
+    B[5] = wn_s**2
+    Phi = expm(np.block([[A, B[:, None]], [np.zeros((1, 7))]]) * dt)  # zero-order hold, exact
+    delay = int(round(params.servos.hawk.delay_s / dt))
+    t0 = np.array([0.5])
+    x = np.zeros(6)
+    exact, ours = [], []
+    for k in range(240):
+        u = three_two_one_one(np.array([(k - delay) * dt]), t0, np.array([amp]))
+        x = Phi[:6, :6] @ x + Phi[:6, 6] * u[0]
+        model.step(u)
+        exact.append(x)
+        ours.append(model.x[0].copy())
+    exact, ours = np.array(exact), np.array(ours)
+    err = np.abs(ours - exact).max(axis=0) / np.abs(exact).max(axis=0)
+    assert np.all(err < 1e-9), err  # each state, relative to its range
+    assert np.abs(exact[:, 0]).max() > amp  # the input does excite the short period
+    # the heave channel: h'' equals the normal acceleration (V gamma' = a_n)
+    hs, an = [], []
+    model.configure(np.arange(1), np.array([V]), param_batch(params, 1))
+    for k in range(240):
+        model.step(three_two_one_one(np.array([(k - delay) * dt]), t0, np.array([amp])))
+        hs.append(model.x[0, 3])
+        an.append(model.an[0])
+    hs, an = np.array(hs), np.array(an)
+    np.testing.assert_allclose((hs[2:] - 2 * hs[1:-1] + hs[:-2]) / dt**2, an[1:-1], atol=0.02 * np.abs(an).max())
+
+
+def test_rig_alpha_and_static_alpha_follow_the_rig_kinematics(params):
+    rng = np.random.default_rng(3)
+    q = rng.uniform(-0.5, 0.5, size=(20, 5))
+    p = params.to_vector()
+    for i in range(20):
+        Aa = np.array(frames(q[i], p)[1]).reshape(3, 3)  # the physics' own aircraft rotation (row-major 9-tuple)
+        assert static_alpha(q[i : i + 1])[0] == pytest.approx(math.atan2(Aa[0, 2], Aa[0, 0]), abs=1e-12)
+    # heave-pitch plane: alpha and pitch rate of the body at the gimbal, from the physics' own kinematics
+    for _ in range(10):
+        q2, qd2 = np.zeros(5), np.zeros(5)
+        q2[[1, 3]], qd2[[1, 3]] = rng.uniform(-0.4, 0.4, 2), rng.uniform(-2.0, 2.0, 2)
+        _, Aa, axes, G, *_ = frames(q2, p)
+        w_s, w_a, _, _ = velocities(axes, qd2)
+        Aa = np.array(Aa).reshape(3, 3)
+        vb = Aa.T @ (np.cross(w_s, G) - np.array([-20.0, 0.0, 0.0]))  # gimbal velocity relative to the air, body axes
+        alpha, rate = rig_alpha(q2[None], qd2[None], np.array([20.0]), np.array([p[L.P_GEOMETRY_ARM_LENGTH]]))
+        assert alpha[0] == pytest.approx(math.atan2(vb[2], vb[0]), abs=1e-12)
+        assert rate[0] == pytest.approx((Aa.T @ np.array(w_a))[1], abs=1e-12)
+
+
+# ---------------------------------------------------------------------- the pilot-input path of the environment
+@pytest.mark.parametrize("hawk_surfaces", [False, True])
+def test_pilot_inputs_reach_the_hawk_surfaces(hawk_surfaces):
+    env = RigVectorEnv(3, task="free_flight_emulation", hawk_surfaces=hawk_surfaces)
+    env.reset(seed=4)
+    k_action = 6 if hawk_surfaces else 3
+    a = np.full((3, k_action), 0.1)
+    seen = 0
+    for _ in range(int(2.4 / env.dt)):
+        cmd = env.task.pilot_inputs(env.t).copy()
+        env.step(a)
+        expected = cmd + (np.radians(40.0) * 0.1 if hawk_surfaces else 0.0)
+        np.testing.assert_allclose(env.U[:, L.U_HAWK_ELEVATOR : L.U_HAWK_ELEVATOR + 3], expected, atol=1e-15)
+        seen += np.count_nonzero(cmd[:, 0])
+    assert seen > 0  # the 3-2-1-1 began within the window
+
+
+def test_departure_recovery_draws_a_departure_and_uses_the_stall_tables():
+    env = RigVectorEnv(16, task="departure_recovery")
+    assert env.nonlinear_aero and env.flags & L.F_NONLINEAR
+    assert not RigVectorEnv(1, task="departure_recovery", nonlinear_aero=False).flags & L.F_NONLINEAR
+    assert not RigVectorEnv(1, task="pull_up_push_over").flags & L.F_NONLINEAR
+    env.reset(seed=2)
+    q = env.X[:, :5]
+    alpha = static_alpha(q)
+    assert np.all(alpha > 13.0 * D)  # every episode starts past the Hawk's CL break
+    assert np.all((16 * D <= q[:, 3]) & (q[:, 3] <= 22 * D)) and np.all(np.abs(q[:, 0]) <= 30 * D)
+    u = env.task.pilot_inputs(np.zeros(16))[:, 0]
+    assert np.all((-12 * D <= u) & (u <= -6 * D))  # nose-up pull
+    assert np.all(env.task.pilot_inputs(env.task.t_rel + 1e-9)[:, 0] == 0.0)  # released
+
+
+# ---------------------------------------------------------------------- open-loop episodes
+@pytest.mark.parametrize("task, options", [(t, {}) for t in TASKS] + [("forced_oscillation", {"axis": "sway_yaw"})])
+def test_open_loop_episode_runs_and_reports_metrics(task, options):
+    env = RigVectorEnv(2, task=task, task_options=options)
+    env.reset(seed=1)
+    zero = np.zeros((2, 3))
+    for k in range(env.max_steps):
+        obs, rew, term, trunc, info = env.step(zero)
+        assert not term.any() and np.all(np.isfinite(obs))
+    assert trunc.all() and info["_final_info"].all()
+    fi = info["final_info"]
+    assert set(METRIC_NAMES) | {"success", "status", "stop_exceeded"} <= set(fi)
+    assert np.all(fi["status"] == L.S_OK) and np.all(np.isfinite(fi["rms_error"])) and np.all(fi["rms_error"] > 0)
+    assert np.all(fi["episode_time"] == pytest.approx(env.episode_seconds)) and np.all(fi["control_effort"] == 0.0)
+    assert not fi["success"].any()  # doing nothing does not fly the manoeuvre
+    extra = {"forced_oscillation": {"amplitude_ratio", "phase_lag_deg"}, "free_flight_emulation": {"emulation_error"},
+             "departure_recovery": {"release_time"}}.get(task, set())
+    assert extra <= set(fi) and all(np.all(np.isfinite(fi[k])) for k in extra)
+
+
+def test_forced_oscillation_sway_yaw_through_gymnasium_make():
+    env = gym.make("rig_env/ForcedOscillation-v0", task_options={"axis": "sway_yaw"})
+    assert env.unwrapped.vec.free_dofs == ("rig_yaw", "model_yaw")
+    check_env(env.unwrapped, skip_render_check=True)
+    env.close()
+
+
+def test_scalar_equals_vector_through_the_reference_model_and_pilot_inputs():
+    # long enough for the 3-2-1-1 and the free-Hawk model, with Hawk surfaces as actions too
+    n, seed, check = 4, 9, (1, 3)
+    fields = dict(task="free_flight_emulation", hawk_surfaces=True, episode_seconds=2.5, turbulence=0.05)
+    venv = RigVectorEnv(n, **fields)
+    envs = {i: RigEnv(**fields) for i in check}
+    vobs, _ = venv.reset(seed=seed)
+    sobs = {i: envs[i].reset(seed=seed + i)[0] for i in check}
+    assert all(np.array_equal(sobs[i], vobs[i]) for i in check)
+    rng = np.random.default_rng(5)
+    ends = 0
+    for _ in range(venv.max_steps + 20):
+        a = rng.uniform(-0.3, 0.3, size=(n, 6))
+        vobs, vr, vt, vtr, vinfo = venv.step(a)
+        for i in check:
+            o, r, te, tr, info = envs[i].step(a[i])
+            assert (te, tr, r) == (vt[i], vtr[i], vr[i])
+            if te or tr:
+                ends += 1
+                assert np.array_equal(o, vinfo["final_obs"][i])
+                assert info["rms_error"] == vinfo["final_info"]["rms_error"][i]
+                o, _ = envs[i].reset()
+            assert np.array_equal(o, vobs[i])
+    assert ends == len(check)
