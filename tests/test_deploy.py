@@ -181,6 +181,34 @@ def test_artefact_round_trip_runtime_parity_and_signature(tmp_path):
         A.load(tmp_path / "u.json", key=key)
 
 
+def test_linear_form_export_of_another_law(tmp_path):
+    """A static law linear in its observation (an LQR) exports to kind "linear" through linear_form()."""
+    from controllers.base import Controller
+
+    spec = _spec()
+    K = np.random.default_rng(2).normal(size=(spec.n_actions, spec.obs_dim)) * 0.1
+    obs0 = np.linspace(-0.2, 0.2, spec.obs_dim)
+
+    class StaticGain(Controller):
+        kind, artefact_kind = "static_gain_test", "linear"
+
+        def reset(self, mask=None):
+            pass
+
+        def act(self, obs):
+            return np.clip((self._check_obs(obs) - obs0) @ K.T, -1, 1)
+
+        def linear_form(self):
+            return {"K": K, "obs0": obs0, "rate_limit": np.full(spec.n_actions, 1e3)}
+
+    law = StaticGain(spec)
+    A.save(A.from_controller(law, {"rate_filter_hz": 10.0, "link_delay_steps": 0, "quantise": True, "pot_bits": 12, "encoder_bits": 13}), tmp_path / "s.json")
+    run = A.load(tmp_path / "s.json").controller()
+    run.reset()
+    for o in np.random.default_rng(3).uniform(-0.5, 0.5, (20, 1, spec.obs_dim)):
+        np.testing.assert_allclose(run.act(o), law.act(o), atol=1e-12)
+
+
 def _tampered(law_file: Path, tmp: Path) -> dict[str, tuple[Path, str]]:
     doc = json.loads(law_file.read_text())
     out: dict[str, tuple[Path, str]] = {}
@@ -265,9 +293,10 @@ def _hil(tmp_path, law_file, duration):
           f"missed frames {loop['counts']['missed']}, deadline misses {loop['deadline_misses']}/{loop['ticks']}; latency p50/p99/max "
           f"{loop['latency']['p50_ms']:.2f}/{loop['latency']['p99_ms']:.2f}/{loop['latency']['max_ms']:.2f} ms")
     assert loop["final_state"] == "ACTIVE" and not loop["faults"]
-    # Tolerance: identical up to float32 on the wire when every frame arrives in time (measured ~1e-4 deg); a frame
-    # the loaded machine delivers late is bridged by extrapolation and costs ~0.2 deg (measured); 1 deg bounds both.
-    assert roll < 1.0 and worst < 1.0
+    # Tolerance: with every frame in time the two differ only by float32 on the wire (measured 0.005 deg over 6 s);
+    # a frame the loaded machine delivers late is bridged by extrapolation and perturbs the spin (measured up to
+    # 0.65 deg for 2 bridged frames in 20 s, decaying: the loop is stable).  1.5 deg bounds that; the task metrics agree.
+    assert roll < 1.5 and worst < 1.5
     assert abs(fr["rms_error"] - fo["rms_error"]) < 0.25
     assert fr["success"] == fo["success"] == 1.0
     assert loop["deadline_miss_fraction"] < 0.01
@@ -325,6 +354,15 @@ def test_blackout_safe_within_three_frames_and_latched_until_rearmed(tmp_path, l
     assert np.all(after["state"][armed:] == ACTIVE)
     assert [e["event"] for e in loop["events"]] == ["arm", "fault", "arm"] and loop["events"][1]["fault"] == "stale"
     assert loop["final_state"] == "ACTIVE"
+
+
+def test_short_gap_holds_safe_then_resumes_without_fault(tmp_path, law_file):
+    loop, rig, rec, log = fly(tmp_path, law_file, 3.0, ("--blackout", "1.0", "0.05"))  # 4 frames lost
+    assert rig["counts"]["blackout"] == 4
+    gap = log[(log["rig_time"] > 0.9) & (log["rig_time"] < 1.2)]
+    assert 3 <= gap["missed"].max() < 8  # past the hold bound, short of the latch bound
+    assert np.all(gap["mode"][gap["missed"] >= 3] == pr.MODE_SAFE) and np.all(gap["state"] == ACTIVE)
+    assert loop["final_state"] == "ACTIVE" and not loop["faults"] and log["mode"][-1] == pr.MODE_ACTIVE
 
 
 def test_corrupted_duplicated_reordered_and_foreign_frames_ignored_and_counted(tmp_path, law_file):

@@ -96,6 +96,9 @@ class Artefact:
 
     def controller(self) -> Controller:
         """The numpy runtime of this law for one environment (``from_arrays`` of its kind)."""
+        if self.kind not in ARTEFACT_KINDS:  # the built-in laws register their kinds when imported
+            import controllers  # noqa: F401
+            import controllers.deploy  # noqa: F401
         if self.kind not in ARTEFACT_KINDS:
             raise ArtefactError(f"kind {self.kind!r}: no runtime registered; registered kinds: {sorted(ARTEFACT_KINDS)}")
         return ARTEFACT_KINDS[self.kind].from_arrays(self.data, self.spec)

@@ -89,9 +89,18 @@ def roll_tracking(spec: LoopSpec, kp: float = 2.0, kd: float = 1.0, kff: float =
 
 
 def _to_arrays(law: Controller) -> dict[str, Any]:
-    if not isinstance(law, LinearLaw):
-        raise TypeError(f"kind 'linear' exports a LinearLaw, got {type(law).__name__}")
-    return {"K": law.K.copy(), "obs0": law.obs0.copy(), "u0": law.u0.copy(), "rate_limit": law.rate_limit.copy()}
+    """A LinearLaw's arrays, or ``law.linear_form()`` (a dict with K, obs0, u0, rate_limit) of another law
+    that is static and linear in its observation (an LQR sets ``artefact_kind = "linear"`` and provides it)."""
+    if isinstance(law, LinearLaw):
+        return {"K": law.K.copy(), "obs0": law.obs0.copy(), "u0": law.u0.copy(), "rate_limit": law.rate_limit.copy()}
+    form = getattr(law, "linear_form", None)
+    if form is None:
+        raise TypeError(f"kind 'linear' exports a LinearLaw or a law with linear_form(); got {type(law).__name__}")
+    d = dict(form())
+    unknown = sorted(set(d) - {"K", "obs0", "u0", "rate_limit"})
+    if unknown:
+        raise ValueError(f"linear_form(): unknown key(s) {unknown}; allowed K, obs0, u0, rate_limit")
+    return _to_arrays(LinearLaw(law.spec, 1, **d))  # validates shapes and values, fills the defaults
 
 
 def _from_arrays(data: Mapping[str, Any], spec: LoopSpec) -> LinearLaw:
