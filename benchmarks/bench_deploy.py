@@ -30,6 +30,9 @@ ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = str(ROOT / "scripts" / "deploy.py")
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
 TASK = "velocity_vector_roll"
+NOTE = ("Columns: a deadline miss is a command sent after the rig's next tick (0.75 period after the deadline); "
+        "missed frames are ticks that found no new sensor frame even after the bounded wait.  Normal-scheduling rows "
+        "include the machine's run-queue delays; SCHED_FIFO rows (--realtime, loop and sim rig) show the loop without them.")
 
 
 def export(kind: str, rate: float, out: Path) -> str | None:
@@ -136,6 +139,7 @@ def main() -> None:
                 lines.append(f"| {json.loads(law.read_text())['kind']} ({kind}) | {runtime_cost(law) * 1e6:.1f} us | |")
             print(lines[-1], flush=True)
         lines.append(f"| observation builder (`Sensors.update` + `observe`) | {observation_cost(Path(tmp) / 'linear.json') * 1e6:.1f} us | per tick, shared with the envs |")
+    lines += ["", NOTE]
     text = "\n".join(lines)
     print(text)
     if a.write:
