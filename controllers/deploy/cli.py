@@ -41,7 +41,7 @@ def _rig_address(url: str) -> tuple[str, int]:
 
 
 def cmd_export(a: argparse.Namespace) -> int:
-    import controllers
+    import controllers  # noqa: F401  (registers the built-in laws and their artefact kinds)
     from controllers.base import CONTROLLERS, LoopSpec, make_controller
     from controllers.deploy import artefact as art
     from controllers.deploy.linear import roll_tracking
@@ -63,7 +63,6 @@ def cmd_export(a: argparse.Namespace) -> int:
     artefact = art.from_controller(ctrl, sensors, art.default_limits(spec, rate_limit), source=f"rig-deploy export --controller {a.controller} --task {a.task}", notes=a.notes)
     digest = art.save(artefact, a.out, _key(a.key_file))
     print(f"wrote {a.out}: kind {artefact.kind}, task {spec.task}, {1 / spec.dt:g} Hz, sha256 {digest}")
-    del controllers
     return 0
 
 
@@ -79,7 +78,8 @@ def cmd_run(a: argparse.Namespace) -> int:
     art = load(a.law, _key(a.key_file), require_signature=a.key_file is not None)
     rate = a.rate if a.rate is not None else 1.0 / art.spec.dt
     cfg = LoopConfig(rig=_rig_address(a.rig), rate_hz=rate, bind=(a.bind, a.bind_port), duration=a.duration, arm=a.arm, log_path=a.log,
-                     seed=a.seed, stale_frames=a.stale_frames, fault_frames=a.fault_frames, realtime=a.realtime)
+                     seed=a.seed, stale_frames=a.stale_frames, fault_frames=a.fault_frames, realtime=a.realtime,
+                     link_delay_steps=a.link_delay_steps)
     loop = RigLoop(art, cfg)
     signal.signal(signal.SIGINT, lambda *_: loop.stop())
     signal.signal(signal.SIGTERM, lambda *_: loop.stop())
@@ -147,6 +147,7 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--fault-frames", type=int, default=8)
     r.add_argument("--key-file")
     r.add_argument("--realtime", action="store_true", help="SCHED_FIFO scheduling (Linux, privileged)")
+    r.add_argument("--link-delay-steps", type=int, default=0, help="age of a sensor frame on arrival, control steps (reference lead)")
     r.set_defaults(func=cmd_run)
     s = sub.add_parser("sim-rig", help="serve the simulated rig")
     s.add_argument("--port", type=int, required=True)

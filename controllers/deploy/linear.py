@@ -77,6 +77,8 @@ def roll_tracking(spec: LoopSpec, kp: float = 2.0, kd: float = 1.0, kff: float =
     Uses the task entries ``roll_error`` and ``roll_rate_error``/``roll_rate_ref`` when the task has
     them, else ``-rig_roll_rate`` as the rate error (a step reference has zero reference rate).
     """
+    if "roll_error" not in spec.obs_labels:
+        raise ValueError(f"task {spec.task!r}: the roll-tracking law needs an observation entry 'roll_error'; entries: {list(spec.obs_labels)}")
     K = np.zeros((spec.n_actions, spec.obs_dim))
     a = spec.action_index("comp_aileron")
     K[a, spec.index("roll_error")] = kp

@@ -85,6 +85,9 @@ class LoopConfig:
     periods after its deadline is a deadline miss (None: ``1 - phase``, i.e. the command missed the rig's
     next tick and the rig applies the previous one).  realtime: run the loop thread under SCHED_FIFO
     (Linux; needs the privilege, else an event "realtime_refused" and normal scheduling).
+    link_delay_steps: age of a frame when the loop gets it, control steps (the environments'
+    ``link_delay_steps``): the task reference is taken at ``rig_time + link_delay_steps dt``, so with
+    that delay on the link the law sees what it saw in ``RigVectorEnv(link_delay_steps=...)``, [0, 50].
     """
 
     rig: tuple[str, int]
@@ -103,6 +106,7 @@ class LoopConfig:
     miss_fraction: float | None = None
     frame_wait: float = 0.25
     realtime: bool = False
+    link_delay_steps: int = 0
     connect_timeout: float = 5.0
 
     def __post_init__(self) -> None:
@@ -114,6 +118,8 @@ class LoopConfig:
             raise ValueError(f"stale_frames = {self.stale_frames}, fault_frames = {self.fault_frames}: need 1 <= stale_frames <= fault_frames <= 1000")
         if not 0.0 <= self.phase <= 0.9:
             raise ValueError(f"phase = {self.phase}: allowed range [0, 0.9] periods")
+        if not (isinstance(self.link_delay_steps, int) and 0 <= self.link_delay_steps <= 50):
+            raise ValueError(f"link_delay_steps = {self.link_delay_steps!r}: an integer in [0, 50]")
         if not 0.0 <= self.frame_wait <= 0.5:
             raise ValueError(f"frame_wait = {self.frame_wait}: allowed range [0, 0.5] periods")
         if self.miss_fraction is not None and not 0.0 < self.miss_fraction <= 1.0:
@@ -212,7 +218,7 @@ class RigLoop:
                   "rig": list(self.rig), "seed": cfg.seed, "stale_frames": cfg.stale_frames, "fault_frames": cfg.fault_frames}
         self.log = FrameLog(cfg.log_path, cfg.rate_hz, header)
         n_ticks = None if cfg.duration is None else int(round(cfg.duration * cfg.rate_hz))
-        self.lat = np.zeros(n_ticks if n_ticks else 1 << 20)
+        self.lat = np.zeros(n_ticks if n_ticks else 1 << 20)  # unbounded runs: statistics of the last 2**20 ticks
         self.jit = np.zeros_like(self.lat)
         self.comp = np.zeros_like(self.lat)
         self.n = 0
@@ -221,7 +227,7 @@ class RigLoop:
             self.t0 = time.perf_counter()
             start = (t_first if t_first is not None else self.t0) + cfg.phase * self.period
             k = 0
-            while not self._stop and (n_ticks is None or k < n_ticks) and self.n < self.lat.size:
+            while not self._stop and (n_ticks is None or k < n_ticks):
                 deadline = start + k * self.period
                 self._sleep_until(deadline)
                 wake = time.perf_counter()
@@ -342,7 +348,7 @@ class RigLoop:
         self.action[:] = 0.0
         mode = pr.MODE_DISARMED if self.state == DISARMED else pr.MODE_SAFE
         self.target[:] = 0.0
-        obs_t = self.rig_time - self.t_origin + self.missed * spec.dt
+        obs_t = self.rig_time - self.t_origin + (self.missed + self.cfg.link_delay_steps) * spec.dt
         if self.state == ACTIVE and self.missed < self.cfg.stale_frames:
             self.t_arr[0] = obs_t
             obs = observe(s, self.task, self.t_arr)
@@ -365,7 +371,7 @@ class RigLoop:
         cmd = self.limits.apply(self.target)
         self._send(cmd, mode, self.seq if self.seq >= 0 else pr.NO_ECHO)
         send = time.perf_counter()
-        i = self.n
+        i = self.n % self.lat.size
         self.lat[i], self.jit[i], self.comp[i] = send - deadline, wake - deadline, compute
         self.n += 1
         if send - deadline > self.miss_s:
@@ -393,7 +399,7 @@ class RigLoop:
     # ------------------------------------------------------------------ summary
     def summary(self) -> dict[str, Any]:
         """Counts, deadline misses, latency (command sent - deadline) and jitter (wake - deadline) statistics, faults."""
-        n = self.n
+        n = min(self.n, self.lat.size)
         lat, jit, comp = self.lat[:n], self.jit[:n], self.comp[:n]
         called = comp[comp > 0]
 
@@ -402,7 +408,7 @@ class RigLoop:
                 return {"p50_ms": float("nan"), "p99_ms": float("nan"), "max_ms": float("nan")}
             return {"p50_ms": float(np.percentile(x, 50) * 1e3), "p99_ms": float(np.percentile(x, 99) * 1e3), "max_ms": float(x.max() * 1e3)}
 
-        ticks = n + self.counts["skipped"]
+        ticks = self.n + self.counts["skipped"]
         return {
             "ticks": ticks, "rate_hz": self.cfg.rate_hz, "final_state": STATES[self.state],
             "faults": [FAULTS[b] for b in FAULTS if self.fault & b],

@@ -78,8 +78,8 @@ class Faults:
 
 
 def make_env(task: str, rate_hz: float, duration: float, **fields: Any) -> RigVectorEnv:
-    """The rig model: a batch of one, no link delay, episode = the run (``fields``: RigEnvConfig overrides)."""
-    return RigVectorEnv(1, task=task, control_rate=rate_hz, link_delay_steps=0, episode_seconds=duration, **fields)
+    """The rig model: a batch of one, episode = the run, no link delay unless ``fields`` (RigEnvConfig overrides) say so."""
+    return RigVectorEnv(1, **dict({"task": task, "control_rate": rate_hz, "link_delay_steps": 0, "episode_seconds": duration}, **fields))
 
 
 def frame_values(env: RigVectorEnv) -> tuple[np.ndarray, np.ndarray, float]:
