@@ -392,26 +392,33 @@ def test_corrupted_duplicated_reordered_and_foreign_frames_ignored_and_counted(t
     assert rig["final_info"]["success"] == 1.0
 
 
-def test_controller_exception_and_nonfinite_output_fault(tmp_path, law_file):
-    class Boom(LinearLaw):
+@pytest.mark.parametrize("failure, fault", [("raise", "controller"), ("nan", "controller"), ("slow", "overrun")])
+def test_controller_failure_faults_and_latches(tmp_path, law_file, failure, fault):
+    class Failing(LinearLaw):
+        artefact_kind = f"test_{failure}"
         calls = 0
 
         def act(self, obs):
-            Boom.calls += 1
-            if Boom.calls > 40:
-                raise RuntimeError("boom")
+            Failing.calls += 1
+            if Failing.calls > 40:
+                if failure == "raise":
+                    raise RuntimeError("boom")
+                if failure == "nan":
+                    return np.full((1, self.spec.n_actions), np.nan)
+                time.sleep(0.8 * self.spec.dt)  # longer than half a period: an overrun
             return super().act(obs)
 
-    A.register_kind("test_boom", lambda c: {"K": c.K, "obs0": c.obs0, "u0": c.u0, "rate_limit": c.rate_limit},
-                    lambda d, spec: Boom(spec, 1, K=d["K"], obs0=d["obs0"], u0=d["u0"], rate_limit=d["rate_limit"]))
+    A.register_kind(Failing.artefact_kind, lambda c: {"K": c.K, "obs0": c.obs0, "u0": c.u0, "rate_limit": c.rate_limit},
+                    lambda d, spec: Failing(spec, 1, K=d["K"], obs0=d["obs0"], u0=d["u0"], rate_limit=d["rate_limit"]))
     base = A.load(law_file)
-    law = Boom(base.spec, 1, K=base.data["K"])
-    Boom.artefact_kind = "test_boom"
-    A.save(A.from_controller(law, base.sensors, base.limits), tmp_path / "boom.json")
-    loop, rig, rec, log = fly(tmp_path, tmp_path / "boom.json", 2.0)
-    assert loop["final_state"] == "FAULT" and loop["faults"] == ["controller"]
+    A.save(A.from_controller(Failing(base.spec, 1, K=base.data["K"]), base.sensors, base.limits), tmp_path / "bad.json")
+    Failing.calls = 0
+    loop, rig, rec, log = fly(tmp_path, tmp_path / "bad.json", 2.0)
+    assert loop["final_state"] == "FAULT" and loop["faults"] == [fault]
     k = np.flatnonzero(log["state"] == FAULT)[0]
-    assert log["mode"][k] == pr.MODE_SAFE and np.all(log["state"][k:] == FAULT)
+    assert 40 <= k <= 42 and log["mode"][k] == pr.MODE_SAFE and np.all(log["state"][k:] == FAULT)
+    assert np.all(np.abs(log["command"][-5:]) < 1e-12)  # surfaces back to neutral
+    assert np.all(np.isfinite(log["command"]))
 
 
 def test_log_survives_a_crash_losing_at_most_a_second(tmp_path, law_file):

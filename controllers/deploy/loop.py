@@ -179,7 +179,7 @@ class RigLoop:
         self.state, self.fault, self.missed = DISARMED, 0, 0
         self.seq, self.cmd_seq, self.have_frame, self.t_origin, self._first = -1, 0, False, 0.0, False
         self._arm_req, self._disarm_req, self._stop = False, False, False
-        self.counts = {k: 0 for k in ("fresh", "missed", "foreign", "corrupt", "old", "tx_error", "arm_refused", "deadline_miss", "skipped")}
+        self.counts = {k: 0 for k in ("fresh", "missed", "foreign", "corrupt", "old", "resync", "tx_error", "arm_refused", "deadline_miss", "skipped")}
         self.corrupt_reasons: dict[str, int] = {}
         self.events: list[dict[str, Any]] = []
         self.sock: socket.socket | None = None
@@ -286,8 +286,11 @@ class RigLoop:
                 self.corrupt_reasons[e.reason] = self.corrupt_reasons.get(e.reason, 0) + 1
                 continue
             if self.seq >= 0 and not pr.newer(seq, self.seq):
-                self.counts["old"] += 1
-                continue
+                if self.missed < self.cfg.fault_frames:
+                    self.counts["old"] += 1
+                    continue
+                self.counts["resync"] += 1  # stale past the latch bound (so FAULT or DISARMED): a restarted rig's new count
+            
             self.seq, self.rig_time, self.airspeed, self.status = seq, rt, air, st
             self.angles[:], self.flaps[:] = ang, fl
             fresh = True

@@ -166,8 +166,7 @@ class SimRig:
                 if term[0] or trunc[0]:
                     fi = info["final_info"]
                     final = {key: float(v[0]) for key, v in fi.items() if not key.startswith("_")}
-                    k -= 1  # the env has reset: frames 0..k-1 were sent, the last state is not kept
-                    break
+                    break  # the env has reset: frames 0..k-1 were sent, the last state is not kept
                 self._record(rec, k)
                 self._emit(k, k * self.period, now)
             t_end = time.perf_counter() + self.faults.delay + 0.01
@@ -175,9 +174,10 @@ class SimRig:
                 self._flush_queue(time.perf_counter())
         finally:
             self.sock.close()
-        self.rec = {key: v[: k + 1] for key, v in rec.items()}  # frames 0..k
+        frames = k if final else k + 1
+        self.rec = {key: v[:frames] for key, v in rec.items()}  # frames 0..frames-1 and the commands that followed them
         lat = lateness[1 : k + 1]
-        return {"steps": k, "rate_hz": 1.0 / self.period, "final_info": final, "counts": dict(self.counts),
+        return {"steps": k, "frames": frames, "rate_hz": 1.0 / self.period, "final_info": final, "counts": dict(self.counts),
                 "tick_lateness_ms": {"p50": float(np.percentile(lat, 50) * 1e3) if lat.size else 0.0,
                                      "p99": float(np.percentile(lat, 99) * 1e3) if lat.size else 0.0,
                                      "max": float(lat.max() * 1e3) if lat.size else 0.0}}
