@@ -152,6 +152,24 @@ def test_protocol_rejects_every_single_bit_error_and_bad_fields():
         pr.unpack_command(c)
 
 
+# ---------------------------------------------------------------------- the shared observation builder
+@pytest.mark.parametrize("task", ["velocity_vector_roll", "bank_to_bank"])
+def test_loop_reference_and_observation_are_the_envs(task):
+    """task_for_seed draws the env's reference; observe() on the env's own sensors gives the env's observation."""
+    from rig_env.envs import RigVectorEnv
+    from rig_env.envs.observation import observe, task_for_seed
+
+    env = RigVectorEnv(1, task=task)
+    obs, _ = env.reset(seed=11)
+    loop_task = task_for_seed(task, env.free_dofs, env.dt, env.episode_seconds, 11)
+    t = np.linspace(0.0, env.episode_seconds, 97)
+    for tk in t:
+        np.testing.assert_array_equal(loop_task.reference(np.array([tk])), env.task.reference(np.array([tk])))
+    for _ in range(5):
+        obs, *_ = env.step(np.full((1, 3), 0.3))
+        np.testing.assert_array_equal(observe(env.sensors, loop_task, env.t), obs)
+
+
 # ---------------------------------------------------------------------- artefact and runtime
 def test_artefact_round_trip_runtime_parity_and_signature(tmp_path):
     spec = _spec()
