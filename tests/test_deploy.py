@@ -86,13 +86,18 @@ class SimRigProcess:
             self.p.wait(timeout=10)
 
 
-def fly(tmp: Path, law_file: Path, duration: float, rig_args: tuple[str, ...] = (), rate: float = 80.0, during=None, **loop_kw):
-    """Run the sim rig and the loop for ``duration`` s; returns (loop summary, rig summary, rig record, log records)."""
-    rig = SimRigProcess(tmp, duration, *rig_args, rate=rate)
+def fly(tmp: Path, law_file: Path, duration: float, rig_args: tuple[str, ...] = (), rate: float = 80.0, during=None, realtime: bool = True, **loop_kw):
+    """Run the sim rig and the loop for ``duration`` s; returns (loop summary, rig summary, rig record, log records).
+
+    realtime: both sides under SCHED_FIFO when the privilege is there (as docs/DEPLOY.md recommends for the
+    rig computer; the machine running the tests is shared), else normal scheduling (printed).
+    """
+    rig = SimRigProcess(tmp, duration, *rig_args, *(("--realtime",) if realtime else ()), rate=rate)
     try:
         art = A.load(law_file)
         log = tmp / "loop.log"
-        cfg = LoopConfig(rig=("127.0.0.1", rig.port), rate_hz=rate, bind=("127.0.0.1", 0), duration=duration, arm=True, log_path=str(log), **loop_kw)
+        cfg = LoopConfig(rig=("127.0.0.1", rig.port), rate_hz=rate, bind=("127.0.0.1", 0), duration=duration, arm=True, log_path=str(log),
+                         realtime=realtime, **loop_kw)
         loop = RigLoop(art, cfg)
         loop.open()
         out: dict = {}
@@ -107,7 +112,9 @@ def fly(tmp: Path, law_file: Path, duration: float, rig_args: tuple[str, ...] = 
         rig.kill()
     with np.load(rig.record, allow_pickle=False) as z:
         rec = {k: z[k] for k in z.files}
-    print(f"\nloop: {json.dumps({k: v for k, v in out.items() if k != 'events'})}\nrig: {json.dumps(rs)}")
+    fifo = realtime and not any(e["event"] == "realtime_refused" for e in out["events"]) and "realtime_refused" not in rs["counts"]
+    print(f"\nscheduling: {'SCHED_FIFO' if fifo else 'normal'}\nloop: {json.dumps({k: v for k, v in out.items() if k != 'events'})}\nrig: {json.dumps(rs)}")
+    out["events"] = [e for e in out["events"] if e["event"] != "realtime_refused"]
     return out, rs, rec, read_log(log)[1]
 
 
@@ -401,7 +408,7 @@ def test_corrupted_duplicated_reordered_and_foreign_frames_ignored_and_counted(t
         s.close()
 
     args = ("--corrupt", "0.1", "--duplicate", "0.05", "--reorder", "0.05", "--fault-seed", "5")
-    loop, rig, rec, log = fly(tmp_path, law_file, 5.0, args, during=foreign)
+    loop, rig, rec, log = fly(tmp_path, law_file, 8.0, args, during=foreign)
     c, rc = loop["counts"], rig["counts"]
     assert c["foreign"] == n_foreign
     assert c["corrupt"] == rc["sent_corrupt"] >= rc["corrupted"] > 0  # a duplicated corrupted frame arrives twice

@@ -2,9 +2,9 @@
 
 File layout: one line of JSON (the header: ``{"format": "rig-loop-log", "version": 1, "dtype": [...],
 ...run information}``) terminated by ``\\n``, then records of :data:`RECORD` (numpy structured dtype,
-little-endian), appended.  Records go to a preallocated buffer and are written and flushed every
-``flush_s`` (default 0.5 s) outside the time-critical part of a tick, so a crash loses at most that
-much (the operating system's page cache survives a process crash; a power cut may lose more:
+little-endian), appended.  Records go to a preallocated buffer; every ``flush_s`` (default 0.5 s) the
+filled part is handed to a writer thread that writes and flushes it (so a slow disk never blocks the
+loop: file I/O releases the GIL), and a crash loses at most that much (the operating system's page cache survives a process crash; a power cut may lose more:
 ``fsync=True`` forces the data to disk at each flush).  :func:`read_log` reads a file back, ignoring a
 torn last record.
 
@@ -30,6 +30,8 @@ from __future__ import annotations
 
 import json
 import os
+import queue
+import threading
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -56,11 +58,22 @@ class FrameLog:
         self.flush_s, self.fsync = flush_s, fsync
         self.last_flush = 0.0
         self.f: BinaryIO | None = None
+        self._q: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
+        self._writer: threading.Thread | None = None
         if path is not None:
             self.f = open(path, "ab")
             h = dict(header, format="rig-loop-log", version=1, dtype=RECORD.descr)
             self.f.write(json.dumps(h).encode() + b"\n")
             self.f.flush()
+            self._writer = threading.Thread(target=self._write, name="rig-loop-log", daemon=True)
+            self._writer.start()
+
+    def _write(self) -> None:
+        while (chunk := self._q.get()) is not None:
+            self.f.write(chunk)
+            self.f.flush()
+            if self.fsync:
+                os.fsync(self.f.fileno())
 
     def next(self) -> np.void:
         """The next record to fill (a view into the buffer); flushes first if the buffer is full."""
@@ -74,17 +87,20 @@ class FrameLog:
         return now - self.last_flush >= self.flush_s
 
     def flush(self, now: float | None = None) -> None:
-        if self.f is not None and self.n:
-            self.f.write(self.buf[: self.n].tobytes())
-            self.f.flush()
-            if self.fsync:
-                os.fsync(self.f.fileno())
+        """Hand the filled records to the writer thread (a copy: the buffer is reused at once)."""
+        if self._writer is not None and self.n:
+            self._q.put(self.buf[: self.n].tobytes())
         self.n = 0
         if now is not None:
             self.last_flush = now
 
     def close(self) -> None:
+        """Flush, let the writer finish, close the file."""
         self.flush()
+        if self._writer is not None:
+            self._q.put(None)
+            self._writer.join(timeout=10.0)
+            self._writer = None
         if self.f is not None:
             self.f.close()
             self.f = None

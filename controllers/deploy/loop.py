@@ -46,6 +46,7 @@ once and the surfaces reach neutral at the servos' own slew rate.
 
 from __future__ import annotations
 
+import gc
 import math
 import os
 import select
@@ -222,6 +223,8 @@ class RigLoop:
         self.jit = np.zeros_like(self.lat)
         self.comp = np.zeros_like(self.lat)
         self.n = 0
+        gc.collect()
+        gc.freeze()  # objects alive now never enter a collection again: no long gen-2 pauses inside a tick
         try:
             t_first = self._connect()
             self.t0 = time.perf_counter()
@@ -243,6 +246,7 @@ class RigLoop:
                 k += 1
         finally:
             self._send_neutral()
+            gc.unfreeze()
             self.log.close()
             self.sock.close()
             self.sock = None
