@@ -306,75 +306,10 @@ class RigLoop:
         self.state, self.fault = FAULT, self.fault | bit
 
     def _tick(self, k: int, deadline: float, wake: float) -> None:
-        spec, s = self.spec, self.sensors
-        fresh = self._drain() or self._first
-        self._first = False
-        if not fresh and self.have_frame and self.cfg.frame_wait > 0.0:  # the rig is late: wait, bounded
-            limit = deadline + self.cfg.frame_wait * self.period
-            while not fresh and (rest := limit - time.perf_counter()) > 0.0:
-                if select.select([self.sock], [], [], rest)[0]:
-                    fresh = self._drain()
-        bad_now = False
-        if fresh:
-            self.counts["fresh"] += 1
-            self.missed = 0
-            a_free = self.angles[self.free][None]
-            if not self.have_frame:  # first frame: the estimator starts from it (rates 0), as an env reset
-                s.reset(np.zeros(1, dtype=np.int64), a_free, self.flaps[None], np.array([self.airspeed]))
-                self.have_frame = True
-                self._arm_req = self._arm_req or self.cfg.arm
-            else:
-                s.update(a_free, self.flaps[None], np.array([self.airspeed]))
-            if np.any(np.abs(self.angles) > self.lim_max) or np.any(np.abs(self.flaps) > FLAP_MAX) or not AIRSPEED_RANGE[0] <= self.airspeed <= AIRSPEED_RANGE[1]:
-                bad_now = True
-                self._latch(F_SENSOR, k, f"angles {np.round(np.degrees(self.angles), 1).tolist()} deg, flaps {np.round(np.degrees(self.flaps), 1).tolist()} deg, airspeed {self.airspeed:.1f} m/s")
-            if self.status & pr.STATUS_RIG_FAULT:
-                bad_now = True
-                self._latch(F_RIG, k, f"rig status 0x{self.status:x}")
-        else:
-            self.counts["missed"] += 1
-            self.missed += 1
-            if self.have_frame and self.missed < self.cfg.stale_frames:  # bridge a lost frame
-                s.update(s.angles + s.rates * spec.dt, s.flaps.copy(), s.airspeed.copy())
-            if self.state == ACTIVE and self.missed >= self.cfg.fault_frames:
-                self._latch(F_STALE, k, f"{self.missed} ticks without a sensor frame")
-        if self._disarm_req:
-            self._disarm_req, self._arm_req = False, False
-            self.state, self.fault = DISARMED, 0
-            self.events.append({"tick": k, "event": "disarm"})
-        if self._arm_req:
-            self._arm_req = False
-            if fresh and not bad_now:
-                self.state, self.fault, self.t_origin = ACTIVE, 0, self.rig_time
-                self.law.reset()
-                self.events.append({"tick": k, "t": wake - self.t0, "event": "arm", "seq": self.seq})
-            else:
-                self.counts["arm_refused"] += 1
-                self.events.append({"tick": k, "event": "arm_refused"})
-        compute = 0.0
-        self.action[:] = 0.0
-        mode = pr.MODE_DISARMED if self.state == DISARMED else pr.MODE_SAFE
-        self.target[:] = 0.0
-        obs_t = self.rig_time - self.t_origin + (self.missed + self.cfg.link_delay_steps) * spec.dt
-        if self.state == ACTIVE and self.missed < self.cfg.stale_frames:
-            self.t_arr[0] = obs_t
-            obs = observe(s, self.task, self.t_arr)
-            c0 = time.perf_counter()
-            try:
-                a = self.law.act(obs)[0]
-                ok = bool(np.all(np.isfinite(a)))
-            except Exception as e:  # noqa: BLE001 - any failure of the law is a fault, never a crash
-                ok, a = False, None
-                self._latch(F_CONTROLLER, k, f"{type(e).__name__}: {e}")
-            compute = time.perf_counter() - c0
-            if a is not None and not ok:
-                self._latch(F_CONTROLLER, k, "non-finite action")
-            elif compute > self.overrun_s:
-                self._latch(F_OVERRUN, k, f"act took {compute * 1e3:.2f} ms > {self.overrun_s * 1e3:.2f} ms")
-            if self.state == ACTIVE:
-                self.action[: spec.n_actions] = a
-                self.target[: spec.n_actions] = a * self.scale
-                mode = pr.MODE_ACTIVE
+        """One period: sense, lifecycle, control, limits, send, record."""
+        fresh, bad_now = self._sense(k, deadline)
+        self._lifecycle(k, wake, fresh, bad_now)
+        mode, compute, obs_t = self._control(k)
         cmd = self.limits.apply(self.target)
         self._send(cmd, mode, self.seq if self.seq >= 0 else pr.NO_ECHO)
         send = time.perf_counter()
@@ -389,6 +324,87 @@ class RigLoop:
         r["seq"], r["rig_time"], r["angles"], r["flaps"], r["airspeed"] = self.seq, self.rig_time, self.angles, self.flaps, self.airspeed
         r["obs_t"], r["action"], r["command"] = obs_t, self.action, cmd
         r["n_foreign"], r["n_corrupt"], r["n_old"] = self.counts["foreign"], self.counts["corrupt"], self.counts["old"]
+
+    def _sense(self, k: int, deadline: float) -> tuple[bool, bool]:
+        """Read frames (bounded wait), feed the estimator, run the sensor watchdogs; (fresh frame, frame out of range)."""
+        s = self.sensors
+        fresh = self._drain() or self._first
+        self._first = False
+        if not fresh and self.have_frame and self.cfg.frame_wait > 0.0:  # the rig is late: wait, bounded
+            limit = deadline + self.cfg.frame_wait * self.period
+            while not fresh and (rest := limit - time.perf_counter()) > 0.0:
+                if select.select([self.sock], [], [], rest)[0]:
+                    fresh = self._drain()
+        if not fresh:
+            self.counts["missed"] += 1
+            self.missed += 1
+            if self.have_frame and self.missed < self.cfg.stale_frames:  # bridge a lost frame
+                s.update(s.angles + s.rates * self.spec.dt, s.flaps.copy(), s.airspeed.copy())
+            if self.state == ACTIVE and self.missed >= self.cfg.fault_frames:
+                self._latch(F_STALE, k, f"{self.missed} ticks without a sensor frame")
+            return False, False
+        self.counts["fresh"] += 1
+        self.missed = 0
+        a_free = self.angles[self.free][None]
+        if not self.have_frame:  # first frame: the estimator starts from it (rates 0), as an env reset
+            s.reset(np.zeros(1, dtype=np.int64), a_free, self.flaps[None], np.array([self.airspeed]))
+            self.have_frame = True
+            self._arm_req = self._arm_req or self.cfg.arm
+        else:
+            s.update(a_free, self.flaps[None], np.array([self.airspeed]))
+        bad = False
+        if np.any(np.abs(self.angles) > self.lim_max) or np.any(np.abs(self.flaps) > FLAP_MAX) or not AIRSPEED_RANGE[0] <= self.airspeed <= AIRSPEED_RANGE[1]:
+            bad = True
+            self._latch(F_SENSOR, k, f"angles {np.round(np.degrees(self.angles), 1).tolist()} deg, flaps {np.round(np.degrees(self.flaps), 1).tolist()} deg, airspeed {self.airspeed:.1f} m/s")
+        if self.status & pr.STATUS_RIG_FAULT:
+            bad = True
+            self._latch(F_RIG, k, f"rig status 0x{self.status:x}")
+        return True, bad
+
+    def _lifecycle(self, k: int, wake: float, fresh: bool, bad_now: bool) -> None:
+        """Apply operator requests: disarm always; arm only on a fresh, in-range frame (it resets the law and the reference clock)."""
+        if self._disarm_req:
+            self._disarm_req, self._arm_req = False, False
+            self.state, self.fault = DISARMED, 0
+            self.events.append({"tick": k, "event": "disarm"})
+        if self._arm_req:
+            self._arm_req = False
+            if fresh and not bad_now:
+                self.state, self.fault, self.t_origin = ACTIVE, 0, self.rig_time
+                self.law.reset()
+                self.events.append({"tick": k, "t": wake - self.t0, "event": "arm", "seq": self.seq})
+            else:
+                self.counts["arm_refused"] += 1
+                self.events.append({"tick": k, "event": "arm_refused"})
+
+    def _control(self, k: int) -> tuple[int, float, float]:
+        """Set ``self.target`` (rad) and ``self.action``; run the law's watchdogs. (mode, law time s, reference time s)."""
+        spec = self.spec
+        compute = 0.0
+        self.action[:] = 0.0
+        self.target[:] = 0.0
+        mode = pr.MODE_DISARMED if self.state == DISARMED else pr.MODE_SAFE
+        obs_t = self.rig_time - self.t_origin + (self.missed + self.cfg.link_delay_steps) * spec.dt
+        if self.state != ACTIVE or self.missed >= self.cfg.stale_frames:
+            return mode, compute, obs_t
+        self.t_arr[0] = obs_t
+        obs = observe(self.sensors, self.task, self.t_arr)
+        c0 = time.perf_counter()
+        try:
+            a = self.law.act(obs)[0]
+        except Exception as e:  # noqa: BLE001 - any failure of the law is a fault, never a crash
+            self._latch(F_CONTROLLER, k, f"{type(e).__name__}: {e}")
+            return mode, time.perf_counter() - c0, obs_t
+        compute = time.perf_counter() - c0
+        if not np.all(np.isfinite(a)):
+            self._latch(F_CONTROLLER, k, "non-finite action")
+        elif compute > self.overrun_s:
+            self._latch(F_OVERRUN, k, f"act took {compute * 1e3:.2f} ms > {self.overrun_s * 1e3:.2f} ms")
+        else:
+            self.action[: spec.n_actions] = a
+            self.target[: spec.n_actions] = a * self.scale
+            mode = pr.MODE_ACTIVE
+        return mode, compute, obs_t
 
     def _send(self, cmd: np.ndarray, mode: int, echo: int) -> None:
         pr.pack_command_into(self.tx, self.cmd_seq, echo, cmd, mode)

@@ -37,6 +37,7 @@ from __future__ import annotations
 import math
 import struct
 import zlib
+from typing import Sequence
 
 VERSION = 1
 SENSOR_MAGIC, COMMAND_MAGIC = b"RIGS", b"RIGC"
@@ -66,20 +67,20 @@ def newer(a: int, b: int) -> bool:
     return 0 < d < 0x80000000
 
 
-def pack_sensor_into(buf: bytearray, seq: int, rig_time: float, angles, flaps, airspeed: float, status: int = 0) -> None:
+def pack_sensor_into(buf: bytearray, seq: int, rig_time: float, angles: Sequence[float], flaps: Sequence[float], airspeed: float, status: int = 0) -> None:
     """Write a sensor frame into ``buf`` (>= SENSOR_SIZE bytes). angles: 5 rad; flaps: 4 rad."""
     _SENSOR.pack_into(buf, 0, SENSOR_MAGIC, VERSION, 0, seq & 0xFFFFFFFF, rig_time, *angles, *flaps, airspeed, status)
     _CRC.pack_into(buf, _SENSOR.size, zlib.crc32(memoryview(buf)[: _SENSOR.size]))
 
 
-def pack_command_into(buf: bytearray, seq: int, echo: int, surfaces, mode: int) -> None:
+def pack_command_into(buf: bytearray, seq: int, echo: int, surfaces: Sequence[float], mode: int) -> None:
     """Write a command frame into ``buf`` (>= COMMAND_SIZE bytes). surfaces: up to 6 values, rad."""
     s = list(surfaces) + [0.0] * (N_SURFACES - len(surfaces))
     _COMMAND.pack_into(buf, 0, COMMAND_MAGIC, VERSION, mode, seq & 0xFFFFFFFF, echo & 0xFFFFFFFF, *s)
     _CRC.pack_into(buf, _COMMAND.size, zlib.crc32(memoryview(buf)[: _COMMAND.size]))
 
 
-def _check(data, n: int, st: struct.Struct, magic: bytes) -> tuple:
+def _check(data: bytes | bytearray | memoryview, n: int, st: struct.Struct, magic: bytes) -> tuple:
     if len(data) != n:
         raise FrameError("length", f"{len(data)} bytes, expected {n}")
     if bytes(data[:4]) != magic:
@@ -93,7 +94,7 @@ def _check(data, n: int, st: struct.Struct, magic: bytes) -> tuple:
     return f
 
 
-def unpack_sensor(data) -> tuple[int, float, tuple[float, ...], tuple[float, ...], float, int]:
+def unpack_sensor(data: bytes | bytearray | memoryview) -> tuple[int, float, tuple[float, ...], tuple[float, ...], float, int]:
     """(seq, rig_time s, angles (5,) rad, flaps (4,) rad, airspeed m/s, status) of a valid frame."""
     f = _check(data, SENSOR_SIZE, _SENSOR, SENSOR_MAGIC)
     vals = f[4:15]
@@ -102,7 +103,7 @@ def unpack_sensor(data) -> tuple[int, float, tuple[float, ...], tuple[float, ...
     return f[3], f[4], f[5:10], f[10:14], f[14], f[15]
 
 
-def unpack_command(data) -> tuple[int, int, tuple[float, ...], int]:
+def unpack_command(data: bytes | bytearray | memoryview) -> tuple[int, int, tuple[float, ...], int]:
     """(seq, echo, surfaces (6,) rad, mode) of a valid frame."""
     f = _check(data, COMMAND_SIZE, _COMMAND, COMMAND_MAGIC)
     if f[2] not in (MODE_DISARMED, MODE_ACTIVE, MODE_SAFE):
