@@ -29,8 +29,8 @@ from controllers.base import LoopSpec
 from controllers.deploy import artefact as A
 from controllers.deploy import protocol as pr
 from controllers.deploy.framelog import read_log
-from controllers.deploy.linear import LinearLaw, roll_tracking
-from controllers.deploy.loop import ACTIVE, DISARMED, FAULT, LoopConfig, RigLoop
+from controllers.deploy.linear import LinearLaw
+from controllers.deploy.loop import ACTIVE, FAULT, LoopConfig, RigLoop
 from controllers.deploy.simrig import fly_offline
 
 ROOT = Path(__file__).resolve().parents[1]

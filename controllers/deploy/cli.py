@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any, Sequence
 from urllib.parse import urlparse
 
-from controllers.deploy.artefact import ARTEFACT_KINDS, ArtefactError, load
+from controllers.deploy.artefact import ArtefactError, load
 
 EXIT_REFUSED, EXIT_FAULT = 2, 3
 

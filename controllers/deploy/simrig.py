@@ -115,7 +115,7 @@ class SimRig:
         self.stop_flag = True
 
     def run(self) -> dict[str, Any]:
-        env, f, n_a = self.env, self.faults, len(self.env.action_names)
+        env, n_a = self.env, len(self.env.action_names)
         if self.realtime:
             try:
                 os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(50))
