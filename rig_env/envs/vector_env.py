@@ -42,6 +42,7 @@ from gymnasium.vector.utils import batch_space
 from rig_env.envs import streams as rs
 from rig_env.envs.config import RigEnvConfig
 from rig_env.envs.metrics import StepMetrics
+from rig_env.envs.observation import observe
 from rig_env.envs.render import RENDER_MODES, EnvFrames, EnvViewer, check_render_mode
 from rig_env.envs.sensors import Sensors
 from rig_env.envs.tasks import TASKS
@@ -201,9 +202,7 @@ class RigVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ step
     def _observe(self) -> np.ndarray:
-        ref = self.task.reference(self.t)
-        s = self.sensors
-        return np.concatenate([s.observation(), self.task.observation(ref, s.angles, s.rates)], axis=1).astype(np.float32)
+        return observe(self.sensors, self.task, self.t)
 
     def check_actions(self, actions: Any) -> np.ndarray:
         """(num_envs, n_actions) float64 clipped to [-1, 1]; ValueError on wrong shape or non-finite values."""

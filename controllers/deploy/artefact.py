@@ -1,0 +1,304 @@
+"""A deployed law as one file of plain data: a single JSON document, never pickle.
+
+Why one JSON file and not ``.npz`` + manifest: one file cannot lose its manifest; JSON has no code
+path (``json.loads`` builds dicts, lists, strings and numbers only), whereas ``.npz`` is a zip archive
+with its own parser surface (and ``np.load`` is only safe with ``allow_pickle=False``, a flag someone
+can forget); the checksum covers header and arrays in one canonical byte string; the header stays
+human-readable.  The size cost (base64: 4/3 of the raw bytes) is ~60 kB for a 64x64 MLP.
+
+| key | type | meaning |
+|---|---|---|
+| ``format`` | ``"rig-law"`` | file type |
+| ``format_version`` | int | :data:`FORMAT_VERSION`; another version is refused |
+| ``kind`` | str | key of :data:`ARTEFACT_KINDS` (``"linear"``; ``"pid"``, ``"lqr"``, ``"mlp"``... when registered) |
+| ``spec`` | object | the :class:`controllers.base.LoopSpec` the law was designed for |
+| ``sensors`` | object | sensor layout it was designed with: ``rate_filter_hz``, ``link_delay_steps``, ``quantise``, ``pot_bits``, ``encoder_bits`` |
+| ``limits`` | object | ``position_deg``, ``rate_deg_s``: per action, output limits the loop always applies |
+| ``params`` | object | the kind's scalar / string parameters |
+| ``arrays`` | object | name -> ``{"dtype": "<f8" or "<i8", "shape": [...], "data": base64 of the little-endian bytes}`` |
+| ``provenance`` | object | created (UTC), tool, git commit, host, python / numpy versions, source, notes |
+| ``sha256`` | hex str | SHA-256 of the canonical JSON of every key above |
+| ``signature`` | object, optional | ``{"alg": "HMAC-SHA256", "value": hex}`` over the same bytes with a shared key |
+
+Canonical JSON: ``json.dumps(body, sort_keys=True, separators=(",", ":"), ensure_ascii=True,
+allow_nan=False)`` encoded as ASCII.  Every array must be finite.
+
+Registry: ``ARTEFACT_KINDS[kind] = ArtefactKind(to_arrays, from_arrays)``.  ``to_arrays(controller)``
+returns a dict whose values are numpy arrays (stored under ``arrays``) or JSON scalars / strings /
+lists of them (stored under ``params``); ``from_arrays(dict, spec)`` gets the same dict back and
+returns a numpy-only :class:`controllers.base.Controller` for one environment.  A law module
+registers its kind with :func:`register_kind` at import (see docs/DEPLOY.md); an exported controller
+names its kind by ``artefact_kind`` (class attribute; default its ``kind``), so an LQR can export to
+``"linear"``.  This module imports only the standard library, numpy and :mod:`controllers.base`.
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import hmac
+import json
+import math
+import os
+import platform
+import socket
+import subprocess
+from dataclasses import asdict, dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+import numpy as np
+
+from controllers.base import Controller, LoopSpec
+
+FORMAT = "rig-law"
+FORMAT_VERSION = 1
+MAX_BYTES = 64 * 2**20  # refuse files above 64 MiB before parsing
+_DTYPES = {"<f8": np.dtype("<f8"), "<i8": np.dtype("<i8")}
+_BODY_KEYS = ("format", "format_version", "kind", "spec", "sensors", "limits", "params", "arrays", "provenance")
+_SENSOR_KEYS = {"rate_filter_hz": float, "link_delay_steps": int, "quantise": bool, "pot_bits": int, "encoder_bits": int}
+
+
+class ArtefactError(ValueError):
+    """An artefact was refused; the message names the file (when known) and what failed."""
+
+
+@dataclass(frozen=True)
+class ArtefactKind:
+    """How one law kind becomes plain data and back (see the module docstring)."""
+
+    to_arrays: Callable[[Controller], dict[str, Any]]
+    from_arrays: Callable[[Mapping[str, Any], LoopSpec], Controller]
+
+
+ARTEFACT_KINDS: dict[str, ArtefactKind] = {}
+
+
+def register_kind(kind: str, to_arrays: Callable[[Controller], dict[str, Any]], from_arrays: Callable[[Mapping[str, Any], LoopSpec], Controller]) -> None:
+    """Make ``kind`` exportable and loadable; registering a kind twice replaces it."""
+    if not isinstance(kind, str) or not kind.isidentifier():
+        raise ValueError(f"artefact kind {kind!r}: must be an identifier string")
+    ARTEFACT_KINDS[kind] = ArtefactKind(to_arrays, from_arrays)
+
+
+@dataclass(frozen=True)
+class Artefact:
+    """A loaded (validated) or to-be-saved law: everything in the file but checksum and signature."""
+
+    kind: str
+    spec: LoopSpec
+    sensors: dict[str, Any]
+    limits: dict[str, list[float]]
+    data: dict[str, Any]
+    provenance: dict[str, Any]
+    sha256: str = ""
+
+    def controller(self) -> Controller:
+        """The numpy runtime of this law for one environment (``from_arrays`` of its kind)."""
+        if self.kind not in ARTEFACT_KINDS:  # the built-in laws register their kinds when imported
+            import controllers  # noqa: F401
+            import controllers.deploy  # noqa: F401
+        if self.kind not in ARTEFACT_KINDS:
+            raise ArtefactError(f"kind {self.kind!r}: no runtime registered; registered kinds: {sorted(ARTEFACT_KINDS)}")
+        return ARTEFACT_KINDS[self.kind].from_arrays(self.data, self.spec)
+
+
+# ---------------------------------------------------------------------- building
+def default_limits(spec: LoopSpec, rate_deg_s: float = 350.0) -> dict[str, list[float]]:
+    """Position +-``spec.action_scale_deg`` and ``rate_deg_s`` (the servos' slew rate, RIG_DATA) per action."""
+    n = spec.n_actions
+    return {"position_deg": [float(spec.action_scale_deg)] * n, "rate_deg_s": [float(rate_deg_s)] * n}
+
+
+def provenance(source: str, notes: str = "") -> dict[str, Any]:
+    """Who made the file, from what, when (best effort: the git commit is "" outside a checkout)."""
+    try:
+        here = Path(__file__).resolve().parent
+        commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True, timeout=5).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        commit = ""
+    return {
+        "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "tool": "controllers.deploy", "git_commit": commit, "host": socket.gethostname(),
+        "python": platform.python_version(), "numpy": np.__version__, "source": source, "notes": notes,
+    }
+
+
+def from_controller(ctrl: Controller, sensors: Mapping[str, Any], limits: Mapping[str, list[float]] | None = None, source: str = "", notes: str = "") -> Artefact:
+    """Capture ``ctrl`` (in-memory law) with its loop's sensor layout and output limits."""
+    kind = getattr(ctrl, "artefact_kind", None) or ctrl.kind
+    if kind not in ARTEFACT_KINDS:
+        raise ArtefactError(f"controller kind {ctrl.kind!r} exports to artefact kind {kind!r}, which is not registered; registered kinds: {sorted(ARTEFACT_KINDS)}")
+    data = ARTEFACT_KINDS[kind].to_arrays(ctrl)
+    art = Artefact(kind, ctrl.spec, dict(sensors), dict(limits or default_limits(ctrl.spec)), dict(data), provenance(source or type(ctrl).__name__, notes))
+    _check_body(_body(art), "<memory>")
+    return art
+
+
+# ---------------------------------------------------------------------- encoding
+def _encode_array(name: str, a: np.ndarray) -> dict[str, Any]:
+    a = np.asarray(a)
+    dt = "<i8" if np.issubdtype(a.dtype, np.integer) or a.dtype == bool else "<f8"
+    b = np.ascontiguousarray(a, dtype=_DTYPES[dt])
+    if dt == "<f8" and not np.all(np.isfinite(b)):
+        raise ArtefactError(f"array {name!r}: non-finite value(s); a law must be finite numbers")
+    return {"dtype": dt, "shape": list(b.shape), "data": base64.b64encode(b.tobytes()).decode("ascii")}
+
+
+def _body(art: Artefact) -> dict[str, Any]:
+    arrays = {k: _encode_array(k, v) for k, v in art.data.items() if isinstance(v, np.ndarray)}
+    params = {k: v for k, v in art.data.items() if not isinstance(v, np.ndarray)}
+    spec = asdict(art.spec)
+    return {"format": FORMAT, "format_version": FORMAT_VERSION, "kind": art.kind, "spec": spec, "sensors": art.sensors,
+            "limits": art.limits, "params": params, "arrays": arrays, "provenance": art.provenance}
+
+
+def canonical(body: Mapping[str, Any]) -> bytes:
+    """The bytes that the checksum and the signature cover."""
+    try:
+        return json.dumps(body, sort_keys=True, separators=(",", ":"), ensure_ascii=True, allow_nan=False).encode("ascii")
+    except (TypeError, ValueError) as e:
+        raise ArtefactError(f"not plain finite JSON data: {e}") from None
+
+
+def save(art: Artefact, path: str | os.PathLike, key: bytes | None = None) -> str:
+    """Write ``art`` to ``path`` (atomically: temporary file then rename); returns the SHA-256 hex digest.
+
+    key: optional shared HMAC-SHA256 key (bytes); the file then carries a signature.
+    """
+    body = _body(art)
+    _check_body(body, str(path))
+    raw = canonical(body)
+    doc = dict(body, sha256=hashlib.sha256(raw).hexdigest())
+    if key is not None:
+        doc["signature"] = {"alg": "HMAC-SHA256", "value": hmac.new(_key(key), raw, hashlib.sha256).hexdigest()}
+    p = Path(path)
+    tmp = p.with_name(p.name + ".tmp")
+    tmp.write_text(json.dumps(doc, indent=1, sort_keys=True, allow_nan=False) + "\n", encoding="ascii")
+    os.replace(tmp, p)
+    return doc["sha256"]
+
+
+def _key(key: bytes | str) -> bytes:
+    k = key.encode() if isinstance(key, str) else bytes(key)
+    if len(k) < 16:
+        raise ArtefactError(f"signing key: {len(k)} bytes; use at least 16 bytes")
+    return k
+
+
+# ---------------------------------------------------------------------- loading
+def load(path: str | os.PathLike, key: bytes | str | None = None, require_signature: bool = False) -> Artefact:
+    """Read and validate an artefact; any failure is an :class:`ArtefactError` naming what failed.
+
+    Checks, in order: size, JSON syntax, schema (keys and types), format and version, checksum,
+    signature (when ``key`` is given, or required), array dtypes / shapes / finiteness, the spec's
+    consistency, and the kind's own ``from_arrays`` (shapes against the spec).
+    """
+    p = Path(path)
+    where = str(p)
+    try:
+        size = p.stat().st_size
+    except OSError as e:
+        raise ArtefactError(f"{where}: cannot read ({e.strerror})") from None
+    if size > MAX_BYTES:
+        raise ArtefactError(f"{where}: {size} bytes; larger than the {MAX_BYTES}-byte limit")
+    try:
+        doc = json.loads(p.read_bytes().decode("ascii"), parse_constant=_no_constant)
+    except (UnicodeDecodeError, json.JSONDecodeError, ArtefactError) as e:
+        raise ArtefactError(f"{where}: not a valid JSON artefact (truncated or corrupted?): {e}") from None
+    if not isinstance(doc, dict):
+        raise ArtefactError(f"{where}: top level must be a JSON object")
+    missing = [k for k in _BODY_KEYS + ("sha256",) if k not in doc]
+    if missing:
+        raise ArtefactError(f"{where}: missing key(s) {missing}")
+    extra = sorted(set(doc) - set(_BODY_KEYS) - {"sha256", "signature"})
+    if extra:
+        raise ArtefactError(f"{where}: unknown key(s) {extra}")
+    if doc["format"] != FORMAT:
+        raise ArtefactError(f"{where}: format {doc['format']!r}, expected {FORMAT!r}")
+    if doc["format_version"] != FORMAT_VERSION:
+        raise ArtefactError(f"{where}: format_version {doc['format_version']!r}; this runtime reads version {FORMAT_VERSION} only")
+    body = {k: doc[k] for k in _BODY_KEYS}
+    raw = canonical(body)
+    digest = hashlib.sha256(raw).hexdigest()
+    if not isinstance(doc["sha256"], str) or not hmac.compare_digest(digest, doc["sha256"]):
+        raise ArtefactError(f"{where}: checksum mismatch (sha256 of the content is {digest[:16]}..., file says {str(doc['sha256'])[:16]}...): the file was modified or damaged")
+    sig = doc.get("signature")
+    if key is not None or require_signature:
+        if key is None:
+            raise ArtefactError(f"{where}: a signature is required but no key was given")
+        if not isinstance(sig, dict) or sig.get("alg") != "HMAC-SHA256" or not isinstance(sig.get("value"), str):
+            raise ArtefactError(f"{where}: signature missing or malformed (expected HMAC-SHA256)")
+        want = hmac.new(_key(key), raw, hashlib.sha256).hexdigest()
+        if not hmac.compare_digest(want, sig["value"]):
+            raise ArtefactError(f"{where}: signature does not match (wrong key, or the file was re-checksummed after editing)")
+    spec, data = _check_body(body, where)
+    art = Artefact(body["kind"], spec, dict(body["sensors"]), dict(body["limits"]), data, dict(body["provenance"]), digest)
+    try:
+        art.controller()
+    except ArtefactError:
+        raise
+    except (ValueError, KeyError, TypeError) as e:
+        raise ArtefactError(f"{where}: kind {art.kind!r} refused its data: {e}") from None
+    return art
+
+
+def _no_constant(name: str) -> None:
+    raise ArtefactError(f"non-finite constant {name} in the file")
+
+
+def _check_body(body: Mapping[str, Any], where: str) -> tuple[LoopSpec, dict[str, Any]]:
+    def need(cond: bool, what: str) -> None:
+        if not cond:
+            raise ArtefactError(f"{where}: {what}")
+
+    need(isinstance(body["kind"], str), "kind must be a string")
+    s = body["spec"]
+    need(isinstance(s, dict), "spec must be an object")
+    fields = {"task": str, "free_dofs": list, "obs_labels": list, "action_names": list, "dt": float, "airspeed_range": list, "action_scale_deg": float}
+    for k, t in fields.items():
+        v = s.get(k) if isinstance(s, dict) else None
+        ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) if t is float else isinstance(v, (list, tuple) if t is list else t)
+        need(ok, f"spec.{k} missing or not a {t.__name__}")
+    need(set(s) == set(fields), f"spec: unexpected key(s) {sorted(set(s) - set(fields))}")
+    for k in ("free_dofs", "obs_labels", "action_names"):
+        need(len(s[k]) > 0 and all(isinstance(x, str) for x in s[k]), f"spec.{k} must be a non-empty list of strings")
+    need(0.0 < s["dt"] <= 1.0, f"spec.dt = {s['dt']} s: allowed range (0, 1]")
+    need(0.0 < s["action_scale_deg"] <= 90.0, f"spec.action_scale_deg = {s['action_scale_deg']}: allowed range (0, 90]")
+    spec = LoopSpec(s["task"], tuple(s["free_dofs"]), tuple(s["obs_labels"]), tuple(s["action_names"]), float(s["dt"]),
+                    tuple(float(v) for v in s["airspeed_range"]), float(s["action_scale_deg"]))
+    sen = body["sensors"]
+    need(isinstance(sen, dict) and set(sen) == set(_SENSOR_KEYS), f"sensors: keys must be {sorted(_SENSOR_KEYS)}")
+    for k, t in _SENSOR_KEYS.items():
+        v = sen[k]
+        ok = isinstance(v, bool) if t is bool else (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and (t is float or float(v).is_integer()))
+        need(ok, f"sensors.{k} = {v!r}: must be a {t.__name__}")
+    need(0.0 < sen["rate_filter_hz"] <= 0.5 / spec.dt, f"sensors.rate_filter_hz = {sen['rate_filter_hz']}: allowed range (0, {0.5 / spec.dt}] Hz")
+    lim = body["limits"]
+    need(isinstance(lim, dict) and set(lim) == {"position_deg", "rate_deg_s"}, "limits: keys must be ['position_deg', 'rate_deg_s']")
+    for k, hi in (("position_deg", 90.0), ("rate_deg_s", 5000.0)):
+        v = lim[k]
+        need(isinstance(v, list) and len(v) == spec.n_actions, f"limits.{k}: need {spec.n_actions} values (one per action)")
+        need(all(isinstance(x, (int, float)) and not isinstance(x, bool) and 0.0 < x <= hi for x in v), f"limits.{k} = {v}: each in (0, {hi}]")
+    need(isinstance(body["params"], dict), "params must be an object")
+    need(isinstance(body["provenance"], dict), "provenance must be an object")
+    arrs = body["arrays"]
+    need(isinstance(arrs, dict), "arrays must be an object")
+    data: dict[str, Any] = dict(body["params"])
+    for name, a in arrs.items():
+        need(isinstance(a, dict) and set(a) == {"dtype", "shape", "data"}, f"arrays.{name}: needs exactly dtype, shape, data")
+        need(a["dtype"] in _DTYPES, f"arrays.{name}.dtype = {a['dtype']!r}: allowed {sorted(_DTYPES)}")
+        shp = a["shape"]
+        need(isinstance(shp, list) and len(shp) <= 4 and all(isinstance(d, int) and not isinstance(d, bool) and 0 <= d <= 2**24 for d in shp), f"arrays.{name}.shape = {shp!r}: up to 4 non-negative integers")
+        try:
+            buf = base64.b64decode(a["data"], validate=True) if isinstance(a["data"], str) else None
+        except ValueError:
+            buf = None
+        need(buf is not None, f"arrays.{name}.data: not valid base64")
+        dt = _DTYPES[a["dtype"]]
+        need(len(buf) == math.prod(shp) * dt.itemsize, f"arrays.{name}: {len(buf)} bytes of data for shape {shp} ({math.prod(shp) * dt.itemsize} expected; truncated?)")
+        arr = np.frombuffer(buf, dtype=dt).reshape(shp).astype(dt.newbyteorder("="))
+        need(bool(np.all(np.isfinite(arr))), f"arrays.{name}: non-finite value(s)")
+        data[name] = arr
+    return spec, data

@@ -1,0 +1,192 @@
+"""``rig-deploy`` (= ``python scripts/deploy.py``): export a law, fly it on a rig, or serve a simulated rig.
+
+    rig-deploy export --controller KIND --task NAME --out PATH [--rate 80] [--key-file F] [--gains KP KD KFF]
+    rig-deploy run --law FILE --rig udp://HOST:PORT [--rate 80] [--arm] [--duration S] [--log PATH] [--key-file F]
+    rig-deploy sim-rig --port PORT [--task NAME] [--rate 80] [--duration S] [--loss P] [--blackout T0 DUR] ...
+    rig-deploy verify --law FILE [--key-file F]
+
+Exit status: 0 success; 2 bad arguments or a refused artefact (the message names what failed);
+3 the run ended in FAULT.  ``run`` arms on SIGUSR1, disarms on SIGUSR2, stops on SIGINT / SIGTERM.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+from pathlib import Path
+from typing import Any, Sequence
+from urllib.parse import urlparse
+
+from controllers.deploy.artefact import ArtefactError, load
+
+EXIT_REFUSED, EXIT_FAULT = 2, 3
+
+
+def _key(path: str | None) -> bytes | None:
+    if path is None:
+        return None
+    try:
+        return Path(path).read_bytes().strip()
+    except OSError as e:
+        raise ArtefactError(f"key file {path}: cannot read ({e.strerror})") from None
+
+
+def _rig_address(url: str) -> tuple[str, int]:
+    u = urlparse(url)
+    if u.scheme != "udp" or not u.hostname or not u.port:
+        raise ValueError(f"--rig {url!r}: expected udp://HOST:PORT")
+    return u.hostname, u.port
+
+
+def cmd_export(a: argparse.Namespace) -> int:
+    import controllers  # noqa: F401  (registers the built-in laws and their artefact kinds)
+    from controllers.base import CONTROLLERS, LoopSpec, make_controller
+    from controllers.deploy import artefact as art
+    from controllers.deploy.linear import roll_tracking
+    from rig_env.envs import RigVectorEnv
+
+    env = RigVectorEnv(1, task=a.task, control_rate=a.rate)
+    spec = LoopSpec.from_env(env)
+    c = env.config
+    sensors = {"rate_filter_hz": c.rate_filter_hz, "link_delay_steps": c.link_delay_steps, "quantise": c.quantise, "pot_bits": c.pot_bits, "encoder_bits": c.encoder_bits}
+    kinds = sorted(set(CONTROLLERS) | {"linear"})
+    if a.controller == "linear":
+        ctrl = roll_tracking(spec, *a.gains)
+    elif a.controller in CONTROLLERS:
+        kwargs: dict[str, Any] = {"policy": a.policy} if a.policy else {}
+        ctrl = make_controller(a.controller, spec, 1, **kwargs)
+    else:
+        raise ValueError(f"--controller {a.controller!r}: not available in this installation; available: {kinds}")
+    rate_limit = env.params.servos.compensator.rate_limit_deg_s
+    artefact = art.from_controller(ctrl, sensors, art.default_limits(spec, rate_limit), source=f"rig-deploy export --controller {a.controller} --task {a.task}", notes=a.notes)
+    digest = art.save(artefact, a.out, _key(a.key_file))
+    print(f"wrote {a.out}: kind {artefact.kind}, task {spec.task}, {1 / spec.dt:g} Hz, sha256 {digest}")
+    return 0
+
+
+def cmd_verify(a: argparse.Namespace) -> int:
+    art = load(a.law, _key(a.key_file), require_signature=a.key_file is not None)
+    print(json.dumps({"ok": True, "kind": art.kind, "task": art.spec.task, "rate_hz": 1 / art.spec.dt, "sha256": art.sha256, "provenance": art.provenance}, indent=1))
+    return 0
+
+
+def cmd_run(a: argparse.Namespace) -> int:
+    from controllers.deploy.loop import LoopConfig, RigLoop
+
+    art = load(a.law, _key(a.key_file), require_signature=a.key_file is not None)
+    rate = a.rate if a.rate is not None else 1.0 / art.spec.dt
+    cfg = LoopConfig(rig=_rig_address(a.rig), rate_hz=rate, bind=(a.bind, a.bind_port), duration=a.duration, arm=a.arm, log_path=a.log,
+                     seed=a.seed, stale_frames=a.stale_frames, fault_frames=a.fault_frames, realtime=a.realtime,
+                     link_delay_steps=a.link_delay_steps)
+    loop = RigLoop(art, cfg)
+    signal.signal(signal.SIGINT, lambda *_: loop.stop())
+    signal.signal(signal.SIGTERM, lambda *_: loop.stop())
+    if hasattr(signal, "SIGUSR1"):
+        signal.signal(signal.SIGUSR1, lambda *_: loop.arm())
+        signal.signal(signal.SIGUSR2, lambda *_: loop.disarm())
+    summary = loop.run()
+    text = json.dumps(summary, indent=1)
+    print(text)
+    if a.log:
+        Path(a.log + ".summary.json").write_text(text + "\n")
+    return EXIT_FAULT if summary["final_state"] == "FAULT" else 0
+
+
+def cmd_sim_rig(a: argparse.Namespace) -> int:
+    from controllers.deploy.simrig import Faults, SimRig
+
+    faults = Faults(loss=a.loss, cmd_loss=a.cmd_loss, delay=a.delay, duplicate=a.duplicate, reorder=a.reorder, corrupt=a.corrupt,
+                    blackout=tuple(a.blackout) if a.blackout else None,
+                    stuck=(a.stuck[0], float(a.stuck[1]), float(a.stuck[2])) if a.stuck else None, seed=a.fault_seed)
+    fields: dict[str, Any] = {}
+    if a.no_noise:
+        fields.update(angle_noise_deg=0.0, flap_noise_deg=0.0, airspeed_noise=0.0)
+    rig = SimRig(a.port, a.task, a.rate, a.duration, a.seed, faults, host=a.host, realtime=a.realtime, **fields)
+    print(json.dumps({"listening": [a.host, rig.port], "task": a.task, "rate_hz": a.rate}), flush=True)
+    signal.signal(signal.SIGTERM, lambda *_: rig.stop())
+    summary = rig.run()
+    if a.record and "error" not in summary:
+        rig.save_record(a.record)
+    text = json.dumps(summary, indent=1)
+    print(text, flush=True)
+    if a.summary:
+        Path(a.summary).write_text(text + "\n")
+    return 0 if "error" not in summary else 1
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="rig-deploy", description=__doc__.split("\n")[0])
+    sub = p.add_subparsers(dest="command", required=True)
+    e = sub.add_parser("export", help="write a law to an artefact file")
+    e.add_argument("--controller", required=True, help="controller kind (linear; lqr, pid, ppo, sac when installed)")
+    e.add_argument("--task", required=True)
+    e.add_argument("--out", required=True)
+    e.add_argument("--rate", type=float, default=80.0, help="control rate, Hz")
+    e.add_argument("--policy", help="trained policy file (RL kinds)")
+    e.add_argument("--gains", type=float, nargs=3, default=(2.0, 1.0, 1.0), metavar=("KP", "KD", "KFF"), help="linear: roll-tracking gains")
+    e.add_argument("--key-file", help="sign with the HMAC key in this file")
+    e.add_argument("--notes", default="")
+    e.set_defaults(func=cmd_export)
+    v = sub.add_parser("verify", help="validate an artefact file")
+    v.add_argument("--law", required=True)
+    v.add_argument("--key-file")
+    v.set_defaults(func=cmd_verify)
+    r = sub.add_parser("run", help="fly a law on a rig")
+    r.add_argument("--law", required=True)
+    r.add_argument("--rig", required=True, help="udp://HOST:PORT")
+    r.add_argument("--rate", type=float, help="Hz (default: the law's)")
+    r.add_argument("--arm", action="store_true", help="arm at the first frame")
+    r.add_argument("--duration", type=float)
+    r.add_argument("--log")
+    r.add_argument("--seed", type=int, default=0, help="task reference draw (as RigVectorEnv.reset(seed))")
+    r.add_argument("--bind", default="0.0.0.0")
+    r.add_argument("--bind-port", type=int, default=0)
+    r.add_argument("--stale-frames", type=int, default=3)
+    r.add_argument("--fault-frames", type=int, default=8)
+    r.add_argument("--key-file")
+    r.add_argument("--realtime", action="store_true", help="SCHED_FIFO scheduling (Linux, privileged)")
+    r.add_argument("--link-delay-steps", type=int, default=0, help="age of a sensor frame on arrival, control steps (reference lead)")
+    r.set_defaults(func=cmd_run)
+    s = sub.add_parser("sim-rig", help="serve the simulated rig")
+    s.add_argument("--port", type=int, required=True)
+    s.add_argument("--host", default="127.0.0.1")
+    s.add_argument("--task", default="velocity_vector_roll")
+    s.add_argument("--rate", type=float, default=80.0)
+    s.add_argument("--duration", type=float, default=20.0)
+    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--loss", type=float, default=0.0)
+    s.add_argument("--cmd-loss", type=float, default=0.0)
+    s.add_argument("--delay", type=float, default=0.0)
+    s.add_argument("--duplicate", type=float, default=0.0)
+    s.add_argument("--reorder", type=float, default=0.0)
+    s.add_argument("--corrupt", type=float, default=0.0)
+    s.add_argument("--blackout", type=float, nargs=2, metavar=("T0", "DUR"))
+    s.add_argument("--stuck", nargs=3, metavar=("JOINT", "T0", "DUR"))
+    s.add_argument("--fault-seed", type=int, default=0)
+    s.add_argument("--no-noise", action="store_true", help="no sensor noise (quantisation stays)")
+    s.add_argument("--realtime", action="store_true", help="SCHED_FIFO scheduling (Linux, privileged)")
+    s.add_argument("--record")
+    s.add_argument("--summary")
+    s.set_defaults(func=cmd_sim_rig)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    a = parser().parse_args(argv)
+    try:
+        return a.func(a)
+    except ArtefactError as e:
+        print(f"rig-deploy: artefact refused: {e}", file=sys.stderr)
+        return EXIT_REFUSED
+    except ValueError as e:
+        print(f"rig-deploy: {e}", file=sys.stderr)
+        return EXIT_REFUSED
+    except OSError as e:
+        print(f"rig-deploy: {e.filename or ''}: {e.strerror}", file=sys.stderr)
+        return EXIT_REFUSED
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,115 @@
+"""``LinearLaw``: static linear state feedback on the observation, with output and rate limits (artefact kind "linear").
+
+Per control step ``dt`` (batched over environments, numpy only)::
+
+    v_k = clip(K (obs_k - obs0) + u0, -1, 1)                 K: (n_a, obs_dim), obs0: (obs_dim,), u0: (n_a,)
+    u_k = u_{k-1} + clip(v_k - u_{k-1}, -r dt, r dt)           r: (n_a,) rate limit, action units / s
+    u_{-1} = 0 after reset (surfaces at neutral, as the environments start)
+
+Actions are normalised (1 = ``spec.action_scale_deg``).  This is what an LQR exports to (``K = -K_lqr
+M`` with ``M`` the map from observation entries to the design state, ``obs0`` the trim observation,
+``u0`` the trim command), so :data:`ARTEFACT_KINDS` ``["linear"]`` serves both.  :func:`roll_tracking`
+builds the simple roll-tracking law used by the deployment tests (a proportional-derivative law on the
+task's roll error entries with reference-rate feed-forward; a legitimate law, not a tuned design).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+import numpy as np
+
+from controllers.base import Controller, LoopSpec, register
+from controllers.deploy.artefact import register_kind
+
+
+@register("linear")
+class LinearLaw(Controller):
+    """u = clip(K (obs - obs0) + u0, -1, 1) with a rate limit; see the module docstring.
+
+    | argument | shape | unit |
+    |---|---|---|
+    | K | (n_actions, obs_dim) | action units per observation unit |
+    | obs0 | (obs_dim,) | observation units (default 0) |
+    | u0 | (n_actions,) | action units, in [-1, 1] (default 0) |
+    | rate_limit | (n_actions,) | action units / s, > 0 (default 350/40: the servos' 350 deg/s) |
+    """
+
+    artefact_kind = "linear"
+
+    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, K: np.ndarray, obs0: np.ndarray | None = None,
+                 u0: np.ndarray | None = None, rate_limit: np.ndarray | None = None) -> None:
+        super().__init__(spec, num_envs)
+        na, no = spec.n_actions, spec.obs_dim
+        self.K = _arr("K", K, (na, no))
+        self.obs0 = _arr("obs0", np.zeros(no) if obs0 is None else obs0, (no,))
+        self.u0 = _arr("u0", np.zeros(na) if u0 is None else u0, (na,))
+        if np.any(np.abs(self.u0) > 1.0):
+            raise ValueError(f"u0 = {self.u0.tolist()}: each entry must be in [-1, 1]")
+        self.rate_limit = _arr("rate_limit", np.full(na, 350.0 / spec.action_scale_deg) if rate_limit is None else rate_limit, (na,))
+        if np.any(self.rate_limit <= 0.0):
+            raise ValueError(f"rate_limit = {self.rate_limit.tolist()}: each entry must be > 0 (action units / s)")
+        self._du = self.rate_limit * spec.dt
+        self.u = np.zeros((self.num_envs, na))
+
+    def reset(self, mask: np.ndarray | None = None) -> None:
+        self.u[self._mask(mask)] = 0.0
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        o = self._check_obs(obs)
+        v = np.clip((o - self.obs0) @ self.K.T + self.u0, -1.0, 1.0)
+        self.u += np.clip(v - self.u, -self._du, self._du)
+        return self.u.copy()
+
+
+def _arr(name: str, v: Any, shape: tuple[int, ...]) -> np.ndarray:
+    a = np.array(v, dtype=np.float64)
+    if a.shape != shape:
+        raise ValueError(f"{name}: expected shape {shape}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: non-finite value(s)")
+    return a
+
+
+def roll_tracking(spec: LoopSpec, kp: float = 2.0, kd: float = 1.0, kff: float = 1.0) -> LinearLaw:
+    """Compensator aileron = kp roll_error + kd roll-rate error + kff roll_rate_ref (observation units).
+
+    Uses the task entries ``roll_error`` and ``roll_rate_error``/``roll_rate_ref`` when the task has
+    them, else ``-rig_roll_rate`` as the rate error (a step reference has zero reference rate).
+    """
+    if "roll_error" not in spec.obs_labels:
+        raise ValueError(f"task {spec.task!r}: the roll-tracking law needs an observation entry 'roll_error'; entries: {list(spec.obs_labels)}")
+    K = np.zeros((spec.n_actions, spec.obs_dim))
+    a = spec.action_index("comp_aileron")
+    K[a, spec.index("roll_error")] = kp
+    if "roll_rate_error" in spec.obs_labels:
+        K[a, spec.index("roll_rate_error")] = kd
+        K[a, spec.index("roll_rate_ref")] = kff
+    else:
+        K[a, spec.index("rig_roll_rate")] = -kd
+    return LinearLaw(spec, 1, K=K)
+
+
+def _to_arrays(law: Controller) -> dict[str, Any]:
+    """A LinearLaw's arrays, or ``law.linear_form()`` (a dict with K, obs0, u0, rate_limit) of another law
+    that is static and linear in its observation (an LQR sets ``artefact_kind = "linear"`` and provides it)."""
+    if isinstance(law, LinearLaw):
+        return {"K": law.K.copy(), "obs0": law.obs0.copy(), "u0": law.u0.copy(), "rate_limit": law.rate_limit.copy()}
+    form = getattr(law, "linear_form", None)
+    if form is None:
+        raise TypeError(f"kind 'linear' exports a LinearLaw or a law with linear_form(); got {type(law).__name__}")
+    d = dict(form())
+    unknown = sorted(set(d) - {"K", "obs0", "u0", "rate_limit"})
+    if unknown:
+        raise ValueError(f"linear_form(): unknown key(s) {unknown}; allowed K, obs0, u0, rate_limit")
+    return _to_arrays(LinearLaw(law.spec, 1, **d))  # validates shapes and values, fills the defaults
+
+
+def _from_arrays(data: Mapping[str, Any], spec: LoopSpec) -> LinearLaw:
+    missing = [k for k in ("K", "obs0", "u0", "rate_limit") if k not in data]
+    if missing:
+        raise ValueError(f"linear: missing array(s) {missing}")
+    return LinearLaw(spec, 1, K=data["K"], obs0=data["obs0"], u0=data["u0"], rate_limit=data["rate_limit"])
+
+
+register_kind("linear", _to_arrays, _from_arrays)

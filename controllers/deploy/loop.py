@@ -1,0 +1,449 @@
+"""``RigLoop``: the fixed-rate real-time loop that flies a deployed law on the rig over UDP, with watchdogs.
+
+Lifecycle (the state is in every log record and the command frame's ``mode``)::
+
+    DISARMED --arm()--> ACTIVE --watchdog--> FAULT (latched) --arm()--> ACTIVE
+        ^                  |                   |
+        +----disarm()------+-------disarm()----+
+
+DISARMED: telemetry only, neutral commands (mode 0).  ACTIVE: the law flies (mode 1).  FAULT:
+neutral commands (mode 2) until ``arm()`` (``--arm`` arms at the first frame; SIGUSR1 arms, SIGUSR2
+disarms in ``scripts/deploy.py run``).  ``arm()`` is refused while no fresh frame has arrived.
+
+Scheduling: tick ``k`` has the absolute deadline ``start + k / rate`` (``time.perf_counter``; no relative
+sleeps); ``start`` is the first sensor frame's arrival plus ``phase`` periods, so each tick finds the
+rig's newest frame waiting.  The loop sleeps to ``deadline - spin_s`` and spins the rest.  Socket reads
+are non-blocking (a tick reads what is queued, at most 64 datagrams); when no new frame is queued the
+tick waits for one at most ``frame_wait`` periods (``select`` with a timeout), never longer.
+If the loop wakes more than a period late, it skips to the current tick (skipped ticks are misses).
+
+Per tick: read frames (others' addresses: ``n_foreign``; bad length / magic / version / CRC / non-finite:
+``n_corrupt``; not newer than the last: ``n_old``), update :class:`rig_env.envs.sensors.Sensors`
+(``noise=None``, ``quantise=False``, ``delay_steps=0``) and build the observation with
+:func:`rig_env.envs.observation.observe` (the environments' own builder), call the law, apply the
+output position and rate limits (always, in every state), send the command, log the record.  A missing
+frame is bridged by extrapolating the angles with the estimated rates (``angle + rate dt``) for up to
+``stale_frames - 1`` ticks.
+
+| watchdog | bound (default) | action |
+|---|---|---|
+| stale / missing frames | ``stale_frames`` (3) consecutive ticks without a new frame | neutral target at once, mode SAFE; resumes if frames return |
+| stale / missing frames | ``fault_frames`` (8) consecutive ticks | FAULT (latched) |
+| sensor range | non-finite (refused by the CRC/finite check); limited joints beyond +-90 deg, unlimited beyond +-1e4 rad, flaps beyond +-60 deg, airspeed outside [0, 45] m/s | FAULT |
+| rig status | RIG_FAULT bit set | FAULT |
+| controller | exception or non-finite output | FAULT |
+| overrun | the law's ``act`` longer than ``overrun_s`` (half a period) | FAULT |
+
+Why two stale bounds: a single 3-frame latch trips on random 10 % packet loss about once every
+1000 ticks (0.1^3), i.e. ~1.4 times in 20 s at 80 Hz; a 3-frame neutral hold with an 8-frame latch
+(0.1 s at 80 Hz; 0.1^8 per tick) keeps the safe state within 3 frames and the latch for real outages.
+Setting ``fault_frames = stale_frames`` gives the strict single bound.
+
+Output limits: ``command = prev + clip(clip(target, -pos, pos) - prev, -rate dt, rate dt)`` with the
+artefact's ``limits`` (default +-40 deg and the servos' 350 deg/s): the safe target is commanded at
+once and the surfaces reach neutral at the servos' own slew rate.
+"""
+
+from __future__ import annotations
+
+import gc
+import math
+import os
+import select
+import socket
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from controllers.deploy import protocol as pr
+from controllers.deploy.artefact import Artefact
+from controllers.deploy.framelog import FrameLog
+from rig_env.envs.observation import labels, observe, task_for_seed
+from rig_env.envs.sensors import UNLIMITED, Sensors
+from rig_env.params import JOINTS
+
+DISARMED, ACTIVE, FAULT = 0, 1, 2
+STATES = ("DISARMED", "ACTIVE", "FAULT")
+F_STALE, F_SENSOR, F_RIG, F_CONTROLLER, F_OVERRUN = 1, 2, 4, 8, 16
+FAULTS = {F_STALE: "stale", F_SENSOR: "sensor_range", F_RIG: "rig_status", F_CONTROLLER: "controller", F_OVERRUN: "overrun"}
+LIMITED_MAX = math.radians(90.0)
+UNLIMITED_MAX = 1.0e4
+FLAP_MAX = math.radians(60.0)
+AIRSPEED_RANGE = (0.0, 45.0)
+
+
+@dataclass(frozen=True)
+class LoopConfig:
+    """Settings of :class:`RigLoop` (addresses are (host, port); ``duration`` None: until ``stop()``).
+
+    rate_hz: loop rate, must equal the law's ``1 / spec.dt``.  seed: draws the task's reference as
+    ``RigVectorEnv.reset(seed=seed)`` does.  episode_seconds: the task's horizon (None: the task's).
+    phase: tick offset after the rig's frame, periods, [0, 0.9].  spin_s: busy-wait before a deadline, s.
+    overrun_s: None = half a period.  frame_wait: when the tick finds no new frame, wait up to this many
+    periods for it (select, bounded), [0, 0.5].  miss_fraction: a tick whose command leaves later than this many
+    periods after its deadline is a deadline miss (None: ``1 - phase``, i.e. the command missed the rig's
+    next tick and the rig applies the previous one).  realtime: run the loop thread under SCHED_FIFO
+    (Linux; needs the privilege, else an event "realtime_refused" and normal scheduling).
+    link_delay_steps: age of a frame when the loop gets it, control steps (the environments'
+    ``link_delay_steps``): the task reference is taken at ``rig_time + link_delay_steps dt``, so with
+    that delay on the link the law sees what it saw in ``RigVectorEnv(link_delay_steps=...)``, [0, 50].
+    """
+
+    rig: tuple[str, int]
+    rate_hz: float
+    bind: tuple[str, int] = ("0.0.0.0", 0)
+    duration: float | None = None
+    arm: bool = False
+    log_path: str | None = None
+    seed: int = 0
+    episode_seconds: float | None = None
+    stale_frames: int = 3
+    fault_frames: int = 8
+    phase: float = 0.25
+    spin_s: float = 0.001
+    overrun_s: float | None = None
+    miss_fraction: float | None = None
+    frame_wait: float = 0.25
+    realtime: bool = False
+    link_delay_steps: int = 0
+    connect_timeout: float = 5.0
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.rate_hz) and 1.0 <= self.rate_hz <= 2000.0):
+            raise ValueError(f"rate_hz = {self.rate_hz}: allowed range [1, 2000] Hz")
+        if self.duration is not None and not (math.isfinite(self.duration) and self.duration > 0):
+            raise ValueError(f"duration = {self.duration}: must be a positive number of seconds")
+        if not (isinstance(self.stale_frames, int) and 1 <= self.stale_frames <= self.fault_frames <= 1000):
+            raise ValueError(f"stale_frames = {self.stale_frames}, fault_frames = {self.fault_frames}: need 1 <= stale_frames <= fault_frames <= 1000")
+        if not 0.0 <= self.phase <= 0.9:
+            raise ValueError(f"phase = {self.phase}: allowed range [0, 0.9] periods")
+        if not (isinstance(self.link_delay_steps, int) and 0 <= self.link_delay_steps <= 50):
+            raise ValueError(f"link_delay_steps = {self.link_delay_steps!r}: an integer in [0, 50]")
+        if not 0.0 <= self.frame_wait <= 0.5:
+            raise ValueError(f"frame_wait = {self.frame_wait}: allowed range [0, 0.5] periods")
+        if self.miss_fraction is not None and not 0.0 < self.miss_fraction <= 1.0:
+            raise ValueError(f"miss_fraction = {self.miss_fraction}: allowed range (0, 1]")
+
+
+class OutputLimits:
+    """Position and rate limits of the surface commands (rad), applied in every state of the loop.
+
+    ``apply(target)``: ``cmd = cmd + clip(clip(target, -pos, pos) - cmd, -rate dt, rate dt)``; target
+    (6,) rad; returns the (6,) command (a view of the internal state: copy to keep it).
+    """
+
+    def __init__(self, artefact: Artefact, dt: float) -> None:
+        na = artefact.spec.n_actions
+        self.pos, self.du, self.cmd = np.zeros(pr.N_SURFACES), np.zeros(pr.N_SURFACES), np.zeros(pr.N_SURFACES)
+        self.pos[:na] = np.radians(artefact.limits["position_deg"])
+        self.du[:na] = np.radians(artefact.limits["rate_deg_s"]) * dt
+        self._t = np.zeros(pr.N_SURFACES)
+
+    def apply(self, target: np.ndarray) -> np.ndarray:
+        np.clip(target, -self.pos, self.pos, out=self._t)
+        self.cmd += np.clip(self._t - self.cmd, -self.du, self.du)
+        return self.cmd
+
+
+class RigLoop:
+    """Fly ``artefact`` on the rig at ``config.rig``; :meth:`run` returns the summary dict (see ``summary``)."""
+
+    def __init__(self, artefact: Artefact, config: LoopConfig) -> None:
+        spec, cfg = artefact.spec, config
+        if abs(cfg.rate_hz * spec.dt - 1.0) > 1e-6:
+            raise ValueError(f"rate = {cfg.rate_hz} Hz: the law was designed for {1.0 / spec.dt:g} Hz (spec.dt = {spec.dt} s)")
+        self.art, self.cfg, self.spec = artefact, cfg, spec
+        self.period = 1.0 / cfg.rate_hz
+        self.law = artefact.controller()
+        self.sensors = Sensors(1, spec.free_dofs, spec.dt, rate_filter_hz=float(artefact.sensors["rate_filter_hz"]), delay_steps=0, quantise=False)
+        ep = self._ep = cfg.episode_seconds or 600.0
+        self.task = task_for_seed(spec.task, spec.free_dofs, spec.dt, ep, cfg.seed, airspeed=float(np.mean(spec.airspeed_range)))
+        built = labels(self.sensors, self.task)
+        if built != spec.obs_labels:
+            raise ValueError(f"observation layout: the law expects {list(spec.obs_labels)}, this loop builds {list(built)}")
+        self.free = np.array([JOINTS.index(j) for j in spec.free_dofs])
+        self.lim_max = np.array([UNLIMITED_MAX if j in UNLIMITED else LIMITED_MAX for j in JOINTS])
+        self.scale = math.radians(spec.action_scale_deg)
+        self.limits = OutputLimits(artefact, self.period)
+        self.overrun_s = cfg.overrun_s if cfg.overrun_s is not None else 0.5 * self.period
+        self.miss_s = (cfg.miss_fraction if cfg.miss_fraction is not None else 1.0 - cfg.phase) * self.period
+        self.rig = (socket.gethostbyname(cfg.rig[0]), int(cfg.rig[1]))
+        # preallocated per-tick buffers
+        self.rx, self.tx = bytearray(2048), bytearray(pr.COMMAND_SIZE)
+        self.angles, self.flaps = np.zeros(5), np.zeros(4)
+        self.airspeed, self.rig_time, self.status = 0.0, 0.0, 0
+        self.action, self.target = np.zeros(pr.N_SURFACES), np.zeros(pr.N_SURFACES)
+        self.t_arr = np.zeros(1)
+        self.q5, self.qd5 = np.zeros(5), np.zeros(5)
+        # lifecycle and counters
+        self.state, self.fault, self.missed = DISARMED, 0, 0
+        self.seq, self.cmd_seq, self.have_frame, self.t_origin, self._first = -1, 0, False, 0.0, False
+        self._arm_req, self._disarm_req, self._stop = False, False, False
+        self.counts = {k: 0 for k in ("fresh", "missed", "foreign", "corrupt", "old", "resync", "tx_error", "arm_refused", "deadline_miss", "skipped")}
+        self.corrupt_reasons: dict[str, int] = {}
+        self.events: list[dict[str, Any]] = []
+        self.sock: socket.socket | None = None
+        self.port = 0
+
+    # ------------------------------------------------------------------ operator
+    def arm(self) -> None:
+        """Request ACTIVE at the next tick (clears a latched fault); refused without a fresh frame."""
+        self._arm_req = True
+
+    def disarm(self) -> None:
+        self._disarm_req = True
+
+    def stop(self) -> None:
+        self._stop = True
+
+    def open(self) -> int:
+        """Bind the socket (before :meth:`run` when the caller needs the port); returns the local port."""
+        if self.sock is None:
+            self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            self.sock.bind(self.cfg.bind)
+            self.sock.setblocking(False)
+            self.port = self.sock.getsockname()[1]
+        return self.port
+
+    # ------------------------------------------------------------------ run
+    def run(self) -> dict[str, Any]:
+        cfg = self.cfg
+        self.open()
+        if cfg.realtime:
+            try:
+                os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(50))
+            except (AttributeError, PermissionError, OSError) as e:
+                self.events.append({"tick": 0, "event": "realtime_refused", "detail": str(e)})
+        header = {"artefact_sha256": self.art.sha256, "kind": self.art.kind, "task": self.spec.task, "rate_hz": cfg.rate_hz,
+                  "rig": list(self.rig), "seed": cfg.seed, "stale_frames": cfg.stale_frames, "fault_frames": cfg.fault_frames}
+        self.log = FrameLog(cfg.log_path, cfg.rate_hz, header)
+        n_ticks = None if cfg.duration is None else int(round(cfg.duration * cfg.rate_hz))
+        self.lat = np.zeros(n_ticks if n_ticks else 1 << 20)  # unbounded runs: statistics of the last 2**20 ticks
+        self.jit = np.zeros_like(self.lat)
+        self.comp = np.zeros_like(self.lat)
+        self.n = 0
+        gc.collect()
+        gc.freeze()  # objects alive now never enter a collection again: no long gen-2 pauses inside a tick
+        try:
+            t_first = self._connect()
+            self.t0 = time.perf_counter()
+            start = (t_first if t_first is not None else self.t0) + cfg.phase * self.period
+            k = 0
+            while not self._stop and (n_ticks is None or k < n_ticks):
+                deadline = start + k * self.period
+                self._sleep_until(deadline)
+                wake = time.perf_counter()
+                late = int((wake - deadline) / self.period)
+                if late >= 1:  # woke a whole period late: skip to the current tick
+                    self.counts["skipped"] += late
+                    self.counts["deadline_miss"] += late
+                    k += late
+                    deadline = start + k * self.period
+                self._tick(k, deadline, wake)
+                if self.log.due(wake - self.t0):
+                    self.log.flush(wake - self.t0)
+                k += 1
+        finally:
+            self._send_neutral()
+            gc.unfreeze()
+            self.log.close()
+            self.sock.close()
+            self.sock = None
+        return self.summary()
+
+    def _connect(self) -> float | None:
+        """Send hellos (neutral DISARMED commands) until the rig's first frame arrives; its arrival time or None."""
+        end = time.perf_counter() + self.cfg.connect_timeout
+        while time.perf_counter() < end and not self._stop:
+            self._send(np.zeros(pr.N_SURFACES), pr.MODE_DISARMED, pr.NO_ECHO)
+            r, _, _ = select.select([self.sock], [], [], min(0.1, max(0.0, end - time.perf_counter())))
+            if r and self._drain():
+                self._first = True
+                return time.perf_counter()
+        return None
+
+    def _sleep_until(self, deadline: float) -> None:
+        rest = deadline - time.perf_counter() - self.cfg.spin_s
+        if rest > 0:
+            time.sleep(rest)
+        while time.perf_counter() < deadline:
+            pass
+
+    def _drain(self) -> bool:
+        """Read every queued datagram; keep the newest valid frame from the rig. True if one was new."""
+        fresh = False
+        for _ in range(64):
+            try:
+                n, addr = self.sock.recvfrom_into(self.rx)
+            except (BlockingIOError, InterruptedError):
+                break
+            except OSError:  # e.g. ICMP port unreachable reported on a later recv
+                continue
+            if addr[0] != self.rig[0] or addr[1] != self.rig[1]:
+                self.counts["foreign"] += 1
+                continue
+            try:
+                seq, rt, ang, fl, air, st = pr.unpack_sensor(memoryview(self.rx)[:n])
+            except pr.FrameError as e:
+                self.counts["corrupt"] += 1
+                self.corrupt_reasons[e.reason] = self.corrupt_reasons.get(e.reason, 0) + 1
+                continue
+            if self.seq >= 0 and not pr.newer(seq, self.seq):
+                if self.missed < self.cfg.fault_frames:
+                    self.counts["old"] += 1
+                    continue
+                self.counts["resync"] += 1  # stale past the latch bound (so FAULT or DISARMED): a restarted rig's new count
+            
+            self.seq, self.rig_time, self.airspeed, self.status = seq, rt, air, st
+            self.angles[:], self.flaps[:] = ang, fl
+            fresh = True
+        return fresh
+
+    def _latch(self, bit: int, tick: int, detail: str) -> None:
+        if not self.fault & bit:
+            self.events.append({"tick": tick, "t": time.perf_counter() - self.t0, "event": "fault", "fault": FAULTS[bit], "detail": detail})
+        self.state, self.fault = FAULT, self.fault | bit
+
+    def _tick(self, k: int, deadline: float, wake: float) -> None:
+        """One period: sense, lifecycle, control, limits, send, record."""
+        fresh, bad_now = self._sense(k, deadline)
+        self._lifecycle(k, wake, fresh, bad_now)
+        mode, compute, obs_t = self._control(k)
+        cmd = self.limits.apply(self.target)
+        self._send(cmd, mode, self.seq if self.seq >= 0 else pr.NO_ECHO)
+        send = time.perf_counter()
+        i = self.n % self.lat.size
+        self.lat[i], self.jit[i], self.comp[i] = send - deadline, wake - deadline, compute
+        self.n += 1
+        if send - deadline > self.miss_s:
+            self.counts["deadline_miss"] += 1
+        r = self.log.next()
+        r["tick"], r["deadline"], r["wake"], r["send"], r["compute"] = k, deadline - self.t0, wake - self.t0, send - self.t0, compute
+        r["state"], r["mode"], r["fault"], r["fresh"], r["missed"] = self.state, mode, self.fault, fresh, self.missed
+        r["seq"], r["rig_time"], r["angles"], r["flaps"], r["airspeed"] = self.seq, self.rig_time, self.angles, self.flaps, self.airspeed
+        r["obs_t"], r["action"], r["command"] = obs_t, self.action, cmd
+        r["n_foreign"], r["n_corrupt"], r["n_old"] = self.counts["foreign"], self.counts["corrupt"], self.counts["old"]
+
+    def _sense(self, k: int, deadline: float) -> tuple[bool, bool]:
+        """Read frames (bounded wait), feed the estimator, run the sensor watchdogs; (fresh frame, frame out of range)."""
+        s = self.sensors
+        fresh = self._drain() or self._first
+        self._first = False
+        if not fresh and self.have_frame and self.cfg.frame_wait > 0.0:  # the rig is late: wait, bounded
+            limit = deadline + self.cfg.frame_wait * self.period
+            while not fresh and (rest := limit - time.perf_counter()) > 0.0:
+                if select.select([self.sock], [], [], rest)[0]:
+                    fresh = self._drain()
+        if not fresh:
+            self.counts["missed"] += 1
+            self.missed += 1
+            if self.have_frame and self.missed < self.cfg.stale_frames:  # bridge a lost frame
+                s.update(s.angles + s.rates * self.spec.dt, s.flaps.copy(), s.airspeed.copy())
+            if self.state == ACTIVE and self.missed >= self.cfg.fault_frames:
+                self._latch(F_STALE, k, f"{self.missed} ticks without a sensor frame")
+            return False, False
+        self.counts["fresh"] += 1
+        self.missed = 0
+        a_free = self.angles[self.free][None]
+        if not self.have_frame:  # first frame: the estimator starts from it (rates 0), as an env reset
+            s.reset(np.zeros(1, dtype=np.int64), a_free, self.flaps[None], np.array([self.airspeed]))
+            self.have_frame = True
+            self._arm_req = self._arm_req or self.cfg.arm
+        else:
+            s.update(a_free, self.flaps[None], np.array([self.airspeed]))
+        bad = False
+        if np.any(np.abs(self.angles) > self.lim_max) or np.any(np.abs(self.flaps) > FLAP_MAX) or not AIRSPEED_RANGE[0] <= self.airspeed <= AIRSPEED_RANGE[1]:
+            bad = True
+            self._latch(F_SENSOR, k, f"angles {np.round(np.degrees(self.angles), 1).tolist()} deg, flaps {np.round(np.degrees(self.flaps), 1).tolist()} deg, airspeed {self.airspeed:.1f} m/s")
+        if self.status & pr.STATUS_RIG_FAULT:
+            bad = True
+            self._latch(F_RIG, k, f"rig status 0x{self.status:x}")
+        return True, bad
+
+    def _lifecycle(self, k: int, wake: float, fresh: bool, bad_now: bool) -> None:
+        """Apply operator requests: disarm always; arm only on a fresh, in-range frame (it resets the law and the reference clock)."""
+        if self._disarm_req:
+            self._disarm_req, self._arm_req = False, False
+            self.state, self.fault = DISARMED, 0
+            self.events.append({"tick": k, "event": "disarm"})
+        if self._arm_req:
+            self._arm_req = False
+            if fresh and not bad_now:
+                self.state, self.fault, self.t_origin = ACTIVE, 0, self.rig_time
+                self.law.reset()
+                # the task's reference restarts at arming, for the measured airspeed (as an env reset draws it)
+                self.task = task_for_seed(self.spec.task, self.spec.free_dofs, self.spec.dt, self._ep, self.cfg.seed, airspeed=self.airspeed)
+                self.events.append({"tick": k, "t": wake - self.t0, "event": "arm", "seq": self.seq})
+            else:
+                self.counts["arm_refused"] += 1
+                self.events.append({"tick": k, "event": "arm_refused"})
+
+    def _control(self, k: int) -> tuple[int, float, float]:
+        """Set ``self.target`` (rad) and ``self.action``; run the law's watchdogs. (mode, law time s, reference time s)."""
+        spec = self.spec
+        compute = 0.0
+        self.action[:] = 0.0
+        self.target[:] = 0.0
+        mode = pr.MODE_DISARMED if self.state == DISARMED else pr.MODE_SAFE
+        obs_t = self.rig_time - self.t_origin + (self.missed + self.cfg.link_delay_steps) * spec.dt
+        if self.state != ACTIVE or self.missed >= self.cfg.stale_frames:
+            return mode, compute, obs_t
+        self.t_arr[0] = obs_t
+        # tasks with internal states (the free-Hawk reference model) advance on the measured joints
+        self.q5[self.free] = self.sensors.angles[0]
+        self.qd5[self.free] = self.sensors.rates[0]
+        self.task.advance(self.t_arr, self.q5[None], self.qd5[None])
+        obs = observe(self.sensors, self.task, self.t_arr)
+        c0 = time.perf_counter()
+        try:
+            a = self.law.act(obs)[0]
+        except Exception as e:  # noqa: BLE001 - any failure of the law is a fault, never a crash
+            self._latch(F_CONTROLLER, k, f"{type(e).__name__}: {e}")
+            return mode, time.perf_counter() - c0, obs_t
+        compute = time.perf_counter() - c0
+        if not np.all(np.isfinite(a)):
+            self._latch(F_CONTROLLER, k, "non-finite action")
+        elif compute > self.overrun_s:
+            self._latch(F_OVERRUN, k, f"act took {compute * 1e3:.2f} ms > {self.overrun_s * 1e3:.2f} ms")
+        else:
+            self.action[: spec.n_actions] = a
+            self.target[: spec.n_actions] = a * self.scale
+            mode = pr.MODE_ACTIVE
+        return mode, compute, obs_t
+
+    def _send(self, cmd: np.ndarray, mode: int, echo: int) -> None:
+        pr.pack_command_into(self.tx, self.cmd_seq, echo, cmd, mode)
+        self.cmd_seq += 1
+        try:
+            self.sock.sendto(self.tx, self.rig)
+        except OSError:
+            self.counts["tx_error"] += 1
+
+    def _send_neutral(self) -> None:
+        if self.sock is not None:
+            for _ in range(3):
+                self._send(np.zeros(pr.N_SURFACES), pr.MODE_SAFE, pr.NO_ECHO)
+
+    # ------------------------------------------------------------------ summary
+    def summary(self) -> dict[str, Any]:
+        """Counts, deadline misses, latency (command sent - deadline) and jitter (wake - deadline) statistics, faults."""
+        n = min(self.n, self.lat.size)
+        lat, jit, comp = self.lat[:n], self.jit[:n], self.comp[:n]
+        called = comp[comp > 0]
+
+        def stats(x: np.ndarray) -> dict[str, float]:
+            if x.size == 0:
+                return {"p50_ms": float("nan"), "p99_ms": float("nan"), "max_ms": float("nan")}
+            return {"p50_ms": float(np.percentile(x, 50) * 1e3), "p99_ms": float(np.percentile(x, 99) * 1e3), "max_ms": float(x.max() * 1e3)}
+
+        ticks = self.n + self.counts["skipped"]
+        return {
+            "ticks": ticks, "rate_hz": self.cfg.rate_hz, "final_state": STATES[self.state],
+            "faults": [FAULTS[b] for b in FAULTS if self.fault & b],
+            "deadline_misses": self.counts["deadline_miss"], "deadline_miss_fraction": self.counts["deadline_miss"] / max(ticks, 1),
+            "latency": stats(lat), "wake_jitter": dict(stats(np.abs(jit)), std_ms=float(np.std(jit) * 1e3) if n else float("nan")),
+            "compute": stats(called), "counts": dict(self.counts), "corrupt_reasons": dict(self.corrupt_reasons),
+            "events": self.events, "artefact_sha256": self.art.sha256,
+        }
