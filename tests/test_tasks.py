@@ -332,3 +332,16 @@ def test_scalar_equals_vector_through_the_reference_model_and_pilot_inputs():
                 o, _ = envs[i].reset()
             assert np.array_equal(o, vobs[i])
     assert ends == len(check)
+
+
+def test_bank_to_bank_reference_does_not_step_on_the_final_control_step():
+    """A bank step due exactly at the time limit (1 s + 4 x 4 s = 17 s) would make the last reference
+    jump and fail every law at the success check; the last step inside the episode is held instead."""
+    from rig_env.envs.tasks import BankToBank
+
+    dt = 1 / 80
+    task = BankToBank(3, ("rig_roll", "rig_yaw", "model_pitch", "model_yaw"), dt, 17.0)
+    task.reset(np.arange(3), np.random.default_rng(5).uniform(size=(3, task.n_draws)))
+    t_end = np.full(3, 17.0)
+    np.testing.assert_array_equal(task.reference(t_end), task.reference(t_end - dt))
+    np.testing.assert_array_equal(task.reference(t_end)[:, 0], task.banks[:, 3])  # steps at 1, 5, 9, 13 s

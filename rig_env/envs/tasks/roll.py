@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from rig_env.envs.tasks.base import D, Task
@@ -111,7 +113,7 @@ class BankToBank(Task):
     required = ("rig_roll",)
     ref_labels = ("roll_error", "roll_ref")
     T_START, T_SEG = 1.0, 4.0
-    N_SEG = 8  # enough for 33 s; later steps repeat the last bank
+    N_SEG = 8  # enough for 33 s; later steps (and a step due at the time limit) repeat the last bank
     n_draws = 2 + N_SEG + 5
 
     def __init__(self, n_envs: int, free_dofs: tuple[str, ...], dt: float, episode_seconds: float) -> None:
@@ -119,6 +121,10 @@ class BankToBank(Task):
         self.phi0 = np.zeros(n_envs)
         self.banks = np.zeros((n_envs, self.N_SEG))
         self.yaw = "rig_yaw" in free_dofs
+        # steps that start strictly inside the episode; a step due exactly at the time limit (17 s with
+        # 4 s steps from 1 s) would make the last reference jump on the final step and fail every law
+        n_steps = math.ceil((episode_seconds - self.T_START) / self.T_SEG - 1e-9)
+        self.last_seg = int(min(max(n_steps, 1), self.N_SEG) - 1)
 
     def reset(self, idx: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         self.phi0[idx] = (10.0 * u[:, 0] - 5.0) * D
@@ -131,7 +137,7 @@ class BankToBank(Task):
 
     def _segment(self, t: np.ndarray) -> np.ndarray:
         k = np.floor((t - self.T_START) / self.T_SEG + 1e-9).astype(np.int64)
-        return np.where(t < self.T_START - 1e-9, -1, np.minimum(k, self.N_SEG - 1))
+        return np.where(t < self.T_START - 1e-9, -1, np.minimum(k, self.last_seg))
 
     def reference(self, t: np.ndarray) -> np.ndarray:
         k = self._segment(t)
