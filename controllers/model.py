@@ -79,39 +79,59 @@ def operating_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: flo
     """Trim at rig roll ``phi`` (rad): rig joints at their targets, passive joints at equilibrium.
 
     Unknowns: the virtual input of every free rig joint (:data:`AXIS_OF`) and the angles of the free
-    passive joints; residual: the free joints' accelerations.  Returns the operating point and the
-    normalised virtual inputs (3,).  RuntimeError if no trim with max |qdd| < 1e-6 rad/s^2 exists.
+    passive joints; residual: the free joints' accelerations.  Where holding rig_pitch or rig_yaw at
+    zero would need more than the flaps can give (a flap is aileron +- elevator +- rudder, limited
+    to +-1), heave and sway are scaled back until the most loaded flap is at 0.95 and their rig
+    joints settle instead (the rig weathercocks).  Returns the operating point and the normalised
+    virtual inputs (3,).  RuntimeError if no trim with max |qdd| < 1e-6 rad/s^2 exists.
     """
     p, tabs = params.to_vector(), params.tables()
     idx = np.array([JOINTS.index(j) for j in free_dofs], dtype=np.int64)
-    v_cols = [AXIS_OF[j] for j in free_dofs if j in AXIS_OF]
-    q_cols = [JOINTS.index(j) for j in free_dofs if j in PASSIVE]
     R = rotation(phi)
     scale = math.radians(scale_deg)
     q0 = np.zeros(5)
     q0[0] = phi
     u0 = np.zeros(L.N_INPUTS)
     u0[L.U_AIRSPEED] = airspeed
-    flags = L.F_AERO
 
-    def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        q, u, v = q0.copy(), u0.copy(), np.zeros(3)
-        q[q_cols] = x[len(v_cols):]
-        v[v_cols] = x[: len(v_cols)]
-        for k, name in enumerate(INPUTS):
-            u[SURFACES.index(name)] = scale * (R[k] @ v)
-        return q, u, v
+    def solve(fixed: dict[int, float]) -> tuple[np.ndarray, np.ndarray, float]:
+        v_cols = [AXIS_OF[j] for j in free_dofs if j in AXIS_OF and AXIS_OF[j] not in fixed]
+        q_cols = [JOINTS.index(j) for j in free_dofs if j in PASSIVE or (j in AXIS_OF and AXIS_OF[j] in fixed)]
 
-    def resid(x: np.ndarray) -> np.ndarray:
-        q, u, _ = unpack(x)
-        return joint_accelerations(q, np.zeros(5), u, p, flags, idx, tabs)[idx]
+        def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            q, u, v = q0.copy(), u0.copy(), np.zeros(3)
+            q[q_cols] = x[len(v_cols):]
+            v[v_cols] = x[: len(v_cols)]
+            for k, val in fixed.items():
+                v[k] = val
+            for k, name in enumerate(INPUTS):
+                u[SURFACES.index(name)] = scale * (R[k] @ v)
+            return q, u, v
 
-    sol = least_squares(resid, np.zeros(len(v_cols) + len(q_cols)), xtol=1e-12, ftol=1e-12, gtol=1e-12, method="lm")
-    res = float(np.max(np.abs(resid(sol.x))))
+        def resid(x: np.ndarray) -> np.ndarray:
+            q, u, _ = unpack(x)
+            return joint_accelerations(q, np.zeros(5), u, p, L.F_AERO, idx, tabs)[idx]
+
+        sol = least_squares(resid, np.zeros(len(v_cols) + len(q_cols)), xtol=1e-12, ftol=1e-12, gtol=1e-12, method="lm")
+        q, u, v = unpack(sol.x)
+        return q, v, float(np.max(np.abs(resid(sol.x))))
+
+    q, v, res = solve({})
+    for _ in range(3):  # flaps beyond their limit: scale heave and sway back, let their joints settle
+        surf = rotation(phi) @ v
+        need = abs(surf[0]) + abs(surf[1]) + abs(surf[2])  # the most loaded flap (mixing signs +-1)
+        if res <= 1e-6 and need <= 1.0:
+            break
+        hs = abs(surf[1]) + abs(surf[2])
+        c = max(0.0, 0.95 - abs(surf[0])) / hs if hs > 0 else 0.0
+        fixed = {k: c * v[k] for k in (1, 2) if v[k] != 0.0}
+        if not fixed:
+            break
+        q, v, res = solve(fixed)
     if res > 1e-6:
         raise RuntimeError(f"no trim at V = {airspeed} m/s, phi = {math.degrees(phi):.1f} deg (max |qdd| {res:.2g} rad/s^2)")
-    q, u, v = unpack(sol.x)
-    controls = {name: math.degrees(u[k]) for k, name in enumerate(SURFACES) if u[k] != 0.0}
+    u = np.array([scale * (R[k] @ v) for k in range(3)])
+    controls = {name: math.degrees(u[k]) for k, name in enumerate(INPUTS) if u[k] != 0.0}
     op = OperatingPoint(q=q, qd=np.zeros(5), controls_deg=controls, airspeed=float(airspeed), free_dofs=tuple(free_dofs), residual=res)
     return op, v
 

@@ -59,20 +59,22 @@ class AxisTuning:
         return asdict(self)
 
 
-def margins(L: control.TransferFunction) -> tuple[float, float, float]:
+def margins(L: control.TransferFunction | control.StateSpace) -> tuple[float, float, float]:
     """(gain margin dB, phase margin deg, crossover rad/s) of the loop L, worst case over crossings.
 
     Phase margin: the smallest over every gain crossover; gain margin: the smallest increase of
     gain that destabilises (phase crossovers with |L| < 1); crossover: the highest gain crossover.
     A loop whose closed loop ``L / (1 + L)`` is unstable gets (-inf, -inf, nan).
     """
-    cl = control.feedback(L, 1)
-    if np.max(np.real(cl.poles())) > 1e-8:  # (a pole at the origin cancelled by a zero is not unstable)
+    Ls = L if isinstance(L, control.StateSpace) else control.tf2ss(L)
+    cl = control.feedback(Ls, 1)
+    if np.max(np.real(np.linalg.eigvals(cl.A))) > 1e-8:  # (a pole at the origin cancelled by a zero is not unstable)
         return -math.inf, -math.inf, math.nan
     gm, pm, _, _, wg, _ = control.stability_margins(L, returnall=True)
     gm, pm, wg = (np.atleast_1d(np.asarray(a, dtype=float)) for a in (gm, pm, wg))
     up = gm[np.isfinite(gm) & (gm > 1.0)]
     gm_db = 20 * math.log10(float(up.min())) if up.size else math.inf
+    pm = np.abs((pm + 180.0) % 360.0 - 180.0)  # distance of the phase from -180 deg, modulo 360 (stability checked above)
     pm_min = float(pm[np.isfinite(pm)].min()) if np.any(np.isfinite(pm)) else math.inf
     wc = float(wg[np.isfinite(wg)].max()) if np.any(np.isfinite(wg)) else math.nan
     return gm_db, pm_min, wc
