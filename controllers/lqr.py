@@ -237,10 +237,9 @@ class LQRLaw(Controller):
         self._fresh[:] = False
         return np.clip(resolve(q[:, self.roll], sat), -1.0, 1.0)
 
-    def describe(self, airspeed: float | None = None, phi: float = 0.0) -> dict[str, Any]:
+    def describe_point(self, airspeed: float, phi: float) -> dict[str, Any]:
         """Closed-loop poles and loop margins (servo and delay included) at the grid point nearest (V, phi)."""
-        V = float(np.median(self.airspeeds)) if airspeed is None else airspeed
-        iv = int(np.argmin(np.abs(self.airspeeds - V)))
+        iv = int(np.argmin(np.abs(self.airspeeds - airspeed)))
         ip = int(np.argmin(np.abs(((self.phis - phi) + math.pi) % (2 * math.pi) - math.pi)))
         d = self.grid[iv][ip]
         el = loop_elements(self.params, self.spec.dt, self.link_delay_steps)
@@ -249,3 +248,8 @@ class LQRLaw(Controller):
             gm, pm, wc = loop_margins(d, AXIS_OF[j], el)
             out[j] = {"gm_db": gm, "pm_deg": pm, "wc": wc}
         return out
+
+    def describe(self) -> dict[str, Any]:
+        """Margins at the lowest, middle and highest design airspeed, at roll 0 and 90 deg (for the report)."""
+        vs = sorted({float(self.airspeeds[0]), float(np.median(self.airspeeds)), float(self.airspeeds[-1])})
+        return {"points": [self.describe_point(v, math.radians(f)) for v in vs for f in (0.0, 90.0)]}
