@@ -82,7 +82,7 @@ def format_table(rows: Sequence[dict[str, Any]], title: str) -> str:
     body = [[r["task"], r["controller"]] + [("-" if not np.isfinite(r[k]) else f.format(r[k])) for k, _, _, f in COLUMNS] for r in rows]
     w = [max(len(str(x)) for x in col) for col in zip(head, *body)]
     line = "  ".join("-" * x for x in w)
-    fmt = lambda cells: "  ".join(str(c).ljust(w[0]) if i == 0 else str(c).rjust(w[i]) for i, c in enumerate(cells))  # noqa: E731
+    fmt = lambda cells: "  ".join(str(c).ljust(w[0]) if i == 0 else str(c).rjust(w[i]) for i, c in enumerate(cells))
     return "\n".join([title, line, fmt(head), line, *(fmt(b) for b in body), line])
 
 
@@ -108,10 +108,16 @@ def compare(
     modes: Sequence[str] = ("nominal", "robust"),
     out_dir: str | Path | None = "out/compare",
     record: int = 3,
-    stream: TextIO = sys.stdout,
-    progress: TextIO | None = sys.stderr,
+    stream: TextIO | None = None,
+    progress: bool | TextIO = True,
 ) -> Comparison:
-    """Run the comparison and write its files (none when ``out_dir`` is None); returns the numbers."""
+    """Run the comparison and write its files (none when ``out_dir`` is None); returns the numbers.
+
+    ``stream``: where the notes and tables go (default stdout); ``progress``: True for a progress
+    display on stderr, False for none, or a stream.
+    """
+    stream = stream if stream is not None else sys.stdout
+    prog: TextIO | None = sys.stderr if progress is True else (None if progress is False else progress)
     tasks = list(tasks) if tasks else list(TASKS)
     kinds = list(kinds) if kinds else default_kinds()
     bad_t = [t for t in tasks if t not in TASKS]
@@ -140,7 +146,7 @@ def compare(
             if hasattr(law, "describe"):
                 cmp.margins.setdefault(task, {})[law_name] = _jsonable(law.describe())
         for mode in modes:
-            res = evaluate(laws, task, n_episodes=n, seed=seed, conditions=MODES[mode], record=record, progress=progress)
+            res = evaluate(laws, task, n_episodes=n, seed=seed, conditions=MODES[mode], record=record, progress=prog)
             cmp.results.append(res)
             cmp.rows += aggregate(res)
     cmp.seconds = time.perf_counter() - t0

@@ -24,7 +24,6 @@ Conditions (:class:`Conditions`; :data:`NOMINAL` and :data:`ROBUST`):
 from __future__ import annotations
 
 import functools
-import sys
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, TextIO
@@ -129,13 +128,14 @@ def evaluate(
     conditions: Conditions = NOMINAL,
     record: int = 3,
     env_overrides: Mapping[str, Any] | None = None,
-    progress: TextIO | None = sys.stderr,
+    progress: TextIO | None = None,
 ) -> EvalResult:
     """Run every law of ``laws`` on ``task`` over ``n_episodes`` episodes each, paired across laws.
 
     A law is given as a kind for :func:`make_controller`, a factory ``(spec, n) -> Controller``, or a
     built :class:`Controller` for ``n_episodes`` environments and this task's loop (it is reset here).
-    ``env_overrides``: further :class:`rig_env.envs.RigEnvConfig` fields.  See the module docstring.
+    ``env_overrides``: further :class:`rig_env.envs.RigEnvConfig` fields; ``progress``: a stream for a
+    progress display (None: silent).  See the module docstring.
     """
     if not laws:
         raise ValueError("laws: give at least one law")

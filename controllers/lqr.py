@@ -137,7 +137,7 @@ class LQRLaw(Controller):
         self.params = params or RigParams.default()
         fd = spec.free_dofs
         lo, hi = spec.airspeed_range
-        self.airspeeds = np.linspace(lo, hi, max(2, int(math.ceil((hi - lo) / 2.5)) + 1)) if hi > lo else np.array([lo])
+        self.airspeeds = np.linspace(lo, hi, max(2, math.ceil((hi - lo) / 2.5) + 1)) if hi > lo else np.array([lo])
         if self.airspeeds[0] <= 1.0:
             raise ValueError(f"airspeed_range = {spec.airspeed_range}: the LQR design needs airspeed > 1 m/s")
         self.phis = np.radians(np.arange(-180.0, 180.0, PHI_STEP_DEG))

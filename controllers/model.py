@@ -113,7 +113,7 @@ def operating_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: flo
             return joint_accelerations(q, np.zeros(5), u, p, L.F_AERO, idx, tabs)[idx]
 
         sol = least_squares(resid, np.zeros(len(v_cols) + len(q_cols)), xtol=1e-12, ftol=1e-12, gtol=1e-12, method="lm")
-        q, u, v = unpack(sol.x)
+        q, _, v = unpack(sol.x)
         return q, v, float(np.max(np.abs(resid(sol.x))))
 
     q, v, res = solve({})

@@ -75,11 +75,12 @@ class PID:
         for name, g in (("kp", self.kp), ("ki", self.ki), ("kd", self.kd)):
             if not np.all(np.isfinite(g)):
                 raise ValueError(f"{name}: non-finite gain")
-        if tt is None:  # Astrom & Hagglund: Tt = sqrt(Ti Td) for PID, Ti for PI
-            ti = np.where(self.ki != 0, self.kp / np.where(self.ki != 0, self.ki, 1.0), np.inf)
-            td = np.where(self.kp != 0, self.kd / np.where(self.kp != 0, self.kp, 1.0), 0.0)
-            tt_arr = np.where(td > 0, np.sqrt(np.abs(ti * td)), np.abs(ti))
-            self.tt = np.where(np.isfinite(tt_arr) & (tt_arr > 0), np.maximum(tt_arr, self.dt), np.inf)
+        if tt is None:  # Astrom & Hagglund: Tt = sqrt(Ti Td) for PID, Ti for PI; none without integral action
+            ki_safe = np.where(self.ki != 0, self.ki, 1.0)
+            ti = np.abs(self.kp / ki_safe)
+            td = np.abs(self.kd / np.where(self.kp != 0, self.kp, 1.0))
+            tt_arr = np.where(td > 0, np.sqrt(ti * td), ti)
+            self.tt = np.where((self.ki != 0) & (tt_arr > 0), np.maximum(tt_arr, self.dt), np.inf)
         else:
             self.tt = np.full(self.n, _pos("tt", tt))
         self.i = np.zeros(self.n)

@@ -154,11 +154,11 @@ def write(cmp: "Comparison", out: Path) -> list[Path]:
     parts = [
         "# Controller comparison on the manoeuvre rig",
         "",
-        f"Command: `rig compare{' --quick' if s['quick'] else ''} --episodes {s['episodes']} --seed {s['seed']}` "
-        f"({s['episodes']} episodes per law, task and mode; {cmp.seconds:.0f} s on {s['machine']}).  Every law runs on the same "
+        (f"Command: `rig compare{' --quick' if s['quick'] else ''} --episodes {s['episodes']} --seed {s['seed']}` "
+         f"({s['episodes']} episodes per law, task and mode; {cmp.seconds:.0f} s on {s['machine']}).  Every law runs on the same "
         "episodes (paired conditions): airspeed U(15, 25) m/s, gusts 5 % of airspeed, sensor noise, quantisation and one period "
         "of telemetry delay, Hawk mass +-10 %, servo delay 10-20 ms and bandwidth 5-8 Hz.  Robust mode adds +-20 % on every "
-        "aerodynamic derivative and on friction.  Metrics: `rig_env.envs.metrics`; success: the task's criterion.",
+         "aerodynamic derivative and on friction.  Metrics: `rig_env.envs.metrics`; success: the task's criterion."),
         "",
     ]
     for mode in s["modes"]:

@@ -24,6 +24,7 @@ comes from :func:`tune_axis` at construction; nothing is typed in.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import asdict, dataclass
 
 import control
@@ -70,7 +71,9 @@ def margins(L: control.TransferFunction | control.StateSpace) -> tuple[float, fl
     cl = control.feedback(Ls, 1)
     if np.max(np.real(np.linalg.eigvals(cl.A))) > 1e-8:  # (a pole at the origin cancelled by a zero is not unstable)
         return -math.inf, -math.inf, math.nan
-    gm, pm, _, _, wg, _ = control.stability_margins(L, returnall=True)
+    with warnings.catch_warnings(), np.errstate(all="ignore"):  # python-control's polynomial root polishing
+        warnings.simplefilter("ignore", RuntimeWarning)
+        gm, pm, _, _, wg, _ = control.stability_margins(L, returnall=True)
     gm, pm, wg = (np.atleast_1d(np.asarray(a, dtype=float)) for a in (gm, pm, wg))
     up = gm[np.isfinite(gm) & (gm > 1.0)]
     gm_db = 20 * math.log10(float(up.min())) if up.size else math.inf
