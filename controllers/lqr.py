@@ -18,7 +18,8 @@ Law, per control period (batched, numpy):
     surfaces = resolve(phi, v)                                            (controllers.model.resolve)
 
 ``q_ref``: roll reference from the task's roll error (unwrapped against the estimate), rig_pitch and
-rig_yaw 0, model joints at their trim; ``w_ref``: the task's roll-rate reference (else 0).
+rig_yaw from the task's errors when it gives them (else 0), model joints at their trim; ``w_ref``:
+the task's rate references (else 0).
 ``u_ff``: the aileron that gives the reference roll acceleration at the reference rate on the
 linear model.  The integrators stop while the output is saturated in their direction (clamping).
 """
@@ -214,11 +215,13 @@ class LQRLaw(Controller):
         # errors: roll against its reference (unwrapped through the measurement), others against trim / 0
         dq = q - model[0]
         dq[:, self.roll] = -(s.roll_error + ((z_meas[:, self.roll] - q[:, self.roll] + math.pi) % (2 * math.pi) - math.pi))
-        for j in ("rig_pitch", "rig_yaw"):
-            if j in fd:
-                dq[:, fd.index(j)] = q[:, fd.index(j)]
         dw = wr.copy()
         dw[:, self.roll] -= s.roll_rate_ref
+        for j in ("rig_pitch", "rig_yaw"):
+            if j in fd:  # error against the task's reference (measured angle + error), else against 0
+                k = fd.index(j)
+                dq[:, k] = q[:, k] - (z_meas[:, k] + s.error[j])
+                dw[:, k] -= s.rate_ref[j]
         K = self._interp(self._K, w)
         e = np.concatenate([dq, dw, self.z], axis=1)
         v = u_trim - np.einsum("nij,nj->ni", K, e)

@@ -3,8 +3,8 @@
 | axis | when | measured | outer loop (P) | inner loop (PI) | surface |
 |---|---|---|---|---|---|
 | roll | always | roll error, roll rate | rate demand from roll error (+ task's rate reference) | roll rate | compensator aileron |
-| heave | rig_pitch free | rig_pitch angle, rate | rate demand from -rig_pitch | rig_pitch rate | elevator, resolved by roll angle |
-| sway | rig_yaw free | rig_yaw angle, rate | rate demand from -rig_yaw | rig_yaw rate | rudder, resolved by roll angle |
+| heave | rig_pitch free | rig_pitch angle, rate | rate demand from the rig_pitch error (0 - angle unless the task sets a reference) | rig_pitch rate | elevator, resolved by roll angle |
+| sway | rig_yaw free | rig_yaw angle, rate | rate demand from the rig_yaw error (likewise) | rig_yaw rate | rudder, resolved by roll angle |
 
 Each loop is a :class:`controllers.pid_element.PID` (explicit dt, anti-windup by back-calculation,
 output limit +-1 = +-40 deg, rate limit = the servo's 350 deg/s, bumpless engagement).  Heave and
@@ -88,11 +88,7 @@ class PIDLaw(Controller):
 
     def _errors(self, s: Signals) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """(angle error, rate feedforward, measured rate) per axis, rad and rad/s."""
-        out = {"rig_roll": (s.roll_error, s.roll_rate_ref, s.rate["rig_roll"])}
-        for j in ("rig_pitch", "rig_yaw"):
-            if j in self.tunings:
-                out[j] = (-s.angle[j], np.zeros(self.num_envs), s.rate[j])
-        return out
+        return {j: (s.error[j], s.rate_ref[j], s.rate[j]) for j in self.tunings}
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         s = self.sig(self._check_obs(obs))
