@@ -135,6 +135,11 @@ def compare(
     settings = {"tasks": tasks, "controllers": kinds, "episodes": n, "seed": seed, "quick": quick, "modes": list(modes),
                 "conditions": {m: {**MODES[m].env_fields(), "randomise": {k: list(v) for k, v in MODES[m].randomise.items()}} for m in modes},
                 "machine": f"{platform.machine()} {platform.system()}, python {platform.python_version()}"}
+    cmd = ["rig compare"] + (["--quick"] if quick else []) + [f"--episodes {n}", f"--seed {seed}"]
+    cmd += [f"--tasks {' '.join(tasks)}"] if tasks != list(TASKS) else []
+    cmd += [f"--controllers {' '.join(kinds)}"] if kinds != default_kinds() else []
+    cmd += [f"--modes {' '.join(modes)}"] if list(modes) != ["nominal", "robust"] else []
+    settings["command"] = " ".join(cmd)
     cmp = Comparison(settings)
     t0 = time.perf_counter()
     for task in tasks:

@@ -128,15 +128,30 @@ def _margins_md(margins: dict[str, dict[str, Any]]) -> str:
         for law, d in laws.items():
             if law == "pid":
                 for j, t in d.items():
-                    lines.append(f"| {task} | pid | {j} rate (inner) | {_f(t['gm_inner'])} | {_f(t['pm_inner'])} | {_f(t['wc_inner'])} |")
-                    lines.append(f"| {task} | pid | {j} angle (outer) | {_f(t['gm_outer'])} | {_f(t['pm_outer'])} | {_f(t['wc_outer'])} |")
+                    at = f"V {float(t['airspeed']):g} m/s, phi 0 deg"
+                    lines.append(f"| {task} | pid | {j} rate (inner), {at} | {_f(t['gm_inner'])} | {_f(t['pm_inner'])} | {_f(t['wc_inner'])} |")
+                    lines.append(f"| {task} | pid | {j} angle (outer), {at} | {_f(t['gm_outer'])} | {_f(t['pm_outer'])} | {_f(t['wc_outer'])} |")
             elif law == "lqr":
                 for point in d.get("points", []):
                     for j, m in point.items():
                         if isinstance(m, dict):
-                            lines.append(f"| {task} | lqr | {j} input, V {point['airspeed']:g} m/s, phi {point['phi_deg']:g} deg | "
+                            axis = {"rig_roll": "roll (aileron)", "rig_pitch": "heave", "rig_yaw": "sway"}.get(j, j)
+                            lines.append(f"| {task} | lqr | {axis} input, V {point['airspeed']:g} m/s, phi {point['phi_deg']:g} deg | "
                                          f"{_f(m['gm_db'])} | {_f(m['pm_deg'])} | {_f(m['wc'])} |")
     return "\n".join(lines)
+
+
+def verdict(rows: list[dict[str, Any]]) -> list[str]:
+    """Per task and mode: the law with the highest success rate, ties broken by the lower RMS error."""
+    out = []
+    for mode in dict.fromkeys(r["mode"] for r in rows):
+        for task in dict.fromkeys(r["task"] for r in rows):
+            rs = [r for r in rows if r["mode"] == mode and r["task"] == task]
+            if not rs:
+                continue
+            best = max(rs, key=lambda r: (r["success_rate"], -r["rms_error"] if np.isfinite(r["rms_error"]) else -math.inf))
+            out.append(f"- {task}, {mode}: **{best['controller']}** (success {best['success_rate']:.0f} %, RMS error {best['rms_error']:.2f})")
+    return out
 
 
 def _f(x: Any) -> str:
@@ -154,13 +169,14 @@ def write(cmp: "Comparison", out: Path) -> list[Path]:
     parts = [
         "# Controller comparison on the manoeuvre rig",
         "",
-        (f"Command: `rig compare{' --quick' if s['quick'] else ''} --episodes {s['episodes']} --seed {s['seed']}` "
+        (f"Command: `{s['command']}` "
          f"({s['episodes']} episodes per law, task and mode; {cmp.seconds:.0f} s on {s['machine']}).  Every law runs on the same "
         "episodes (paired conditions): airspeed U(15, 25) m/s, gusts 5 % of airspeed, sensor noise, quantisation and one period "
         "of telemetry delay, Hawk mass +-10 %, servo delay 10-20 ms and bandwidth 5-8 Hz.  Robust mode adds +-20 % on every "
          "aerodynamic derivative and on friction.  Metrics: `rig_env.envs.metrics`; success: the task's criterion."),
         "",
     ]
+    parts += ["## Which law", "", "Highest success rate, then lowest RMS tracking error:", "", *verdict(cmp.rows), ""]
     for mode in s["modes"]:
         parts += [f"## {mode.capitalize()}", "", _md_table([r for r in cmp.rows if r["mode"] == mode]), ""]
     parts += ["## Loop margins (linear model, servo and Pade delay in the loop)", "", _margins_md(cmp.margins), ""]
