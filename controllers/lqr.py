@@ -39,7 +39,7 @@ from controllers.model import AXES, AXIS_OF, design_model, loop_elements, resolv
 from controllers.signals import Signals
 from controllers.tuning import axes_of, margins
 from rig_env.envs.sensors import UNLIMITED
-from rig_env.params import RigParams
+from rig_env.params import JOINTS, RigParams
 
 MAX_DEVIATION = {  # Bryson: Q = 1 / max^2 (rad, rad/s, rad s)
     "rig_roll": math.radians(8.0), "rig_roll_rate": math.radians(90.0), "int_rig_roll": math.radians(10.0),
@@ -101,11 +101,12 @@ def design_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: float,
     Kr, P, poles = control.lqr(Aa, Ba[:, used], Q, R)
     K = np.zeros((3, Aa.shape[0]))
     K[used] = Kr
-    q_op = dp.op.q[[["rig_roll", "rig_pitch", "rig_yaw", "model_pitch", "model_yaw"].index(j) for j in free_dofs]]
+    q_op = dp.op.q[[JOINTS.index(j) for j in free_dofs]]
     return Design(tuple(free_dofs), float(airspeed), float(phi), K, dp.u_trim, q_op, A, B, Q, R, np.asarray(P), np.asarray(poles))
 
 
 def design_grid(params: RigParams, free_dofs: tuple[str, ...], airspeeds: np.ndarray, phis: np.ndarray) -> list[list[Design]]:
+    """Designs for every (airspeed, phi) of the grid: ``grid[i_v][i_phi]``."""
     return [[design_point(params, free_dofs, float(v), float(f)) for f in phis] for v in airspeeds]
 
 

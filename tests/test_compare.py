@@ -31,6 +31,7 @@ def test_robust_mode_spreads_aero_and_friction():
     assert "friction.rig_roll.Fc" in r and "comp_aero.CL0" not in r  # zero values are not spread
 
 
+@pytest.mark.slow
 def test_compare_is_reproducible_and_writes_its_files(tmp_path, capsys):
     kw = dict(tasks=["velocity_vector_roll"], kinds=["pid", "lqr"], episodes=3, seed=2, modes=["nominal", "robust"], progress=False)
     a = compare(out_dir=tmp_path / "a", **kw)
