@@ -8,10 +8,12 @@ optional feedforward ``ff`` and optional measured derivative ``ydot``:
     d_k   = d_{k-1} + (dt / (Tf + dt)) (ydot_k - d_{k-1})            derivative ON MEASUREMENT,
             ydot_k = (y_k - y_{k-1}) / dt unless given                   first-order filter Tf (s)
     v     = kp e + I - kd d_k + ff                                      unconstrained demand
-    u     = clip(v, u_prev - rate dt, u_prev + rate dt)                 rate limit (units/s)
+    u     = clip(v, u_prev - rate dt, u_prev + rate dt)                 rate limit (units/s; none on the first
+                                                                        step after reset, u_prev = u_now after engage)
     u     = clip(u, u_min, u_max)                                       output limits
     I    += dt (ki e + (u - v) / Tt)          anti-windup "backcalc":  back-calculation, tracking time Tt
-    I    += dt ki e  unless u saturated and ki e pushes further         anti-windup "clamp": conditional integration
+    I    += dt ki e  unless u is at a limit and ki e pushes further,    anti-windup "clamp": conditional integration
+                     or u is rate limited
 
 Bumpless engagement: :meth:`engage` sets the integrator of the masked environments so that, for the
 present ``r``, ``y`` and ``ff``, the demand equals the actuator's current value ``u_now`` (the first
