@@ -97,11 +97,15 @@ def plot_metrics(cmp: "Comparison", path: Path) -> Path:
                     r = [x for x in cmp.rows if x["task"] == task and x["controller"] == law and x["mode"] == mode]
                     vals.append(r[0][key] if r else math.nan)
                 x = np.arange(len(tasks)) + (li * len(modes) + mi - (len(laws) * len(modes) - 1) / 2) * width
-                ax.bar(x, vals, width, color=COLORS[li % len(COLORS)], hatch="//" if mode != "nominal" else None,
-                       edgecolor="k", lw=0.4, alpha=0.9 if mode == "nominal" else 0.55, label=f"{law} ({mode})")
+                bars = ax.bar(x, vals, width, color=COLORS[li % len(COLORS)], hatch="//" if mode != "nominal" else None,
+                              edgecolor="k", lw=0.4, alpha=0.9 if mode == "nominal" else 0.55, label=f"{law} ({mode})")
+                if key == "success_rate":  # a zero bar is invisible: print every value
+                    ax.bar_label(bars, labels=[("-" if not np.isfinite(v) else f"{v:.0f}") for v in vals], fontsize=6, padding=1)
         ax.set_xticks(np.arange(len(tasks)))
         ax.set_xticklabels([t.replace("_", " ") for t in tasks], fontsize=8)
         ax.set_title(label, fontsize=10)
+        if key == "success_rate":
+            ax.set_ylim(0, 110)
         ax.grid(axis="y", alpha=0.3)
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 8), fontsize=8, frameon=False)
