@@ -1,13 +1,15 @@
-"""The ``rig`` command: demonstrations and pictures of the rig model.
+"""The ``rig`` command: the controller comparison, demonstrations and pictures of the rig model.
 
+    rig compare [--quick] [--out DIR] [--episodes N] [--seed S] [--tasks T ...] [--controllers K ...]
+        every control law on every task, nominal and robust (controllers.compare): prints the
+        tables, writes summary.json, summary.csv, plots and report.md into DIR (default out/compare)
     rig demo [--out DIR] [--t-final S] [--airspeed M/S] [--aileron DEG] [--no-plot] [--quiet]
         velocity-vector roll (paper Sec. VI, Fig. 7): rig roll and model pitch free, compensator
         aileron ramped to +20 deg over 1 s and held; prints a summary, writes DIR/demo_roll.png
     rig draw [--out DIR] [--q DEG DEG DEG DEG DEG] [--flaps DEG DEG DEG DEG]
         the rig picture with its frames (DIR/rig_frames.png)
 
-The demo is the project's main job until a controller comparison exists.  ``scripts/demo_roll.py``
-runs the same :func:`demo_roll`.
+``scripts/compare.py`` and ``scripts/demo_roll.py`` run the same code.
 """
 
 from __future__ import annotations
@@ -212,6 +214,14 @@ def draw(out_dir: str | Path = "out", q_deg: Sequence[float] | None = None, flap
 def _parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="rig", description="Bristol 5-DOF manoeuvre rig model (AIAA 2009-5727).")
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    c = sub.add_parser("compare", help="every control law on every task, nominal and robust; tables, plots, report")
+    c.add_argument("--quick", action="store_true", help="12 episodes per law, task and mode (default 64)")
+    c.add_argument("--out", default="out/compare", metavar="DIR", help="output folder (default: out/compare)")
+    c.add_argument("--episodes", type=int, default=None, metavar="N", help="episodes per law, task and mode")
+    c.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the episodes (default 0)")
+    c.add_argument("--tasks", nargs="+", default=None, metavar="T", help="task names (default: all)")
+    c.add_argument("--controllers", nargs="+", default=None, metavar="K", help="controller kinds (default: all registered)")
+    c.add_argument("--modes", nargs="+", default=["nominal", "robust"], metavar="M", help="nominal and/or robust (default both)")
     d = sub.add_parser("demo", help="velocity-vector roll at 20 m/s with the compensator ailerons (paper Fig. 7)")
     d.add_argument("--out", default="out", metavar="DIR", help="directory for demo_roll.png (default: out)")
     d.add_argument("--t-final", type=float, default=25.0, metavar="S", help="simulated time, s (default 25)")
@@ -231,7 +241,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Console entry point ``rig`` (pyproject: rig = "rig_env.cli:main")."""
     args = _parser().parse_args(argv)
     try:
-        if args.command == "demo":
+        if args.command == "compare":
+            from controllers.compare import compare
+
+            compare(tasks=args.tasks, kinds=args.controllers, episodes=args.episodes, seed=args.seed, quick=args.quick,
+                    modes=args.modes, out_dir=args.out)
+        elif args.command == "demo":
             demo_roll(args.out, t_final=args.t_final, airspeed=args.airspeed, aileron_deg=args.aileron,
                       plot=not args.no_plot, quiet=args.quiet)
         elif args.command == "draw":

@@ -1,0 +1,223 @@
+"""Run control laws on a task over seeded, randomised episodes, in parallel over one environment batch.
+
+:func:`evaluate` builds one :class:`rig_env.envs.RigVectorEnv` holding ``n_episodes`` environments
+per law (law ``c`` drives block ``c`` of the batch), resets it with one seed, steps every law on
+its block until every environment has finished its first episode (same-step autoreset; later
+episodes are ignored), and collects ``info["final_info"]`` metrics and the time histories of the
+first ``record`` episodes of each block (true joint angles and rates, reference, actions).
+
+Paired conditions: every block sees the same episodes (airspeed, references, parameter draws,
+gusts, sensor noise), so the laws are compared on identical conditions.  The environment's public
+``reset(seed=s)`` gives environment ``i`` the stream ``s + i``; blocks share streams by assigning
+the per-environment keys of seed ``s`` to every block (``env.keys``, :mod:`rig_env.envs.streams`),
+then resetting through the environment.  Where that attribute is missing the blocks run on distinct
+streams and ``EvalResult.paired`` is False.
+
+Conditions (:class:`Conditions`; :data:`NOMINAL` and :data:`ROBUST`):
+
+| mode | airspeed | gusts | sensors | parameters drawn per episode, uniform |
+|---|---|---|---|---|
+| nominal | U(15, 25) m/s | 5 % of airspeed, 1 sigma, 0.2 s | env defaults: 0.05 deg noise, quantised, one period delay | Hawk mass +-10 %, servo delay 10-20 ms, servo bandwidth 5-8 Hz (RIG_DATA ranges) |
+| robust | same | same | same | nominal, plus +-20 % on every non-zero aerodynamic derivative (Hawk and compensator) and on the friction Fs, Fc, sigma2 of every joint |
+"""
+
+from __future__ import annotations
+
+import functools
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable, Mapping, TextIO
+
+import numpy as np
+
+from controllers.base import Controller, LoopSpec, make_controller
+from rig_env.envs import RigVectorEnv
+from rig_env.envs import streams as rs
+from rig_env.params import JOINTS, RigParams
+from rig_env.physics import layout as L
+
+_AERO_DERIVATIVES = [f"hawk_aero.{k}" for k in ("CLalpha", "CLq", "CLde", "CMalpha", "CMq", "CMde", "CYbeta", "CYdr", "Clbeta",
+                                                  "Clp", "Clr", "Clda", "Cldr", "Cnbeta", "Cnp", "Cnr", "Cnda", "Cndr")]
+_AERO_DERIVATIVES += [f"comp_aero.{k}" for k in ("CLalpha", "CLq", "CLde", "CMalpha", "CMq", "CMde")]
+_FRICTION = [f"friction.{j}.{k}" for j in JOINTS for k in ("Fs", "Fc", "sigma2")]
+
+
+def _spread(names: list[str], frac: float, params: RigParams | None = None) -> dict[str, tuple[float, float]]:
+    """``name -> (lo, hi)``: +-frac around the default value of every non-zero parameter in names."""
+    p = params or RigParams.default()
+    out = {}
+    for k in names:
+        v = float(functools.reduce(getattr, k.split("."), p))
+        if v != 0.0:
+            a, b = v * (1 - frac), v * (1 + frac)
+            out[k] = (min(a, b), max(a, b))
+    return out
+
+
+def _nominal_randomise() -> dict[str, tuple[float, float]]:
+    r = _spread(["mass.hawk_mass"], 0.10)
+    r["servos.compensator.delay_s"] = (0.010, 0.020)
+    r["servos.compensator.natural_freq_hz"] = (5.0, 8.0)
+    return r
+
+
+@dataclass(frozen=True)
+class Conditions:
+    """Randomised conditions of an evaluation; fields are :class:`rig_env.envs.RigEnvConfig` settings."""
+
+    name: str
+    airspeed: tuple[float, float] = (15.0, 25.0)
+    turbulence: float = 0.05
+    randomise: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    angle_noise_deg: float = 0.05
+    link_delay_steps: int = 1
+
+    def env_fields(self) -> dict[str, Any]:
+        return {"airspeed": self.airspeed, "turbulence": self.turbulence, "randomise": dict(self.randomise),
+                "angle_noise_deg": self.angle_noise_deg, "link_delay_steps": self.link_delay_steps}
+
+
+NOMINAL = Conditions("nominal", randomise=_nominal_randomise())
+ROBUST = Conditions("robust", randomise={**_nominal_randomise(), **_spread(_AERO_DERIVATIVES + _FRICTION, 0.20)})
+MODES = {"nominal": NOMINAL, "robust": ROBUST}
+
+
+@dataclass
+class EvalResult:
+    """Metrics of ``n`` episodes per law and a few time histories.
+
+    metrics[kind][name]: (n,) arrays (``rig_env.envs.metrics.METRIC_NAMES``, ``success``, ``status``,
+    ``stop_exceeded``).  history[kind]: ``t`` (T,) s, ``q`` (k, T, 5) deg, ``qd`` (k, T, 5) deg/s,
+    ``ref`` (k, T, m) task reference (angles deg, rates deg/s), ``action`` (k, T, n_a) normalised.
+    """
+
+    task: str
+    conditions: str
+    seed: int
+    n_episodes: int
+    paired: bool
+    metrics: dict[str, dict[str, np.ndarray]]
+    history: dict[str, dict[str, np.ndarray]]
+    seconds: float
+    build_seconds: dict[str, float]
+
+
+LawFactory = Callable[[LoopSpec, int], Controller]
+
+
+def _progress(stream: TextIO | None, label: str, k: int, total: int, last: list[int]) -> None:
+    if stream is None:
+        return
+    tty = bool(getattr(stream, "isatty", lambda: False)())
+    pct = int(100 * k / total) // (2 if tty else 25) * (2 if tty else 25)
+    if pct != last[0]:
+        last[0] = pct
+        if tty:
+            stream.write(f"\r  {label:<56s} {pct:3d} %" + ("\n" if pct >= 100 else ""))
+        else:
+            stream.write(f"  {label:<56s} {pct:3d} %\n")
+        stream.flush()
+
+
+def evaluate(
+    laws: Mapping[str, str | Controller | LawFactory],
+    task: str,
+    *,
+    n_episodes: int = 40,
+    seed: int = 0,
+    conditions: Conditions = NOMINAL,
+    record: int = 3,
+    env_overrides: Mapping[str, Any] | None = None,
+    progress: TextIO | None = None,
+) -> EvalResult:
+    """Run every law of ``laws`` on ``task`` over ``n_episodes`` episodes each, paired across laws.
+
+    A law is given as a kind for :func:`make_controller`, a factory ``(spec, n) -> Controller``, or a
+    built :class:`Controller` for ``n_episodes`` environments and this task's loop (it is reset here).
+    ``env_overrides``: further :class:`rig_env.envs.RigEnvConfig` fields; ``progress``: a stream for a
+    progress display (None: silent).  See the module docstring.
+    """
+    if not laws:
+        raise ValueError("laws: give at least one law")
+    if not isinstance(n_episodes, int) or n_episodes < 1:
+        raise ValueError(f"n_episodes = {n_episodes!r}: must be a positive integer")
+    if not isinstance(seed, int) or seed < 0:
+        raise ValueError(f"seed = {seed!r}: must be a non-negative integer")
+    names = list(laws)
+    n, C = n_episodes, len(names)
+    fields = {**conditions.env_fields(), **dict(env_overrides or {})}
+    env = RigVectorEnv(n * C, task=task, **fields)
+    spec = LoopSpec.from_env(env)
+    built: dict[str, Controller] = {}
+    build_s: dict[str, float] = {}
+    for name in names:
+        t0 = time.perf_counter()
+        how = laws[name]
+        if isinstance(how, Controller):
+            if how.num_envs != n or how.spec != spec:
+                raise ValueError(f"laws[{name!r}]: built for {how.num_envs} envs of task {how.spec.task!r}; need {n} of {task!r} with this loop")
+            built[name] = how
+        else:
+            built[name] = make_controller(how, spec, n) if isinstance(how, str) else how(spec, n)
+        build_s[name] = time.perf_counter() - t0
+    t_start = time.perf_counter()
+    obs, _ = env.reset(seed=seed)
+    paired = C == 1 or all(hasattr(env, a) for a in ("keys", "episode", "_reset_envs", "_observe"))
+    if C > 1 and paired:  # every block on the streams of seed, seed + 1, ..., seed + n - 1
+        obs = _reseed(env, seed, n, C)
+    for law in built.values():
+        law.reset()
+    blocks = {name: slice(c * n, (c + 1) * n) for c, name in enumerate(names)}
+    k_rec = min(record, n)
+    T = env.max_steps
+    q_h = np.full((C, k_rec, T, 5), np.nan)  # NaN after an episode's end
+    qd_h = np.full((C, k_rec, T, 5), np.nan)
+    ref0 = env.task.reference(env.t)
+    ref_h = np.full((C, k_rec, T, ref0.shape[1]), np.nan)
+    act_h = np.full((C, k_rec, T, len(env.action_names)), np.nan)
+    done = np.zeros(n * C, dtype=bool)
+    rec_live = np.ones(n * C, dtype=bool)
+    final: dict[str, np.ndarray] = {}
+    actions = np.zeros((n * C, len(env.action_names)))
+    last = [-1]
+    label = f"{task} [{conditions.name}] {n} episodes x {C} laws"
+    for step in range(T):
+        for name, b in blocks.items():
+            actions[b] = built[name].act(obs[b])
+        obs, _, term, trunc, info = env.step(actions)
+        ended = term | trunc
+        rec_live &= ~ended  # an ended environment already holds its next episode (same-step autoreset)
+        X = env.X
+        q, qd, ref = np.degrees(X[:, L.X_Q:L.X_Q + 5]), np.degrees(X[:, L.X_QD:L.X_QD + 5]), np.degrees(env.task.reference(env.t))
+        for c, b in enumerate(blocks.values()):
+            rows = np.arange(b.start, b.start + k_rec)
+            live = rec_live[rows]
+            q_h[c, live, step], qd_h[c, live, step] = q[rows][live], qd[rows][live]
+            ref_h[c, live, step], act_h[c, live, step] = ref[rows][live], actions[rows][live]
+        if "final_info" in info:
+            fi, m = info["final_info"], info["_final_info"] & ~done
+            for key, v in fi.items():
+                if key.startswith("_"):
+                    continue
+                if key not in final:
+                    final[key] = np.zeros(n * C, dtype=np.asarray(v).dtype)
+                final[key][m] = np.asarray(v)[m]
+        done |= ended
+        for name, b in blocks.items():
+            built[name].reset(ended[b])
+        _progress(progress, label, step + 1, T, last)
+        if np.all(done):
+            break
+    seconds = time.perf_counter() - t_start
+    t = (np.arange(T) + 1) * env.dt
+    metrics = {name: {k: v[b].copy() for k, v in final.items()} for name, b in blocks.items()}
+    history = {name: {"t": t, "q": q_h[c], "qd": qd_h[c], "ref": ref_h[c], "action": act_h[c]} for c, name in enumerate(names)}
+    return EvalResult(task, conditions.name, seed, n, paired, metrics, history, seconds, build_s)
+
+
+def _reseed(env: RigVectorEnv, seed: int, n: int, C: int) -> np.ndarray:
+    """Restart every environment at episode 0 of the shared streams (see the module docstring)."""
+    env.keys = np.tile(rs.env_keys(seed, n), C)
+    env.episode[:] = np.uint64(0)
+    env._reset_envs(np.arange(n * C))
+    return env._observe()

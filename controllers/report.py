@@ -1,0 +1,191 @@
+"""Plots and the one-page Markdown report of a comparison (:mod:`controllers.compare`).
+
+Files: ``history_<task>.png`` (first recorded nominal episode, identical conditions for every law:
+roll angle against its reference, roll rate when the task commands one, tracking error, aileron,
+and rig_pitch / rig_yaw when free), ``metrics.png`` (bars per task and law, nominal solid, robust
+hatched) and ``report.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from controllers.compare import Comparison
+
+BAR_METRICS = (("success_rate", "success rate, %"), ("rms_error", "RMS tracking error, deg"), ("settling_time", "settling time, s"),
+               ("overshoot_pct", "overshoot, %"), ("control_effort", "control effort, RMS action"), ("control_rate", "control rate, RMS 1/s"))
+COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_history(res: Any, path: Path) -> Path:
+    """Time histories of episode 0 of every law of one evaluation result."""
+    plt = _plt()
+    names = list(res.history)
+    h0 = res.history[names[0]]
+    has_rate = h0["ref"].shape[-1] > 1
+    extra = [j for j, k in (("rig_pitch", 1), ("rig_yaw", 2)) if np.any(np.isfinite(h0["q"][0, :, k])) and np.nanmax(np.abs(h0["q"][0, :, k])) > 1e-9]
+    panels = ["roll", *(["rate"] if has_rate else []), "error", "aileron", *extra]
+    fig, axes = plt.subplots(len(panels), 1, figsize=(9, 2.1 * len(panels) + 0.6), sharex=True)
+    t = h0["t"]
+    for ax, panel in zip(axes, panels):
+        for c, name in enumerate(names):
+            h = res.history[name]
+            col = COLORS[c % len(COLORS)]
+            if panel == "roll":
+                ax.plot(t, h["q"][0, :, 0], color=col, lw=1.4, label=name)
+            elif panel == "rate":
+                ax.plot(t, h["qd"][0, :, 0], color=col, lw=1.4, label=name)
+            elif panel == "error":
+                ax.plot(t, h["ref"][0, :, 0] - h["q"][0, :, 0], color=col, lw=1.2, label=name)
+            elif panel == "aileron":
+                ax.plot(t, 40.0 * h["action"][0, :, 0], color=col, lw=1.0, label=name)
+            else:
+                k = 1 if panel == "rig_pitch" else 2
+                ax.plot(t, h["q"][0, :, k], color=col, lw=1.2, label=name)
+        if panel == "roll":
+            ax.plot(t, h0["ref"][0, :, 0], "k--", lw=1.0, label="reference")
+            ax.set_ylabel("roll angle, deg")
+            ax.legend(loc="best", fontsize=8, ncol=len(names) + 1)
+        elif panel == "rate":
+            ax.plot(t, h0["ref"][0, :, 1], "k--", lw=1.0, label="reference")
+            ax.set_ylabel("roll rate, deg/s")
+        elif panel == "error":
+            ax.axhline(0.0, color="0.6", lw=0.8)
+            ax.set_ylabel("roll error, deg")
+            lim = np.nanpercentile(np.abs(np.concatenate([res.history[n]["ref"][0, :, 0] - res.history[n]["q"][0, :, 0] for n in names])), 98)
+            ax.set_ylim(-1.2 * max(lim, 1.0), 1.2 * max(lim, 1.0))
+        elif panel == "aileron":
+            ax.set_ylabel("aileron cmd, deg")
+        else:
+            ax.set_ylabel(f"{panel}, deg")
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("time, s")
+    fig.suptitle(f"{res.task}: episode 0 ({res.conditions} conditions, seed {res.seed}), same conditions for every law", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_metrics(cmp: "Comparison", path: Path) -> Path:
+    """Grouped bars: x = task, one bar per law, nominal solid and robust hatched."""
+    plt = _plt()
+    tasks = list(dict.fromkeys(r["task"] for r in cmp.rows))
+    laws = list(dict.fromkeys(r["controller"] for r in cmp.rows))
+    modes = list(dict.fromkeys(r["mode"] for r in cmp.rows))
+    fig, axes = plt.subplots(2, 3, figsize=(13, 7))
+    width = 0.8 / max(1, len(laws) * len(modes))
+    for ax, (key, label) in zip(axes.ravel(), BAR_METRICS):
+        for li, law in enumerate(laws):
+            for mi, mode in enumerate(modes):
+                vals = []
+                for task in tasks:
+                    r = [x for x in cmp.rows if x["task"] == task and x["controller"] == law and x["mode"] == mode]
+                    vals.append(r[0][key] if r else math.nan)
+                x = np.arange(len(tasks)) + (li * len(modes) + mi - (len(laws) * len(modes) - 1) / 2) * width
+                bars = ax.bar(x, vals, width, color=COLORS[li % len(COLORS)], hatch="//" if mode != "nominal" else None,
+                              edgecolor="k", lw=0.4, alpha=0.9 if mode == "nominal" else 0.55, label=f"{law} ({mode})")
+                if key == "success_rate":  # a zero bar is invisible: print every value
+                    ax.bar_label(bars, labels=[("-" if not np.isfinite(v) else f"{v:.0f}") for v in vals], fontsize=6, padding=1)
+        ax.set_xticks(np.arange(len(tasks)))
+        ax.set_xticklabels([t.replace("_", " ") for t in tasks], fontsize=8)
+        ax.set_title(label, fontsize=10)
+        if key == "success_rate":
+            ax.set_ylim(0, 110)
+        ax.grid(axis="y", alpha=0.3)
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 8), fontsize=8, frameon=False)
+    fig.suptitle("Controller comparison: means over episodes (robust: hatched, +-20 % aero derivatives and friction)", fontsize=10)
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _md_table(rows: list[dict[str, Any]]) -> str:
+    from controllers.compare import COLUMNS
+
+    head = "| task | law | " + " | ".join(f"{h} ({u})" for _, h, u, _ in COLUMNS) + " |"
+    sep = "|---|---|" + "---:|" * len(COLUMNS)
+    body = ["| " + " | ".join([r["task"], r["controller"]] + [("-" if not np.isfinite(r[k]) else f.format(r[k])) for k, _, _, f in COLUMNS]) + " |"
+            for r in rows]
+    return "\n".join([head, sep, *body])
+
+
+def _margins_md(margins: dict[str, dict[str, Any]]) -> str:
+    lines = ["| task | law | loop | gain margin, dB | phase margin, deg | crossover, rad/s |", "|---|---|---|---:|---:|---:|"]
+    for task, laws in margins.items():
+        for law, d in laws.items():
+            if law == "pid":
+                for j, t in d.items():
+                    at = f"V {float(t['airspeed']):g} m/s, phi 0 deg"
+                    lines.append(f"| {task} | pid | {j} rate (inner), {at} | {_f(t['gm_inner'])} | {_f(t['pm_inner'])} | {_f(t['wc_inner'])} |")
+                    lines.append(f"| {task} | pid | {j} angle (outer), {at} | {_f(t['gm_outer'])} | {_f(t['pm_outer'])} | {_f(t['wc_outer'])} |")
+            elif law == "lqr":
+                for point in d.get("points", []):
+                    for j, m in point.items():
+                        if isinstance(m, dict):
+                            axis = {"rig_roll": "roll (aileron)", "rig_pitch": "heave", "rig_yaw": "sway"}.get(j, j)
+                            lines.append(f"| {task} | lqr | {axis} input, V {point['airspeed']:g} m/s, phi {point['phi_deg']:g} deg | "
+                                         f"{_f(m['gm_db'])} | {_f(m['pm_deg'])} | {_f(m['wc'])} |")
+    return "\n".join(lines)
+
+
+def verdict(rows: list[dict[str, Any]]) -> list[str]:
+    """Per task and mode: the law with the highest success rate, ties broken by the lower RMS error."""
+    out = []
+    for mode in dict.fromkeys(r["mode"] for r in rows):
+        for task in dict.fromkeys(r["task"] for r in rows):
+            rs = [r for r in rows if r["mode"] == mode and r["task"] == task]
+            if not rs:
+                continue
+            best = max(rs, key=lambda r: (r["success_rate"], -r["rms_error"] if np.isfinite(r["rms_error"]) else -math.inf))
+            out.append(f"- {task}, {mode}: **{best['controller']}** (success {best['success_rate']:.0f} %, RMS error {best['rms_error']:.2f})")
+    return out
+
+
+def _f(x: Any) -> str:
+    try:
+        return f"{float(x):.1f}"
+    except (TypeError, ValueError):
+        return str(x)
+
+
+def write(cmp: "Comparison", out: Path) -> list[Path]:
+    """Write the plots and report.md; returns the plot paths."""
+    files = [plot_history(r, out / f"history_{r.task}.png") for r in cmp.results if r.conditions == "nominal"]
+    files.append(plot_metrics(cmp, out / "metrics.png"))
+    s = cmp.settings
+    parts = [
+        "# Controller comparison on the manoeuvre rig",
+        "",
+        (f"Command: `{s['command']}` "
+         f"({s['episodes']} episodes per law, task and mode; {cmp.seconds:.0f} s on {s['machine']}).  Every law runs on the same "
+        "episodes (paired conditions): airspeed U(15, 25) m/s, gusts 5 % of airspeed, sensor noise, quantisation and one period "
+        "of telemetry delay, Hawk mass +-10 %, servo delay 10-20 ms and bandwidth 5-8 Hz.  Robust mode adds +-20 % on every "
+         "aerodynamic derivative and on friction.  Metrics: `rig_env.envs.metrics`; success: the task's criterion."),
+        "",
+    ]
+    parts += ["## Which law", "", "Highest success rate, then lowest RMS tracking error:", "", *verdict(cmp.rows), ""]
+    for mode in s["modes"]:
+        parts += [f"## {mode.capitalize()}", "", _md_table([r for r in cmp.rows if r["mode"] == mode]), ""]
+    parts += ["## Loop margins (linear model, servo and Pade delay in the loop)", "", _margins_md(cmp.margins), ""]
+    if cmp.skipped:
+        parts += ["## Skipped", ""] + [f"- {x['controller']} on {x['task']}: {x['reason']}" for x in cmp.skipped] + [""]
+    parts += ["## Plots", "", "![metrics](metrics.png)", ""] + [f"![{p.stem}]({p.name})" for p in files if p.stem.startswith("history_")]
+    (out / "report.md").write_text("\n".join(parts) + "\n")
+    return files

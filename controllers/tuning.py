@@ -1,0 +1,144 @@
+"""Reproducible loop-shaping of the PID family on the linearised rig, to stated gain and phase margins.
+
+Procedure (:func:`tune_axis`, one rig joint ``j`` and its virtual input, :mod:`controllers.model`):
+
+1. Trim and linearise the task's free joints at the design airspeed (the middle of the task's range)
+   and zero roll angle; ``P(s)``: joint rate (rad/s) per normalised virtual input.
+2. Loop elements (:func:`controllers.model.loop_elements`): servo ``S(s)`` (6 Hz, zeta 0.7), the
+   transport delay ``D(s)`` (servo 15 ms + telemetry one period + half a period for the hold) as a
+   3rd-order Pade approximation, the rate sensor ``H(s)`` (10 Hz filter, half-period backward
+   difference).  The angle path carries the same ``D`` and no filter.
+3. Inner rate loop, PI: ``C_r(s) = kp (1 + wi / s)`` with ``wi = wc / 4``; ``kp`` puts the crossover of
+   ``L_r = C_r S D P H`` at ``wc``.  ``wc`` is the largest on a log grid (0.5-60 rad/s) for which
+   ``L_r`` has phase margin >= ``pm_inner`` and gain margin >= ``gm_inner`` dB (python-control
+   ``stability_margins``).
+4. Outer angle loop, P: ``L_a = k T_r / s`` with ``T_r`` the closed inner loop (rate reference to
+   rate); ``k`` is the largest on a log grid that keeps phase margin >= ``pm_outer`` and gain
+   margin >= ``gm_outer`` dB.
+
+Default targets: inner PM 50 deg, GM 8 dB; outer PM 60 deg, GM 10 dB.  The laws rescale the gains
+with dynamic pressure ``(V_design / V)^2`` (the control derivative scales with V^2).  Every number
+comes from :func:`tune_axis` at construction; nothing is typed in.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import asdict, dataclass
+
+import control
+import numpy as np
+
+from controllers.model import AXES, AXIS_OF, design_model, loop_elements
+from rig_env.params import RigParams
+
+
+@dataclass(frozen=True)
+class AxisTuning:
+    """Gains and achieved margins of one cascaded axis (rad, rad/s, normalised command).
+
+    kp, ki: rate loop PI (command per rad/s, per rad; negative where the control power b is); k_angle: angle loop (rad/s per rad);
+    wc_inner, wc_outer: crossovers, rad/s; pm_*: phase margins, deg; gm_*: gain margins, dB;
+    b: control power at the design point, rad/s^2 per unit command.
+    """
+
+    joint: str
+    airspeed: float
+    kp: float
+    ki: float
+    k_angle: float
+    wc_inner: float
+    pm_inner: float
+    gm_inner: float
+    wc_outer: float
+    pm_outer: float
+    gm_outer: float
+    b: float
+
+    def as_dict(self) -> dict[str, float | str]:
+        return asdict(self)
+
+
+def margins(L: control.TransferFunction | control.StateSpace) -> tuple[float, float, float]:
+    """(gain margin dB, phase margin deg, crossover rad/s) of the loop L, worst case over crossings.
+
+    Phase margin: the smallest over every gain crossover; gain margin: the smallest increase of
+    gain that destabilises (phase crossovers with |L| < 1); crossover: the highest gain crossover.
+    A loop whose closed loop ``L / (1 + L)`` is unstable gets (-inf, -inf, nan).
+    """
+    Ls = L if isinstance(L, control.StateSpace) else control.tf2ss(L)
+    cl = control.feedback(Ls, 1)
+    if np.max(np.real(np.linalg.eigvals(cl.A))) > 1e-8:  # (a pole at the origin cancelled by a zero is not unstable)
+        return -math.inf, -math.inf, math.nan
+    with warnings.catch_warnings(), np.errstate(all="ignore"):  # python-control's polynomial root polishing
+        warnings.simplefilter("ignore", RuntimeWarning)
+        gm, pm, _, _, wg, _ = control.stability_margins(L, returnall=True)
+    gm, pm, wg = (np.atleast_1d(np.asarray(a, dtype=float)) for a in (gm, pm, wg))
+    up = gm[np.isfinite(gm) & (gm > 1.0)]
+    gm_db = 20 * math.log10(float(up.min())) if up.size else math.inf
+    pm = np.abs((pm + 180.0) % 360.0 - 180.0)  # distance of the phase from -180 deg, modulo 360 (stability checked above)
+    pm_min = float(pm[np.isfinite(pm)].min()) if np.any(np.isfinite(pm)) else math.inf
+    wc = float(wg[np.isfinite(wg)].max()) if np.any(np.isfinite(wg)) else math.nan
+    return gm_db, pm_min, wc
+
+
+def rate_plant(params: RigParams, free_dofs: tuple[str, ...], joint: str, airspeed: float,
+               scale_deg: float = 40.0) -> control.TransferFunction:
+    """Joint rate (rad/s) per normalised virtual input of the joint's axis, at phi = 0."""
+    dp = design_model(params, free_dofs, airspeed, 0.0, scale_deg)
+    sys = dp.sys
+    k_in = AXIS_OF[joint]
+    k_out = sys.output_labels.index(f"{joint}_rate")
+    siso = control.ss(sys.A, sys.B[:, [k_in]], sys.C[[k_out], :], 0.0)
+    tf = control.minreal(control.ss2tf(siso), tol=1e-6, verbose=False)
+    num, den = (np.asarray(c[0][0], dtype=float) for c in (tf.num, tf.den))
+    num = np.where(np.abs(num) < 1e-9 * np.abs(num).max(), 0.0, num)  # exact zero at the origin (a rate)
+    return control.tf(num, den)
+
+
+def tune_axis(params: RigParams, free_dofs: tuple[str, ...], joint: str, airspeed: float, dt: float, *,
+              link_delay_steps: int = 1, rate_filter_hz: float = 10.0, pm_inner: float = 50.0,
+              gm_inner: float = 8.0, pm_outer: float = 60.0, gm_outer: float = 10.0) -> AxisTuning:
+    """The procedure of the module docstring for one joint; ValueError if no gain meets the margins."""
+    if joint not in AXIS_OF:
+        raise ValueError(f"joint = {joint!r}: tunable joints are {list(AXIS_OF)}")
+    el = loop_elements(params, dt, link_delay_steps, rate_filter_hz)
+    s = control.tf("s")
+    P = rate_plant(params, free_dofs, joint, airspeed)
+    b = float(np.real(control.evalfr(P * s, 1j * 1e4)))  # high-frequency gain: rad/s^2 per unit command
+    sign = 1.0 if b > 0 else -1.0  # rig_yaw accelerates negatively for positive sway
+    G = el["servo"] * el["delay"] * (sign * P)
+    best = None
+    for wc in np.geomspace(0.5, 60.0, 80):
+        C0 = 1 + (wc / 4) / s
+        mag = abs(control.evalfr(C0 * G * el["rate_sensor"], 1j * wc))
+        kp = 1.0 / mag
+        L = kp * C0 * G * el["rate_sensor"]
+        gm, pm, wx = margins(L)
+        if pm >= pm_inner and gm >= gm_inner and np.isfinite(wx):
+            best = (wc, kp, gm, pm, wx)  # keeps the largest feasible crossover
+    if best is None:
+        raise ValueError(f"{joint}: no rate-loop crossover in 0.5-60 rad/s meets PM {pm_inner} deg, GM {gm_inner} dB")
+    wc, kp, gm_i, pm_i, wx_i = best
+    C = kp * (1 + (wc / 4) / s)
+    T_r = control.feedback(C * G, el["rate_sensor"])
+    outer = None
+    for k in np.geomspace(0.1, 50.0, 120):
+        La = k * T_r / s
+        gm, pm, wx = margins(La)
+        if pm >= pm_outer and gm >= gm_outer:
+            outer = (k, gm, pm, wx)
+    if outer is None:
+        raise ValueError(f"{joint}: no angle-loop gain meets PM {pm_outer} deg, GM {gm_outer} dB")
+    k, gm_o, pm_o, wx_o = outer
+    return AxisTuning(joint, float(airspeed), sign * float(kp), sign * float(kp * wc / 4), float(k), float(wx_i), pm_i, gm_i,
+                      float(wx_o), pm_o, gm_o, b)
+
+
+def axes_of(free_dofs: tuple[str, ...]) -> list[str]:
+    """The rig joints of ``free_dofs`` that a compensator axis holds, in :data:`AXES` order."""
+    return [j for j in sorted(AXIS_OF, key=AXIS_OF.get) if j in free_dofs]
+
+
+__all__ = ["AXES", "AxisTuning", "axes_of", "margins", "rate_plant", "tune_axis"]
