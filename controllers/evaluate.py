@@ -7,11 +7,8 @@ episodes are ignored), and collects ``info["final_info"]`` metrics and the time 
 first ``record`` episodes of each block (true joint angles and rates, reference, actions).
 
 Paired conditions: every block sees the same episodes (airspeed, references, parameter draws,
-gusts, sensor noise), so the laws are compared on identical conditions.  The environment's public
-``reset(seed=s)`` gives environment ``i`` the stream ``s + i``; blocks share streams by assigning
-the per-environment keys of seed ``s`` to every block (``env.keys``, :mod:`rig_env.envs.streams`),
-then resetting through the environment.  Where that attribute is missing the blocks run on distinct
-streams and ``EvalResult.paired`` is False.
+gusts, sensor noise), so the laws are compared on identical conditions: the batch is reset with
+``options={"env_seeds": ...}`` giving environment ``i`` of every block the stream of seed ``s + i``.
 
 Conditions (:class:`Conditions`; :data:`NOMINAL` and :data:`ROBUST`):
 
@@ -32,9 +29,7 @@ import numpy as np
 
 from controllers.base import Controller, LoopSpec, make_controller
 from rig_env.envs import RigVectorEnv
-from rig_env.envs import streams as rs
 from rig_env.params import JOINTS, RigParams
-from rig_env.physics import layout as L
 
 _AERO_DERIVATIVES = [f"hawk_aero.{k}" for k in ("CLalpha", "CLq", "CLde", "CMalpha", "CMq", "CMde", "CYbeta", "CYdr", "Clbeta",
                                                   "Clp", "Clr", "Clda", "Cldr", "Cnbeta", "Cnp", "Cnr", "Cnda", "Cndr")]
@@ -161,10 +156,9 @@ def evaluate(
             built[name] = make_controller(how, spec, n) if isinstance(how, str) else how(spec, n)
         build_s[name] = time.perf_counter() - t0
     t_start = time.perf_counter()
-    obs, _ = env.reset(seed=seed)
-    paired = C == 1 or all(hasattr(env, a) for a in ("keys", "episode", "_reset_envs", "_observe"))
-    if C > 1 and paired:  # every block on the streams of seed, seed + 1, ..., seed + n - 1
-        obs = _reseed(env, seed, n, C)
+    # every block on the streams of seed, seed + 1, ..., seed + n - 1
+    obs, _ = env.reset(options={"env_seeds": np.tile(seed + np.arange(n), C)})
+    paired = True
     for law in built.values():
         law.reset()
     blocks = {name: slice(c * n, (c + 1) * n) for c, name in enumerate(names)}
@@ -172,7 +166,7 @@ def evaluate(
     T = env.max_steps
     q_h = np.full((C, k_rec, T, 5), np.nan)  # NaN after an episode's end
     qd_h = np.full((C, k_rec, T, 5), np.nan)
-    ref0 = env.task.reference(env.t)
+    ref0 = env.reference()
     ref_h = np.full((C, k_rec, T, ref0.shape[1]), np.nan)
     act_h = np.full((C, k_rec, T, len(env.action_names)), np.nan)
     done = np.zeros(n * C, dtype=bool)
@@ -187,8 +181,7 @@ def evaluate(
         obs, _, term, trunc, info = env.step(actions)
         ended = term | trunc
         rec_live &= ~ended  # an ended environment already holds its next episode (same-step autoreset)
-        X = env.X
-        q, qd, ref = np.degrees(X[:, L.X_Q:L.X_Q + 5]), np.degrees(X[:, L.X_QD:L.X_QD + 5]), np.degrees(env.task.reference(env.t))
+        q, qd, ref = np.degrees(env.joint_angles), np.degrees(env.joint_rates), np.degrees(env.reference())
         for c, b in enumerate(blocks.values()):
             rows = np.arange(b.start, b.start + k_rec)
             live = rec_live[rows]
@@ -213,11 +206,3 @@ def evaluate(
     metrics = {name: {k: v[b].copy() for k, v in final.items()} for name, b in blocks.items()}
     history = {name: {"t": t, "q": q_h[c], "qd": qd_h[c], "ref": ref_h[c], "action": act_h[c]} for c, name in enumerate(names)}
     return EvalResult(task, conditions.name, seed, n, paired, metrics, history, seconds, build_s)
-
-
-def _reseed(env: RigVectorEnv, seed: int, n: int, C: int) -> np.ndarray:
-    """Restart every environment at episode 0 of the shared streams (see the module docstring)."""
-    env.keys = np.tile(rs.env_keys(seed, n), C)
-    env.episode[:] = np.uint64(0)
-    env._reset_envs(np.arange(n * C))
-    return env._observe()

@@ -304,3 +304,19 @@ def test_velocity_vector_roll_reference_angle_is_the_integral_of_its_rate():
     np.testing.assert_allclose(refs[-1, :, 0], task.stop_angle(), atol=1e-12)
     peak = np.degrees(np.abs(refs[:, :, 1]).max(axis=0))
     assert np.all((90.0 <= peak) & (peak <= 360.0)) and np.all(refs[-1, :, 1] == 0.0)
+
+
+def test_env_seeds_option_equals_scalar_env_seeds():
+    """reset(options={"env_seeds": s}) puts environment i on the stream RigEnv.reset(seed=s[i]) uses."""
+    seeds = np.array([40, 3, 40])
+    venv = RigVectorEnv(3, **RICH)
+    vobs, _ = venv.reset(options={"env_seeds": seeds})
+    assert _same(vobs[0], vobs[2]) and not _same(vobs[0], vobs[1])
+    for i, s in enumerate(seeds):
+        env = RigEnv(**RICH)
+        o, _ = env.reset(seed=int(s))
+        assert _same(o, vobs[i])
+    with pytest.raises(ValueError, match="env_seeds"):
+        venv.reset(options={"env_seeds": [1, 2]})
+    with pytest.raises(ValueError, match="unknown key"):
+        venv.reset(options={"seeds": seeds})

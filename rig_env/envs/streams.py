@@ -50,6 +50,15 @@ def env_keys(seed: int, n: int) -> np.ndarray:
         return _mix(s * _GOLD + _GOLD)
 
 
+def keys_of(seeds: np.ndarray) -> np.ndarray:
+    """(m,) uint64 keys of arbitrary non-negative integer seeds: ``keys_of([s])`` equals ``env_keys(s, 1)``."""
+    s = np.asarray(seeds)
+    if s.ndim != 1 or s.dtype.kind not in "iu" or (s.size and s.min() < 0):
+        raise ValueError("env_seeds: expected a 1-D array of non-negative integers")
+    with np.errstate(over="ignore"):
+        return _mix(s.astype(np.uint64) * _GOLD + _GOLD)
+
+
 def uniform(keys: np.ndarray, episode: np.ndarray, step: np.ndarray | int, stream: int, k: int) -> np.ndarray:
     """(m, k) uniforms in [0, 1) for m environments (keys, episode, step of shape (m,) or scalar)."""
     with np.errstate(over="ignore"):

@@ -148,7 +148,12 @@ class RigVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ reset
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
-        """Reset every environment (or those of ``options["reset_mask"]``); see the module doc for seeds."""
+        """Reset every environment (or those of ``options["reset_mask"]``); see the module doc for seeds.
+
+        ``options["env_seeds"]``: (num_envs,) non-negative ints; environment ``i`` restarts at episode 0
+        of the stream of seed ``env_seeds[i]`` (as ``RigEnv.reset(seed=env_seeds[i])``), so several
+        blocks of a batch can fly identical episodes (paired comparisons of control laws).
+        """
         super().reset(seed=seed)
         if seed is not None:
             self.keys, self.episode[:] = rs.env_keys(seed, self.num_envs), 0
@@ -156,6 +161,14 @@ class RigVectorEnv(VectorEnv):
             self.keys, self.episode[:] = rs.env_keys(int(self.np_random.integers(2**62)), self.num_envs), 0
         else:
             self.episode += np.uint64(1)
+        if options and "env_seeds" in options:  # explicit per-environment seeds (paired comparisons)
+            seeds = np.asarray(options["env_seeds"])
+            if seeds.shape != (self.num_envs,):
+                raise ValueError(f"options['env_seeds']: expected shape ({self.num_envs},), got {seeds.shape}")
+            self.keys, self.episode[:] = rs.keys_of(seeds), 0
+        unknown = sorted(set(options or {}) - {"reset_mask", "env_seeds"})
+        if unknown:
+            raise ValueError(f"options: unknown key(s) {unknown}; valid keys: ['env_seeds', 'reset_mask']")
         mask = np.ones(self.num_envs, dtype=bool)
         if options and "reset_mask" in options:
             mask = np.asarray(options["reset_mask"], dtype=bool)
@@ -199,6 +212,21 @@ class RigVectorEnv(VectorEnv):
         x = self.X[idx]
         self.sensors.reset(idx, x[:, self.free_idx], x[:, L.X_SERVO : L.X_SERVO + 4], self.airspeed[idx], noise)
         self.metrics.reset(idx)
+
+    # ------------------------------------------------------------------ read-only views for analysis and plots
+    @property
+    def joint_angles(self) -> np.ndarray:
+        """(num_envs, 5) true joint angles, rad, JOINTS order (a copy; locked joints at their angle)."""
+        return self.X[:, L.X_Q : L.X_Q + 5].copy()
+
+    @property
+    def joint_rates(self) -> np.ndarray:
+        """(num_envs, 5) true joint rates, rad/s, JOINTS order (a copy)."""
+        return self.X[:, L.X_QD : L.X_QD + 5].copy()
+
+    def reference(self) -> np.ndarray:
+        """(num_envs, k) the task's reference signals at the current time (see the task's docstring)."""
+        return self.task.reference(self.t)
 
     # ------------------------------------------------------------------ step
     def _observe(self) -> np.ndarray:
