@@ -7,7 +7,7 @@ present, the learned policies it registers (``"ppo"``, ``"sac"``).
 
 import importlib.util
 
-from controllers.base import CONTROLLERS, Controller, LoopSpec, make_controller, register
+from controllers.base import CONTROLLERS, Controller, LoopSpec, UnsupportedTask, make_controller, register
 from controllers import pid  # noqa: F401  (registers "pid")
 
 if importlib.util.find_spec("controllers.lqr") is not None:
@@ -15,4 +15,4 @@ if importlib.util.find_spec("controllers.lqr") is not None:
 if importlib.util.find_spec("controllers.rl") is not None:
     from controllers import rl  # noqa: F401  (registers the RL kinds)
 
-__all__ = ["CONTROLLERS", "Controller", "LoopSpec", "make_controller", "register"]
+__all__ = ["CONTROLLERS", "Controller", "LoopSpec", "UnsupportedTask", "make_controller", "register"]

@@ -18,8 +18,8 @@ Signals are found by name (``spec.index("rig_roll_rate")``), never by bare index
 from __future__ import annotations
 
 import abc
-from dataclasses import dataclass
-from typing import Any, Callable, ClassVar
+from dataclasses import dataclass, field
+from typing import Any, Callable, ClassVar, Mapping
 
 import numpy as np
 
@@ -30,7 +30,8 @@ class LoopSpec:
 
     task: task name (``rig_env.envs.TASKS``); free_dofs: free joints (``rig_env.JOINTS`` order);
     obs_labels: names of the observation entries; action_names: names of the action entries (each
-    normalised to [-1, 1] for +-``action_scale_deg``); dt: control period, s; airspeed_range: m/s.
+    normalised to [-1, 1] for +-``action_scale_deg``); dt: control period, s; airspeed_range: m/s;
+    task_options: the task's ``task_options`` (e.g. ``{"axis": "sway_yaw"}`` of ForcedOscillation).
     """
 
     task: str
@@ -40,6 +41,7 @@ class LoopSpec:
     dt: float
     airspeed_range: tuple[float, float]
     action_scale_deg: float = 40.0
+    task_options: Mapping[str, Any] = field(default_factory=dict)
 
     @classmethod
     def from_env(cls, env: Any) -> "LoopSpec":
@@ -55,6 +57,7 @@ class LoopSpec:
             dt=float(vec.dt),
             airspeed_range=tuple(float(v) for v in vec.airspeed_range),
             action_scale_deg=float(ACTION_SCALE_DEG),
+            task_options=dict(vec.config.task_options),
         )
 
     @property
@@ -77,6 +80,11 @@ class LoopSpec:
             return self.action_names.index(name)
         except ValueError:
             raise KeyError(f"action has no entry {name!r}; entries: {list(self.action_names)}") from None
+
+
+class UnsupportedTask(ValueError):
+    """Raised by a law's constructor when it cannot fly the given task or joint set (e.g. a roll law
+    with rig_roll locked); the comparison skips that pairing with a printed note."""
 
 
 class Controller(abc.ABC):
@@ -118,23 +126,39 @@ class Controller(abc.ABC):
         return m
 
 
-CONTROLLERS: dict[str, Callable[..., Controller]] = {}
-"""Factories by kind (``"lqr"``, ``"pid"``, ``"ppo"``, ``"sac"``...), filled by the law modules."""
+CONTROLLERS: dict[str, list[Callable[..., Controller]]] = {}
+"""Law classes by kind (``"lqr"``, ``"pid"``, ``"ppo"``, ``"sac"``...), filled by the law modules.
+
+A kind may hold several classes, each for the tasks it can fly (e.g. the roll-axis PID and the
+heave/sway PID); :func:`make_controller` builds the first that does not raise
+:class:`UnsupportedTask` for the spec."""
 
 
 def register(kind: str) -> Callable[[type[Controller]], type[Controller]]:
     def deco(cls: type[Controller]) -> type[Controller]:
         cls.kind = kind
-        CONTROLLERS[kind] = cls
+        CONTROLLERS.setdefault(kind, [])
+        if cls not in CONTROLLERS[kind]:
+            CONTROLLERS[kind].append(cls)
         return cls
 
     return deco
 
 
 def make_controller(kind: str, spec: LoopSpec, num_envs: int = 1, **kwargs: Any) -> Controller:
-    """Build a law of ``kind`` for ``spec``; an unknown kind is a ValueError listing the known ones."""
+    """Build a law of ``kind`` for ``spec``; an unknown kind is a ValueError listing the known ones.
+
+    Raises :class:`UnsupportedTask` (naming every candidate's reason) when no class of the kind can
+    fly the spec's task and joints.
+    """
     import controllers  # noqa: F401  (registers the built-in laws)
 
     if kind not in CONTROLLERS:
         raise ValueError(f"controller kind {kind!r}: unknown; known kinds: {sorted(CONTROLLERS)}")
-    return CONTROLLERS[kind](spec, num_envs, **kwargs)
+    reasons = []
+    for cls in CONTROLLERS[kind]:
+        try:
+            return cls(spec, num_envs, **kwargs)
+        except UnsupportedTask as exc:
+            reasons.append(f"{cls.__name__}: {exc}")
+    raise UnsupportedTask(f"no {kind!r} law for task {spec.task!r} with free_dofs {list(spec.free_dofs)} ({'; '.join(reasons)})")

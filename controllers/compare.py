@@ -6,7 +6,8 @@ task and mode, all laws in it on paired conditions), aggregates the episode metr
 rows, loop margins, skipped laws, timings), ``summary.csv`` (the rows), the plots and
 ``report.md`` (:mod:`controllers.report`).  Laws are the registered kinds
 (``controllers.base.CONTROLLERS``); a kind that cannot be built for a task (an RL kind without a
-shipped policy raises ``FileNotFoundError``) is skipped with a printed note.
+shipped policy raises ``FileNotFoundError``; a law that cannot fly the task raises
+``controllers.base.UnsupportedTask``) is skipped with a printed note.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from typing import Any, Sequence, TextIO
 import numpy as np
 
 import controllers
-from controllers.base import CONTROLLERS, Controller, LoopSpec, make_controller
+from controllers.base import CONTROLLERS, Controller, LoopSpec, UnsupportedTask, make_controller
 from controllers.evaluate import MODES, EvalResult, evaluate
 from rig_env.envs import TASKS, RigVectorEnv
 
@@ -92,7 +93,7 @@ def _build(kinds: Sequence[str], task: str, n: int, fields: dict[str, Any], out:
     for kind in kinds:
         try:
             laws[kind] = make_controller(kind, spec, n)
-        except FileNotFoundError as exc:
+        except (FileNotFoundError, UnsupportedTask) as exc:
             skipped.append({"task": task, "controller": kind, "reason": str(exc)})
             out.write(f"  note: {kind} skipped on {task}: {exc}\n")
     return laws, skipped

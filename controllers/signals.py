@@ -28,7 +28,7 @@ import warnings
 
 import numpy as np
 
-from controllers.base import LoopSpec
+from controllers.base import LoopSpec, UnsupportedTask
 from rig_env.envs import TASKS
 from rig_env.envs.sensors import AIRSPEED_SCALE, ANGLE_SCALE, FLAP_SCALE, RATE_SCALE, UNLIMITED
 from rig_env.physics.aero import MIX_ELEVATOR, MIX_RUDDER
@@ -52,7 +52,7 @@ class Signals:
 
     def __init__(self, spec: LoopSpec) -> None:
         if "rig_roll" not in spec.free_dofs:
-            raise ValueError(f"free_dofs = {list(spec.free_dofs)}: the compensator laws need rig_roll free")
+            raise UnsupportedTask(f"free_dofs = {list(spec.free_dofs)}: this law's roll loops need rig_roll free")
         self.spec = spec
         ix = spec.index
         self._angle: dict[str, tuple[int, ...]] = {}
