@@ -251,11 +251,14 @@ class LQRLaw(Controller):
         return {"points": list(self.tables.design["margins"])}
 
 
+_DESIGN_NAMES = ("Design", "augmented", "design_point", "design_grid", "loop_margins", "describe_point", "design_lqr",
+                 "MAX_DEVIATION", "MAX_INPUT", "V_REF", "PHI_STEP_DEG", "SIGMA_A", "SIGMA_Z")
+
+
 def __getattr__(name: str) -> Any:
-    """The design functions and constants, from :mod:`controllers.lqr_design` (imported on first use)."""
+    """The design functions and constants, from :mod:`controllers.lqr_design` (imported on first use only)."""
+    if name not in _DESIGN_NAMES:
+        raise AttributeError(f"module 'controllers.lqr' has no attribute {name!r}")
     from controllers import lqr_design
 
-    if name in ("Design", "augmented", "design_point", "design_grid", "loop_margins", "describe_point", "design_lqr",
-                "MAX_DEVIATION", "MAX_INPUT", "V_REF", "PHI_STEP_DEG", "SIGMA_A", "SIGMA_Z"):
-        return getattr(lqr_design, name)
-    raise AttributeError(f"module 'controllers.lqr' has no attribute {name!r}")
+    return getattr(lqr_design, name)
