@@ -145,7 +145,8 @@ def main() -> None:
                 lines.append(f"| {json.loads(law.read_text())['kind']} ({kind}) | {runtime_cost(law) * 1e6:.1f} us | |")
             print(lines[-1], flush=True)
         lines.append(f"| observation builder (`Sensors.update` + `observe`) | {observation_cost(Path(tmp) / 'linear.json') * 1e6:.1f} us | per tick, shared with the envs |")
-    lines += ["", NOTE]
+    if not a.runtime_only:
+        lines += ["", NOTE]
     text = "\n".join(lines)
     print(text)
     if a.write:

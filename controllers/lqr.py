@@ -31,8 +31,9 @@ here on first access.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -40,6 +41,9 @@ from controllers.axes import AXIS_OF, axes_of, resolve, unresolve
 from controllers.base import Controller, LoopSpec, register
 from controllers.estimator import DelayedKalman
 from controllers.signals import Signals, SignalScales
+
+if TYPE_CHECKING:  # the design's types only; the runtime never imports rig_env
+    from rig_env.params import RigParams
 
 _TABLES = ("K", "u_trim", "q_op", "A_q", "A_w", "B")
 
@@ -89,7 +93,7 @@ class LQRTables:
                 **self.scales.to_data(), "design": dict(self.design)}
 
     @classmethod
-    def from_data(cls, d: Mapping[str, Any], spec: LoopSpec) -> "LQRTables":
+    def from_data(cls, d: Mapping[str, Any], spec: LoopSpec) -> LQRTables:
         """Check ``d`` (from :func:`controllers.lqr_design.design_lqr` or an artefact); a ValueError names the entry."""
         missing = [k for k in ("airspeeds", "phis", "phi_step", "kalman_gain", "link_delay_steps", "estimator", "design", *_TABLES) if k not in d]
         if missing:
@@ -139,11 +143,12 @@ class LQRLaw(Controller):
 
     artefact_kind = "lqr"
 
-    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: Any = None, link_delay_steps: int = 1,
+    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
                  estimator: bool = True, tables: LQRTables | Mapping[str, Any] | None = None) -> None:
         super().__init__(spec, num_envs)
         if tables is None:
-            from controllers.lqr_design import design_lqr  # design time: python-control and the numba model
+            # design time only: python-control, scipy and the numba model
+            from controllers.lqr_design import design_lqr
 
             tables = design_lqr(spec, params, link_delay_steps=link_delay_steps, estimator=estimator)
         elif params is not None or link_delay_steps != 1 or estimator is not True:
@@ -166,7 +171,7 @@ class LQRLaw(Controller):
         self._fresh = np.ones(self.num_envs, dtype=bool)
 
     @classmethod
-    def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> "LQRLaw":
+    def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> LQRLaw:
         """The runtime of a deployed artefact (numpy only)."""
         return cls(spec, num_envs, tables=LQRTables.from_data(data, spec))
 

@@ -29,8 +29,9 @@ runs them with numpy alone, in simulation and from a deployed artefact (kind ``"
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -38,6 +39,9 @@ from controllers.axes import AXIS_OF, axes_of, resolve, unresolve
 from controllers.base import Controller, LoopSpec, register
 from controllers.pid_element import PID
 from controllers.signals import Signals, SignalScales
+
+if TYPE_CHECKING:  # the design's types only; the runtime never imports rig_env
+    from rig_env.params import RigParams
 
 
 @dataclass(frozen=True)
@@ -82,7 +86,7 @@ class PIDTables:
                 "b_roll": self.b_roll, "damp_roll": self.damp_roll, **self.scales.to_data(), "design": dict(self.design)}
 
     @classmethod
-    def from_data(cls, d: Mapping[str, Any], spec: LoopSpec) -> "PIDTables":
+    def from_data(cls, d: Mapping[str, Any], spec: LoopSpec) -> PIDTables:
         """Check ``d`` (from :func:`controllers.pid_design.design_pid` or an artefact); a ValueError names the entry."""
         missing = [k for k in ("axes", "kp", "ki", "k_angle", "rate_demand_max", "v_design", "rate_limit", "feedforward",
                                "phi_grid", "trim_roll", "b_roll", "damp_roll", "design") if k not in d]
@@ -133,11 +137,12 @@ class PIDLaw(Controller):
 
     artefact_kind = "pid"
 
-    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: Any = None, link_delay_steps: int = 1,
+    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
                  rate_filter_hz: float = 10.0, feedforward: bool = True, tables: PIDTables | Mapping[str, Any] | None = None) -> None:
         super().__init__(spec, num_envs)
         if tables is None:
-            from controllers.pid_design import design_pid  # design time: python-control and the numba model
+            # design time only: python-control, scipy and the numba model
+            from controllers.pid_design import design_pid
 
             tables = design_pid(spec, params, link_delay_steps=link_delay_steps, rate_filter_hz=rate_filter_hz, feedforward=feedforward)
         elif params is not None or link_delay_steps != 1 or rate_filter_hz != 10.0 or feedforward is not True:
@@ -152,7 +157,7 @@ class PIDLaw(Controller):
         self._p_ref_prev = np.zeros(n)
 
     @classmethod
-    def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> "PIDLaw":
+    def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> PIDLaw:
         """The runtime of a deployed artefact (numpy only)."""
         return cls(spec, num_envs, tables=PIDTables.from_data(data, spec))
 

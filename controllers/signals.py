@@ -30,8 +30,9 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -82,7 +83,7 @@ class SignalScales:
                 "sig_ref_labels": list(self.ref_labels), "sig_ref_scales": np.array(self.ref_scales, dtype=np.float64)}
 
     @classmethod
-    def from_data(cls, d: Mapping[str, Any], spec: LoopSpec) -> "SignalScales":
+    def from_data(cls, d: Mapping[str, Any], spec: LoopSpec) -> SignalScales:
         """Inverse of :meth:`to_data`; a ValueError names a missing, mis-shaped or non-finite entry."""
         missing = [k for k in ("sig_angle_scale", "sig_rate_scale", "sig_airspeed_scale", "sig_flap_scale", "sig_unmix",
                                "sig_unlimited", "sig_ref_labels", "sig_ref_scales") if k not in d]
@@ -121,7 +122,13 @@ def _array(d: Mapping[str, Any], k: str, shape: tuple[int, ...]) -> np.ndarray:
 def signal_scales(spec: LoopSpec) -> SignalScales:
     """Read the scales of ``spec``'s observation from ``rig_env`` (design time; imports the environments)."""
     from rig_env.envs import TASKS
-    from rig_env.envs.sensors import AIRSPEED_SCALE, ANGLE_SCALE, FLAP_SCALE, RATE_SCALE, UNLIMITED
+    from rig_env.envs.sensors import (
+        AIRSPEED_SCALE,
+        ANGLE_SCALE,
+        FLAP_SCALE,
+        RATE_SCALE,
+        UNLIMITED,
+    )
     from rig_env.physics.aero import MIX_ELEVATOR, MIX_RUDDER
 
     labels = set(spec.obs_labels)
@@ -165,7 +172,7 @@ class Signals:
                     table[j] = (ix(label), ref[label])
         self.has_rate_ref = "rig_roll" in self._rref
 
-    def __call__(self, obs: np.ndarray) -> "Signals":
+    def __call__(self, obs: np.ndarray) -> Signals:
         o, sc = obs, self.scales
         self.angle = {}
         for j, cols in self._angle.items():

@@ -15,7 +15,8 @@ model and loop margins (lqr), the airspeed range and the sensor layout assumed.
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 from controllers.base import Controller, LoopSpec
 from controllers.deploy.artefact import register_kind
