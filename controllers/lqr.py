@@ -40,7 +40,7 @@ import numpy as np
 from controllers.axes import AXIS_OF, axes_of, resolve, unresolve
 from controllers.base import Controller, LoopSpec, register
 from controllers.estimator import DelayedKalman
-from controllers.signals import Signals, SignalScales
+from controllers.signals import Signals, SignalScales, require_roll
 
 if TYPE_CHECKING:  # the design's types only; the runtime never imports rig_env
     from rig_env.params import RigParams
@@ -146,6 +146,7 @@ class LQRLaw(Controller):
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
                  estimator: bool = True, tables: LQRTables | Mapping[str, Any] | None = None) -> None:
         super().__init__(spec, num_envs)
+        require_roll(spec)
         if tables is None:
             # design time only: python-control, scipy and the numba model
             from controllers.lqr_design import design_lqr

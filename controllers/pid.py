@@ -38,7 +38,7 @@ import numpy as np
 from controllers.axes import AXIS_OF, axes_of, resolve, unresolve
 from controllers.base import Controller, LoopSpec, register
 from controllers.pid_element import PID
-from controllers.signals import Signals, SignalScales
+from controllers.signals import Signals, SignalScales, require_roll
 
 if TYPE_CHECKING:  # the design's types only; the runtime never imports rig_env
     from rig_env.params import RigParams
@@ -140,6 +140,7 @@ class PIDLaw(Controller):
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
                  rate_filter_hz: float = 10.0, feedforward: bool = True, tables: PIDTables | Mapping[str, Any] | None = None) -> None:
         super().__init__(spec, num_envs)
+        require_roll(spec)
         if tables is None:
             # design time only: python-control, scipy and the numba model
             from controllers.pid_design import design_pid

@@ -147,13 +147,18 @@ def signal_scales(spec: LoopSpec) -> SignalScales:
                         float(FLAP_SCALE), unmix, tuple(j for j in spec.free_dofs if j in UNLIMITED), tuple(ref), np.array(list(ref.values())))
 
 
+def require_roll(spec: LoopSpec) -> None:
+    """UnsupportedTask unless rig_roll is free: the compensator laws' roll loops need it (checked before any design)."""
+    if "rig_roll" not in spec.free_dofs:
+        raise UnsupportedTask(f"free_dofs = {list(spec.free_dofs)}: this law's roll loops need rig_roll free")
+
+
 class Signals:
     """Parser built once per law from its :class:`LoopSpec` (and its :class:`SignalScales`, read from
     ``rig_env`` when not given); :meth:`__call__` fills the attributes.  Numpy only."""
 
     def __init__(self, spec: LoopSpec, scales: SignalScales | None = None) -> None:
-        if "rig_roll" not in spec.free_dofs:
-            raise UnsupportedTask(f"free_dofs = {list(spec.free_dofs)}: this law's roll loops need rig_roll free")
+        require_roll(spec)
         self.spec = spec
         self.scales = sc = scales if scales is not None else signal_scales(spec)
         ix = spec.index
