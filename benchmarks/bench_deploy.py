@@ -1,13 +1,15 @@
 """Deployment loop: latency and jitter at 80 and 244 Hz against the sim rig, and the runtime's per-call cost per kind.
 
     python benchmarks/bench_deploy.py [--seconds 10] [--rates 80 244] [--realtime] [--write]
+    python benchmarks/bench_deploy.py --runtime-only          # only the per-kind runtime cost (no loop runs)
 
 Loop runs: the sim rig (``scripts/deploy.py sim-rig``) in a subprocess, the loop in this process,
 loopback UDP, the "linear" law exported at each rate.  Latency = command sent - tick deadline; wake
 jitter = wake-up - deadline; a deadline miss = the command left after the rig's next tick (0.75 period
 after the loop's deadline).  ``--realtime`` runs both sides under SCHED_FIFO as well (a second row).
 Runtime cost: ``act`` of each exportable kind (one environment, float32 observation in, after 200
-warm-up calls), median over 20,000 calls, plus the observation builder (``Sensors.update`` +
+warm-up calls), median over 20,000 calls, for every kind in ``controllers.CONTROLLERS`` plus "linear"
+("pid", "lqr", and "ppo" / "sac" when installed), plus the observation builder (``Sensors.update`` +
 ``observe``).  ``--write`` replaces the "## Deployment loop" section of benchmarks/RESULTS.md.
 """
 
@@ -109,13 +111,17 @@ def main() -> None:
     ap.add_argument("--rates", type=float, nargs="+", default=[80.0, 244.0])
     ap.add_argument("--realtime", action="store_true")
     ap.add_argument("--write", action="store_true")
+    ap.add_argument("--runtime-only", action="store_true", help="skip the loop runs; measure the kinds' runtime cost only")
     a = ap.parse_args()
+    if a.runtime_only and a.write:
+        ap.error("--write replaces the whole section: run it without --runtime-only")
     sys.path.insert(0, str(ROOT))
     lines = [f"Command: `python benchmarks/bench_deploy.py --seconds {a.seconds:g}{' --realtime' if a.realtime else ''}`.  Machine: {machine()}.", ""]
-    lines += ["| rate | scheduling | ticks | deadline misses | latency p50 / p99 / max, ms | wake jitter std / p99 / max, ms | missed frames | law act p50, ms |",
-              "|---|---|---|---|---|---|---|---|"]
+    if not a.runtime_only:
+        lines += ["| rate | scheduling | ticks | deadline misses | latency p50 / p99 / max, ms | wake jitter std / p99 / max, ms | missed frames | law act p50, ms |",
+                  "|---|---|---|---|---|---|---|---|"]
     with tempfile.TemporaryDirectory() as tmp:
-        for rate in a.rates:
+        for rate in ([] if a.runtime_only else a.rates):
             law = Path(tmp) / f"linear_{rate:g}.json"
             assert export("linear", rate, law) is None
             for rt in ([False, True] if a.realtime else [False]):
@@ -139,7 +145,8 @@ def main() -> None:
                 lines.append(f"| {json.loads(law.read_text())['kind']} ({kind}) | {runtime_cost(law) * 1e6:.1f} us | |")
             print(lines[-1], flush=True)
         lines.append(f"| observation builder (`Sensors.update` + `observe`) | {observation_cost(Path(tmp) / 'linear.json') * 1e6:.1f} us | per tick, shared with the envs |")
-    lines += ["", NOTE]
+    if not a.runtime_only:
+        lines += ["", NOTE]
     text = "\n".join(lines)
     print(text)
     if a.write:

@@ -1,124 +1,132 @@
 """``LQRLaw`` (kind ``"lqr"``): gain-scheduled LQR with integral action and a delay-aware estimator.
 
-Design (at construction, :func:`design_grid`): for every airspeed ``V`` of a grid over
-``spec.airspeed_range`` and every roll angle ``phi`` of a 30 deg grid, trim and linearise the
-task's free joints (:func:`controllers.model.design_model`, the numba model the environment
-integrates, virtual inputs roll/heave/sway), augment the model with the integrals of the tracked
-errors (roll angle; rig_pitch and rig_yaw when free) and solve ``control.lqr`` with Bryson weights
-(:data:`MAX_DEVIATION`, :data:`MAX_INPUT`).  The operating point moves with phi (the arm's gravity
-imbalance needs a steady aileron and changes the roll stiffness, ``-k cos phi``) and with V (all
-aerodynamic terms), so gains, trims and models are interpolated bilinearly in (V, phi) at the
-estimated state, periodically in phi.
+Design (:func:`controllers.lqr_design.design_lqr`, at construction): an LQR with integral action on
+a grid of airspeeds ``V`` over ``spec.airspeed_range`` and roll angles ``phi`` every 30 deg,
+trimmed and linearised on the numba model the environment integrates.  The operating point moves
+with phi (the arm's gravity imbalance needs a steady aileron and changes the roll stiffness,
+``-k cos phi``) and with V (all aerodynamic terms), so gains, trims and models are interpolated
+bilinearly in (V, phi) at the estimated state, periodically in phi.
 
 Law, per control period (batched, numpy):
 
     (q, w)   = DelayedKalman(measured angles, measured surfaces)          (controllers.estimator)
     e        = [q - q_ref, w - w_ref, integral of the tracked angle errors]
     v        = u_trim(V, phi) + u_ff - K(V, phi) e                        (virtual roll, heave, sway)
-    surfaces = resolve(phi, v)                                            (controllers.model.resolve)
+    surfaces = resolve(phi, v)                                            (controllers.axes.resolve)
 
 ``q_ref``: roll reference from the task's roll error (unwrapped against the estimate), rig_pitch and
 rig_yaw from the task's errors when it gives them (else 0), model joints at their trim; ``w_ref``:
 the task's rate references (else 0).
 ``u_ff``: the aileron that gives the reference roll acceleration at the reference rate on the
 linear model.  The integrators stop while the output is saturated in their direction (clamping).
+
+Design and runtime are apart: the design (python-control, the numba model) is imported only when a
+law is designed; its result is :class:`LQRTables`, plain data, which this module runs with numpy
+alone, in simulation and from a deployed artefact (kind ``"lqr"``: ``law.to_data()`` /
+``LQRLaw.from_data(data, spec)``), one implementation.  The design functions (``design_point``,
+``augmented``, ``MAX_DEVIATION``...) live in :mod:`controllers.lqr_design` and are re-exported
+here on first access.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import control
 import numpy as np
 
+from controllers.axes import AXIS_OF, axes_of, resolve, unresolve
 from controllers.base import Controller, LoopSpec, register
-from controllers.estimator import DelayedKalman, kalman_gain
-from controllers.model import AXES, AXIS_OF, design_model, loop_elements, resolve
-from controllers.signals import Signals
-from controllers.tuning import axes_of, margins
-from rig_env.envs.sensors import UNLIMITED
-from rig_env.params import JOINTS, RigParams
+from controllers.estimator import DelayedKalman
+from controllers.signals import Signals, SignalScales, require_roll
 
-MAX_DEVIATION = {  # Bryson: Q = 1 / max^2 (rad, rad/s, rad s)
-    "rig_roll": math.radians(8.0), "rig_roll_rate": math.radians(90.0), "int_rig_roll": math.radians(10.0),
-    "rig_pitch": math.radians(4.0), "rig_pitch_rate": math.radians(30.0), "int_rig_pitch": math.radians(4.0),
-    "rig_yaw": math.radians(4.0), "rig_yaw_rate": math.radians(30.0), "int_rig_yaw": math.radians(4.0),
-    "model_pitch": math.radians(40.0), "model_pitch_rate": math.radians(400.0),
-    "model_yaw": math.radians(40.0), "model_yaw_rate": math.radians(400.0),
-}
-MAX_INPUT = {"roll": 0.1, "heave": 0.35, "sway": 0.35}
-"""Normalised virtual inputs (1 = 40 deg) at V_REF; R = 1 / (max V_REF / V)^2: the allowed input grows
-as the airspeed falls (the control derivatives scale with V^2, the gravity terms not at all); this
-scaling keeps the loop margins nearly uniform over 15-25 m/s (see ``describe``)."""
-V_REF = 20.0
-PHI_STEP_DEG = 30.0
-SIGMA_A = {"rig_roll": 20.0, "rig_pitch": 10.0, "rig_yaw": 10.0, "model_pitch": 40.0, "model_yaw": 40.0}  # rad/s^2
-SIGMA_Z = math.radians(0.1)  # rad: 0.05 deg noise and 0.088 deg quantisation
+if TYPE_CHECKING:  # the design's types only; the runtime never imports rig_env
+    from rig_env.params import RigParams
+
+_TABLES = ("K", "u_trim", "q_op", "A_q", "A_w", "B")
 
 
 @dataclass(frozen=True)
-class Design:
-    """One grid point: gains K (3, n_x + n_i), trim u_trim (3,), q_op (n_q,), A (n_x, n_x), B (n_x, 3),
-    weights Q, R, Riccati solution P and closed-loop poles of the augmented model."""
+class LQRTables:
+    """Everything :class:`LQRLaw` executes, checked against a :class:`LoopSpec`.
 
-    free_dofs: tuple[str, ...]
-    airspeed: float
-    phi: float
+    ``nv`` airspeeds, ``nphi`` roll angles, ``nq`` = number of free joints, ``ni`` = tracked joints.
+
+    | field | shape | unit |
+    |---|---|---|
+    | airspeeds | (nv,) | m/s, increasing |
+    | phis | (nphi,) | rad, ``phis[0] + k phi_step``, covering 2 pi |
+    | phi_step | scalar | rad |
+    | K | (nv, nphi, 3, 2 nq + ni) | normalised virtual input per (rad, rad/s, rad s) |
+    | u_trim | (nv, nphi, 3) | normalised virtual inputs |
+    | q_op | (nv, nphi, nq) | rad, trim angles |
+    | A_q, A_w | (nv, nphi, nq, nq) | 1/s^2, 1/s: joint accelerations per angle, per rate |
+    | B | (nv, nphi, nq, 3) | rad/s^2 per normalised virtual input |
+    | kalman_gain | (nq, 2) | estimator gains (angle, rate) per joint |
+    | link_delay_steps | int | delay the estimator predicts over, control steps |
+    | estimator | bool | False: measured angles and filtered rates as they come |
+    | scales | :class:`SignalScales` | the observation's normalisation |
+    | design | dict | provenance: weights, grid, noise model, loop margins |
+    """
+
+    airspeeds: np.ndarray
+    phis: np.ndarray
+    phi_step: float
     K: np.ndarray
     u_trim: np.ndarray
     q_op: np.ndarray
-    A: np.ndarray
+    A_q: np.ndarray
+    A_w: np.ndarray
     B: np.ndarray
-    Q: np.ndarray
-    R: np.ndarray
-    P: np.ndarray
-    poles: np.ndarray
+    kalman_gain: np.ndarray
+    link_delay_steps: int
+    estimator: bool
+    scales: SignalScales
+    design: dict[str, Any]
+
+    def to_data(self) -> dict[str, Any]:
+        """Artefact entries: numpy arrays and JSON values."""
+        d: dict[str, Any] = {k: getattr(self, k).copy() for k in ("airspeeds", "phis", "kalman_gain", *_TABLES)}
+        return {**d, "phi_step": self.phi_step, "link_delay_steps": self.link_delay_steps, "estimator": self.estimator,
+                **self.scales.to_data(), "design": dict(self.design)}
+
+    @classmethod
+    def from_data(cls, d: Mapping[str, Any], spec: LoopSpec) -> LQRTables:
+        """Check ``d`` (from :func:`controllers.lqr_design.design_lqr` or an artefact); a ValueError names the entry."""
+        missing = [k for k in ("airspeeds", "phis", "phi_step", "kalman_gain", "link_delay_steps", "estimator", "design", *_TABLES) if k not in d]
+        if missing:
+            raise ValueError(f"lqr: missing entries {missing}")
+        v = _arr(d, "airspeeds", None)
+        ph = _arr(d, "phis", None)
+        if v.ndim != 1 or v.size < 1 or v[0] <= 1.0 or np.any(np.diff(v) <= 0):
+            raise ValueError(f"lqr: airspeeds must be increasing and > 1 m/s, got {v.tolist() if v.ndim == 1 else v.shape}")
+        step = d["phi_step"]
+        if isinstance(step, bool) or not isinstance(step, (int, float)) or not 0 < step <= math.pi:
+            raise ValueError(f"lqr: phi_step = {step!r}: allowed range (0, pi] rad")
+        if ph.ndim != 1 or ph.size < 2 or abs(ph.size * step - 2 * math.pi) > 1e-9 or np.any(np.abs(np.diff(ph) - step) > 1e-9):
+            raise ValueError(f"lqr: phis must step by phi_step = {step} rad round the full circle, got shape {ph.shape}")
+        lds = d["link_delay_steps"]
+        if isinstance(lds, bool) or not isinstance(lds, int) or not 0 <= lds <= 100:
+            raise ValueError(f"lqr: link_delay_steps = {lds!r}: an integer in [0, 100]")
+        if not isinstance(d["estimator"], bool) or not isinstance(d["design"], dict):
+            raise ValueError("lqr: estimator must be a bool and design an object")
+        nv, nphi, nq, ni = v.size, ph.size, len(spec.free_dofs), len(axes_of(spec.free_dofs))
+        want = {"K": (nv, nphi, 3, 2 * nq + ni), "u_trim": (nv, nphi, 3), "q_op": (nv, nphi, nq), "A_q": (nv, nphi, nq, nq),
+                "A_w": (nv, nphi, nq, nq), "B": (nv, nphi, nq, 3)}
+        t = {k: _arr(d, k, shape) for k, shape in want.items()}
+        return cls(v, ph, float(step), **t, kalman_gain=_arr(d, "kalman_gain", (nq, 2)), link_delay_steps=lds,
+                   estimator=d["estimator"], scales=SignalScales.from_data(d, spec), design=dict(d["design"]))
 
 
-def augmented(A: np.ndarray, B: np.ndarray, free_dofs: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """Append integrals of the tracked joints' angles: z' = q_j for j in rig_roll, rig_pitch, rig_yaw (free)."""
-    tracked = axes_of(free_dofs)
-    nx, ni = A.shape[0], len(tracked)
-    Aa = np.zeros((nx + ni, nx + ni))
-    Aa[:nx, :nx] = A
-    for k, j in enumerate(tracked):
-        Aa[nx + k, free_dofs.index(j)] = 1.0
-    Ba = np.vstack([B, np.zeros((ni, B.shape[1]))])
-    return Aa, Ba, [f"int_{j}" for j in tracked]
-
-
-def design_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: float, phi: float) -> Design:
-    """Trim, linearise, augment and solve the LQR at one (V, phi)."""
-    dp = design_model(params, free_dofs, airspeed, phi)
-    A, B = np.asarray(dp.sys.A), np.asarray(dp.sys.B)
-    Aa, Ba, ilabels = augmented(A, B, free_dofs)
-    labels = list(dp.sys.state_labels) + ilabels
-    Q = np.diag([1.0 / MAX_DEVIATION[s] ** 2 for s in labels])
-    used = [AXIS_OF[j] for j in axes_of(free_dofs)]
-    R = np.diag([1.0 / (MAX_INPUT[AXES[k]] * V_REF / airspeed) ** 2 for k in used])
-    Kr, P, poles = control.lqr(Aa, Ba[:, used], Q, R)
-    K = np.zeros((3, Aa.shape[0]))
-    K[used] = Kr
-    q_op = dp.op.q[[JOINTS.index(j) for j in free_dofs]]
-    return Design(tuple(free_dofs), float(airspeed), float(phi), K, dp.u_trim, q_op, A, B, Q, R, np.asarray(P), np.asarray(poles))
-
-
-def design_grid(params: RigParams, free_dofs: tuple[str, ...], airspeeds: np.ndarray, phis: np.ndarray) -> list[list[Design]]:
-    """Designs for every (airspeed, phi) of the grid: ``grid[i_v][i_phi]``."""
-    return [[design_point(params, free_dofs, float(v), float(f)) for f in phis] for v in airspeeds]
-
-
-def loop_margins(d: Design, channel: int, elements: dict[str, control.TransferFunction]) -> tuple[float, float, float]:
-    """(GM dB, PM deg, crossover rad/s) of the loop broken at virtual input ``channel`` (others closed),
-    with the servo and the Pade transport delay in the loop."""
-    Aa, Ba, _ = augmented(d.A, d.B, d.free_dofs)
-    others = [k for k in range(3) if k != channel]
-    Acl = Aa - Ba[:, others] @ d.K[others]
-    Lss = control.ss(Acl, Ba[:, [channel]], d.K[[channel]], 0.0)
-    L = Lss * control.tf2ss(elements["servo"] * elements["delay"])
-    return margins(L)
+def _arr(d: Mapping[str, Any], k: str, shape: tuple[int, ...] | None) -> np.ndarray:
+    a = np.asarray(d[k], dtype=np.float64)
+    if shape is not None and a.shape != shape:
+        raise ValueError(f"lqr: {k}: expected shape {shape}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"lqr: {k}: non-finite value(s)")
+    return a
 
 
 @register("lqr")
@@ -130,42 +138,46 @@ class LQRLaw(Controller):
     | params | default rig | rig parameters of the design model |
     | link_delay_steps | 1 | measurement delay the estimator predicts over, control steps |
     | estimator | True | DelayedKalman; False: measured angles and filtered rates as they come |
+    | tables | None | a finished design (:class:`LQRTables` or its data); the arguments above must then be left at their defaults |
     """
 
+    artefact_kind = "lqr"
+
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
-                 estimator: bool = True) -> None:
+                 estimator: bool = True, tables: LQRTables | Mapping[str, Any] | None = None) -> None:
         super().__init__(spec, num_envs)
-        self.sig = Signals(spec)
-        self.params = params or RigParams.default()
+        require_roll(spec)
+        if tables is None:
+            # design time only: python-control, scipy and the numba model
+            from controllers.lqr_design import design_lqr
+
+            tables = design_lqr(spec, params, link_delay_steps=link_delay_steps, estimator=estimator)
+        elif params is not None or link_delay_steps != 1 or estimator is not True:
+            raise ValueError("tables given: params, link_delay_steps and estimator belong to the design and must not be passed too")
+        t = self.tables = tables if isinstance(tables, LQRTables) else LQRTables.from_data(tables, spec)
+        self.sig = Signals(spec, t.scales)
         fd = spec.free_dofs
-        lo, hi = spec.airspeed_range
-        self.airspeeds = np.linspace(lo, hi, max(2, math.ceil((hi - lo) / 2.5) + 1)) if hi > lo else np.array([lo])
-        if self.airspeeds[0] <= 1.0:
-            raise ValueError(f"airspeed_range = {spec.airspeed_range}: the LQR design needs airspeed > 1 m/s")
-        self.phis = np.radians(np.arange(-180.0, 180.0, PHI_STEP_DEG))
-        self.grid = design_grid(self.params, fd, self.airspeeds, self.phis)
-        g = self.grid
-        self._K = np.array([[d.K for d in r] for r in g])
-        self._u = np.array([[d.u_trim for d in r] for r in g])
-        self._qop = np.array([[d.q_op for d in r] for r in g])
-        nq = len(fd)
-        self._Aq = np.array([[d.A[nq:, :nq] for d in r] for r in g])
-        self._Aw = np.array([[d.A[nq:, nq:] for d in r] for r in g])
-        self._B = np.array([[d.B[nq:] for d in r] for r in g])
+        self.airspeeds, self.phis = t.airspeeds, t.phis
         self.tracked = axes_of(fd)
         self._track_idx = np.array([fd.index(j) for j in self.tracked])
         self._track_axis = np.array([AXIS_OF[j] for j in self.tracked])
         self.roll = fd.index("rig_roll")
-        wrap = np.array([j in UNLIMITED for j in fd])
-        gains = np.array([kalman_gain(spec.dt, SIGMA_A[j], SIGMA_Z) for j in fd])
-        self.use_estimator = bool(estimator)
-        self.kf = DelayedKalman(self.num_envs, spec.dt, wrap, gains, link_delay_steps)
+        wrap = np.array([j in t.scales.unlimited for j in fd])
+        self.use_estimator = t.estimator
+        self.link_delay_steps = t.link_delay_steps
+        self.kf = DelayedKalman(self.num_envs, spec.dt, wrap, t.kalman_gain, t.link_delay_steps)
         self.z = np.zeros((self.num_envs, len(self.tracked)))
-        self.link_delay_steps = link_delay_steps
-        n_x = 2 * len(fd)
-        self._int_col = n_x + np.arange(len(self.tracked))  # columns of K acting on the integrals
+        self._int_col = 2 * len(fd) + np.arange(len(self.tracked))  # columns of K acting on the integrals
         self._p_prev = np.zeros(self.num_envs)
         self._fresh = np.ones(self.num_envs, dtype=bool)
+
+    @classmethod
+    def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> LQRLaw:
+        """The runtime of a deployed artefact (numpy only)."""
+        return cls(spec, num_envs, tables=LQRTables.from_data(data, spec))
+
+    def to_data(self) -> dict[str, Any]:
+        return self.tables.to_data()
 
     def reset(self, mask: np.ndarray | None = None) -> None:
         m = self._mask(mask)
@@ -184,7 +196,7 @@ class LQRLaw(Controller):
             iv0 = np.floor(x).astype(np.int64)
             iv1, wv = iv0 + 1, x - iv0
         npf = self.phis.size
-        y = ((phi - self.phis[0]) % (2 * math.pi)) / math.radians(PHI_STEP_DEG)
+        y = ((phi - self.phis[0]) % (2 * math.pi)) / self.tables.phi_step
         ip0 = np.floor(y).astype(np.int64) % npf
         return iv0, iv1, wv, ip0, (ip0 + 1) % npf, y - np.floor(y)
 
@@ -196,6 +208,7 @@ class LQRLaw(Controller):
         return (1 - wv)[ex] * a + wv[ex] * b
 
     def act(self, obs: np.ndarray) -> np.ndarray:
+        t = self.tables
         s = self.sig(self._check_obs(obs))
         fd = self.spec.free_dofs
         z_meas = np.stack([s.angle[j] for j in fd], axis=1)
@@ -203,13 +216,10 @@ class LQRLaw(Controller):
         V = s.airspeed
         phi_now = np.where(self._fresh, s.phi, self.kf.q[:, self.roll])
         w = self._weights(V, phi_now)
-        u_trim = self._interp(self._u, w)
-        model = (self._interp(self._qop, w), self._interp(self._Aq, w), self._interp(self._Aw, w), self._interp(self._B, w), u_trim)
+        u_trim = self._interp(t.u_trim, w)
+        model = (self._interp(t.q_op, w), self._interp(t.A_q, w), self._interp(t.A_w, w), self._interp(t.B, w), u_trim)
         if self.use_estimator:
-            surf = s.surfaces
-            c, sn = np.cos(s.phi), np.sin(s.phi)  # surfaces -> virtual axes (inverse of resolve)
-            virt_meas = np.stack([surf[:, 0], c * surf[:, 1] - sn * surf[:, 2], sn * surf[:, 1] + c * surf[:, 2]], axis=1)
-            q, wr = self.kf.step(z_meas, w_meas, virt_meas, model)
+            q, wr = self.kf.step(z_meas, w_meas, unresolve(s.phi, s.surfaces), model)
         else:
             q, wr = z_meas, w_meas
             self.kf.fresh[:] = False
@@ -223,7 +233,7 @@ class LQRLaw(Controller):
                 k = fd.index(j)
                 dq[:, k] = q[:, k] - (z_meas[:, k] + s.error[j])
                 dw[:, k] -= s.rate_ref[j]
-        K = self._interp(self._K, w)
+        K = self._interp(t.K, w)
         e = np.concatenate([dq, dw, self.z], axis=1)
         v = u_trim - np.einsum("nij,nj->ni", K, e)
         if self.sig.has_rate_ref:  # roll acceleration of the reference at the reference rate, on the model
@@ -241,19 +251,20 @@ class LQRLaw(Controller):
         self._fresh[:] = False
         return np.clip(resolve(q[:, self.roll], sat), -1.0, 1.0)
 
-    def describe_point(self, airspeed: float, phi: float) -> dict[str, Any]:
-        """Closed-loop poles and loop margins (servo and delay included) at the grid point nearest (V, phi)."""
-        iv = int(np.argmin(np.abs(self.airspeeds - airspeed)))
-        ip = int(np.argmin(np.abs(((self.phis - phi) + math.pi) % (2 * math.pi) - math.pi)))
-        d = self.grid[iv][ip]
-        el = loop_elements(self.params, self.spec.dt, self.link_delay_steps)
-        out: dict[str, Any] = {"airspeed": d.airspeed, "phi_deg": math.degrees(d.phi), "poles": d.poles.tolist()}
-        for j in self.tracked:
-            gm, pm, wc = loop_margins(d, AXIS_OF[j], el)
-            out[j] = {"gm_db": gm, "pm_deg": pm, "wc": wc}
-        return out
-
     def describe(self) -> dict[str, Any]:
-        """Margins at the lowest, middle and highest design airspeed, at roll 0 and 90 deg (for the report)."""
-        vs = sorted({float(self.airspeeds[0]), float(np.median(self.airspeeds)), float(self.airspeeds[-1])})
-        return {"points": [self.describe_point(v, math.radians(f)) for v in vs for f in (0.0, 90.0)]}
+        """Poles and loop margins (servo and delay included) at the lowest, middle and highest design airspeed,
+        roll 0 and 90 deg, as computed by the design (for the report; poles as [re, im])."""
+        return {"points": list(self.tables.design["margins"])}
+
+
+_DESIGN_NAMES = ("Design", "augmented", "design_point", "design_grid", "loop_margins", "describe_point", "design_lqr",
+                 "MAX_DEVIATION", "MAX_INPUT", "V_REF", "PHI_STEP_DEG", "SIGMA_A", "SIGMA_Z")
+
+
+def __getattr__(name: str) -> Any:
+    """The design functions and constants, from :mod:`controllers.lqr_design` (imported on first use only)."""
+    if name not in _DESIGN_NAMES:
+        raise AttributeError(f"module 'controllers.lqr' has no attribute {name!r}")
+    from controllers import lqr_design
+
+    return getattr(lqr_design, name)

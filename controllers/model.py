@@ -22,7 +22,8 @@ frame and :func:`resolve` turns them into surfaces (the linear model gives, at e
     de = cos(phi) h + sin(phi) s,     dr = -sin(phi) h + cos(phi) s
 
 so ``h`` moves rig_pitch and ``s`` moves rig_yaw whatever the roll angle, with the gain they have
-at phi = 0 (checked in ``tests/test_controllers.py``).  Design inputs: :data:`AXES`.
+at phi = 0 (checked in ``tests/test_controllers.py``).  Design inputs: :data:`AXES`.  The geometry
+(:data:`AXES`, :func:`resolve`, :func:`rotation`) lives in the numpy-only :mod:`controllers.axes`.
 """
 
 from __future__ import annotations
@@ -34,28 +35,13 @@ import control
 import numpy as np
 from scipy.optimize import least_squares
 
+from controllers.axes import AXES, AXIS_OF, resolve, rotation  # noqa: F401  (re-exported: the numpy-only geometry)
 from rig_env.linear import OperatingPoint, joint_accelerations, linearize
 from rig_env.params import JOINTS, SURFACES, RigParams
 from rig_env.physics import layout as L
 
-AXES = ("roll", "heave", "sway")
-"""Virtual inputs of the designs: aileron, heave and sway (normalised; see :func:`resolve`)."""
-AXIS_OF = {"rig_roll": 0, "rig_pitch": 1, "rig_yaw": 2}
-"""Virtual input that moves each rig joint."""
 INPUTS = ("comp_aileron", "comp_elevator", "comp_rudder")
 PASSIVE = ("model_pitch", "model_yaw")
-
-
-def resolve(phi: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """(n, 3) compensator (aileron, elevator, rudder) from virtual (roll, heave, sway) v (n, 3) at roll phi (n,)."""
-    c, s = np.cos(phi), np.sin(phi)
-    return np.stack([v[:, 0], c * v[:, 1] + s * v[:, 2], -s * v[:, 1] + c * v[:, 2]], axis=1)
-
-
-def rotation(phi: float) -> np.ndarray:
-    """(3, 3) matrix R with surfaces = R @ virtual inputs (the linear form of :func:`resolve`)."""
-    c, s = math.cos(phi), math.sin(phi)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, s], [0.0, -s, c]])
 
 
 @dataclass(frozen=True)

@@ -9,36 +9,117 @@
 Each loop is a :class:`controllers.pid_element.PID` (explicit dt, anti-windup by back-calculation,
 output limit +-1 = +-40 deg, rate limit = the servo's 350 deg/s, bumpless engagement).  Heave and
 sway demands are turned into elevator and rudder with the measured roll angle
-(:func:`controllers.model.resolve`).  The rate loop acts on the measured, filtered rate, so the
+(:func:`controllers.axes.resolve`).  The rate loop acts on the measured, filtered rate, so the
 cascade is a PID on the angle whose derivative is on the measurement, filtered by the sensor.
 
-Gains: :func:`controllers.tuning.tune_axis` at construction (stated margins; ``law.tunings`` holds
+Gains: :func:`controllers.tuning.tune_axis` at construction (stated margins; ``describe()`` gives
 gains and achieved margins) at the middle of ``spec.airspeed_range``; the rate-loop gains are
 scaled by ``(V_design / V)^2`` with the measured airspeed.  Feedforward on the roll axis: the trim
 aileron that holds the arm's gravity imbalance at the measured roll angle (a table over the roll
 angle from :func:`controllers.model.operating_point`), and, when the task gives a rate reference,
 the aileron that balances the roll damping at that rate plus its rate of change, from the linear
 model.  ``reset(mask)`` re-engages the masked environments bumplessly from the measured flaps.
+
+Design and runtime are apart: :func:`controllers.pid_design.design_pid` (python-control, the numba
+model; imported only when a law is designed) produces :class:`PIDTables`, plain data; this module
+runs them with numpy alone, in simulation and from a deployed artefact (kind ``"pid"``:
+``law.to_data()`` / ``PIDLaw.from_data(data, spec)``), one implementation.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from controllers.axes import AXIS_OF, axes_of, resolve, unresolve
 from controllers.base import Controller, LoopSpec, register
-from controllers.model import AXIS_OF, design_model, operating_point, resolve
 from controllers.pid_element import PID
-from controllers.signals import Signals
-from controllers.tuning import AxisTuning, axes_of, tune_axis
-from rig_env.params import RigParams
-from rig_env.physics import layout as L
+from controllers.signals import Signals, SignalScales, require_roll
 
-RATE_DEMAND_MAX = {"rig_roll": math.radians(400.0), "rig_pitch": math.radians(60.0), "rig_yaw": math.radians(60.0)}
-"""Limits of the outer loops' rate demands, rad/s."""
-N_PHI = 37  # roll-angle grid of the trim table, -180..180 deg every 10 deg
+if TYPE_CHECKING:  # the design's types only; the runtime never imports rig_env
+    from rig_env.params import RigParams
+
+
+@dataclass(frozen=True)
+class PIDTables:
+    """Everything :class:`PIDLaw` executes, checked against a :class:`LoopSpec` (``axes`` = its tracked joints).
+
+    | field | shape | unit |
+    |---|---|---|
+    | axes | names | tracked rig joints, :data:`controllers.axes.AXES` order |
+    | kp, ki | (n_axes,) | rate-loop PI: command per rad/s, per rad s |
+    | k_angle | (n_axes,) | angle loop: rad/s per rad |
+    | rate_demand_max | (n_axes,) | outer loops' output limits, rad/s |
+    | v_design | scalar | design airspeed, m/s |
+    | rate_limit | scalar | surface rate limit, normalised units / s |
+    | feedforward | bool | roll trim and rate-reference feedforward on |
+    | phi_grid, trim_roll | (m,), (m,) | roll angle, rad (increasing, -pi..pi); trim aileron, normalised |
+    | b_roll, damp_roll | scalars | roll control power (rad/s^2 per unit) and damping (1/s) at V_design |
+    | scales | :class:`SignalScales` | the observation's normalisation |
+    | design | dict | provenance: targets, achieved margins, design point, sensor layout assumed |
+    """
+
+    axes: tuple[str, ...]
+    kp: np.ndarray
+    ki: np.ndarray
+    k_angle: np.ndarray
+    rate_demand_max: np.ndarray
+    v_design: float
+    rate_limit: float
+    feedforward: bool
+    phi_grid: np.ndarray
+    trim_roll: np.ndarray
+    b_roll: float
+    damp_roll: float
+    scales: SignalScales
+    design: dict[str, Any]
+
+    def to_data(self) -> dict[str, Any]:
+        """Artefact entries: numpy arrays and JSON values."""
+        return {"axes": list(self.axes), "kp": self.kp.copy(), "ki": self.ki.copy(), "k_angle": self.k_angle.copy(),
+                "rate_demand_max": self.rate_demand_max.copy(), "v_design": self.v_design, "rate_limit": self.rate_limit,
+                "feedforward": self.feedforward, "phi_grid": self.phi_grid.copy(), "trim_roll": self.trim_roll.copy(),
+                "b_roll": self.b_roll, "damp_roll": self.damp_roll, **self.scales.to_data(), "design": dict(self.design)}
+
+    @classmethod
+    def from_data(cls, d: Mapping[str, Any], spec: LoopSpec) -> PIDTables:
+        """Check ``d`` (from :func:`controllers.pid_design.design_pid` or an artefact); a ValueError names the entry."""
+        missing = [k for k in ("axes", "kp", "ki", "k_angle", "rate_demand_max", "v_design", "rate_limit", "feedforward",
+                               "phi_grid", "trim_roll", "b_roll", "damp_roll", "design") if k not in d]
+        if missing:
+            raise ValueError(f"pid: missing entries {missing}")
+        axes = tuple(d["axes"]) if isinstance(d["axes"], (list, tuple)) else ()
+        if list(axes) != axes_of(spec.free_dofs):
+            raise ValueError(f"pid: axes = {d['axes']!r}; the spec's free joints need {axes_of(spec.free_dofs)}")
+        n = len(axes)
+        grid = _vec(d, "phi_grid", None)
+        if grid.size < 2 or np.any(np.diff(grid) <= 0):
+            raise ValueError("pid: phi_grid must increase, with at least 2 points")
+        for k in ("v_design", "rate_limit", "b_roll", "damp_roll"):
+            v = d[k]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or (k != "b_roll" and v <= 0) or v == 0:
+                raise ValueError(f"pid: {k} = {v!r}: must be a finite number{' > 0' if k != 'b_roll' else ', not 0'}")
+        if not isinstance(d["feedforward"], bool) or not isinstance(d["design"], dict):
+            raise ValueError("pid: feedforward must be a bool and design an object")
+        rdm = _vec(d, "rate_demand_max", n)
+        if np.any(rdm <= 0):
+            raise ValueError(f"pid: rate_demand_max = {rdm.tolist()}: each must be > 0 rad/s")
+        return cls(axes, _vec(d, "kp", n), _vec(d, "ki", n), _vec(d, "k_angle", n), rdm, float(d["v_design"]), float(d["rate_limit"]),
+                   d["feedforward"], grid, _vec(d, "trim_roll", grid.size), float(d["b_roll"]), float(d["damp_roll"]),
+                   SignalScales.from_data(d, spec), dict(d["design"]))
+
+
+def _vec(d: Mapping[str, Any], k: str, n: int | None) -> np.ndarray:
+    a = np.asarray(d[k], dtype=np.float64)
+    if a.ndim != 1 or (n is not None and a.shape != (n,)):
+        raise ValueError(f"pid: {k}: expected shape {(n,) if n is not None else '(m,)'}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"pid: {k}: non-finite value(s)")
+    return a
 
 
 @register("pid")
@@ -51,34 +132,38 @@ class PIDLaw(Controller):
     | link_delay_steps | 1 | telemetry delay the tuning accounts for, control steps |
     | rate_filter_hz | 10.0 | the rate sensor's filter the tuning accounts for, Hz |
     | feedforward | True | trim and rate-reference feedforward on the roll axis |
+    | tables | None | a finished design (:class:`PIDTables` or its data); the arguments above must then be left at their defaults |
     """
 
+    artefact_kind = "pid"
+
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
-                 rate_filter_hz: float = 10.0, feedforward: bool = True) -> None:
+                 rate_filter_hz: float = 10.0, feedforward: bool = True, tables: PIDTables | Mapping[str, Any] | None = None) -> None:
         super().__init__(spec, num_envs)
-        self.sig = Signals(spec)
-        p = params or RigParams.default()
-        self.v_design = 0.5 * (spec.airspeed_range[0] + spec.airspeed_range[1])
-        if self.v_design <= 1.0:
-            raise ValueError(f"airspeed_range = {spec.airspeed_range}: the PID design needs airspeed > 1 m/s")
-        self.axes = axes_of(spec.free_dofs)
-        self.tunings: dict[str, AxisTuning] = {
-            j: tune_axis(p, spec.free_dofs, j, self.v_design, spec.dt, link_delay_steps=link_delay_steps, rate_filter_hz=rate_filter_hz)
-            for j in self.axes
-        }
+        require_roll(spec)
+        if tables is None:
+            # design time only: python-control, scipy and the numba model
+            from controllers.pid_design import design_pid
+
+            tables = design_pid(spec, params, link_delay_steps=link_delay_steps, rate_filter_hz=rate_filter_hz, feedforward=feedforward)
+        elif params is not None or link_delay_steps != 1 or rate_filter_hz != 10.0 or feedforward is not True:
+            raise ValueError("tables given: params, link_delay_steps, rate_filter_hz and feedforward belong to the design and must not be passed too")
+        t = self.tables = tables if isinstance(tables, PIDTables) else PIDTables.from_data(tables, spec)
+        self.sig = Signals(spec, t.scales)
+        self.v_design, self.feedforward = t.v_design, t.feedforward
         n = self.num_envs
-        rate_lim = math.degrees(p.to_vector()[L.P_SERVOS_COMPENSATOR_RATE_LIMIT_DEG_S]) / spec.action_scale_deg  # 1/s, normalised (vector in rad/s)
-        self.outer = {j: PID(n, kp=t.k_angle, dt=spec.dt, u_min=-RATE_DEMAND_MAX[j], u_max=RATE_DEMAND_MAX[j]) for j, t in self.tunings.items()}
-        self.inner = {j: PID(n, kp=t.kp, ki=t.ki, dt=spec.dt, rate=rate_lim) for j, t in self.tunings.items()}
-        self.feedforward = bool(feedforward)
-        self.phi_grid = np.linspace(-math.pi, math.pi, N_PHI)
-        self.trim_roll = np.array([operating_point(p, spec.free_dofs, self.v_design, f)[1][0] for f in self.phi_grid])
-        sys = design_model(p, spec.free_dofs, self.v_design, 0.0).sys
-        r = sys.state_labels.index("rig_roll_rate")
-        self.b_roll = float(sys.B[r, 0])  # rad/s^2 per unit aileron at V_design
-        self.damp_roll = float(-sys.A[r, r])  # 1/s at V_design
+        self.outer = {j: PID(n, kp=t.k_angle[k], dt=spec.dt, u_min=-t.rate_demand_max[k], u_max=t.rate_demand_max[k]) for k, j in enumerate(t.axes)}
+        self.inner = {j: PID(n, kp=t.kp[k], ki=t.ki[k], dt=spec.dt, rate=t.rate_limit) for k, j in enumerate(t.axes)}
         self._pending = np.ones(n, dtype=bool)
         self._p_ref_prev = np.zeros(n)
+
+    @classmethod
+    def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> PIDLaw:
+        """The runtime of a deployed artefact (numpy only)."""
+        return cls(spec, num_envs, tables=PIDTables.from_data(data, spec))
+
+    def to_data(self) -> dict[str, Any]:
+        return self.tables.to_data()
 
     def reset(self, mask: np.ndarray | None = None) -> None:
         m = self._mask(mask)
@@ -86,38 +171,29 @@ class PIDLaw(Controller):
             e.reset(m)
         self._pending |= m
 
-    def _errors(self, s: Signals) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """(angle error, rate feedforward, measured rate) per axis, rad and rad/s."""
-        return {j: (s.error[j], s.rate_ref[j], s.rate[j]) for j in self.tunings}
-
     def act(self, obs: np.ndarray) -> np.ndarray:
+        t = self.tables
         s = self.sig(self._check_obs(obs))
         v_air = np.maximum(s.airspeed, 5.0)
-        q_scale = (self.v_design / v_air) ** 2
+        q_scale = (t.v_design / v_air) ** 2
         ff_roll = np.zeros(self.num_envs)
-        if self.feedforward:
-            ff_roll = np.interp(s.phi, self.phi_grid, self.trim_roll) * q_scale
+        if t.feedforward:
+            ff_roll = np.interp(s.phi, t.phi_grid, t.trim_roll) * q_scale
             p_dot = np.where(self._pending, 0.0, (s.roll_rate_ref - self._p_ref_prev) / self.spec.dt)
-            ff_roll = ff_roll + (self.damp_roll * (v_air / self.v_design) * s.roll_rate_ref + p_dot) / (self.b_roll / q_scale)
+            ff_roll = ff_roll + (t.damp_roll * (v_air / t.v_design) * s.roll_rate_ref + p_dot) / (t.b_roll / q_scale)
         self._p_ref_prev = s.roll_rate_ref.copy()
         virt = np.zeros((self.num_envs, 3))
-        now = self._virtual_now(s)
-        for j, (e, rate_ff, rate) in self._errors(s).items():
-            demand = self.outer[j].update(e, 0.0) + rate_ff
+        now = unresolve(s.phi, s.surfaces)  # measured surfaces as virtual (roll, heave, sway) commands
+        for j in t.axes:
+            demand = self.outer[j].update(s.error[j], 0.0) + s.rate_ref[j]
             ff = ff_roll if j == "rig_roll" else 0.0
             k = AXIS_OF[j]
             if np.any(self._pending):
-                self.inner[j].engage(self._pending, demand, rate, now[:, k], ff=ff, gain_scale=q_scale)
-            virt[:, k] = self.inner[j].update(demand, rate, ff=ff, gain_scale=q_scale)
+                self.inner[j].engage(self._pending, demand, s.rate[j], now[:, k], ff=ff, gain_scale=q_scale)
+            virt[:, k] = self.inner[j].update(demand, s.rate[j], ff=ff, gain_scale=q_scale)
         self._pending[:] = False
         return np.clip(resolve(s.phi, virt), -1.0, 1.0)
 
-    def _virtual_now(self, s: Signals) -> np.ndarray:
-        """(n, 3) measured surfaces expressed as virtual (roll, heave, sway) commands (inverse of resolve)."""
-        c, sn = np.cos(s.phi), np.sin(s.phi)
-        a, de, dr = s.surfaces[:, 0], s.surfaces[:, 1], s.surfaces[:, 2]
-        return np.stack([a, c * de - sn * dr, sn * de + c * dr], axis=1)
-
     def describe(self) -> dict[str, Any]:
         """Gains and margins per axis (for the report)."""
-        return {j: t.as_dict() for j, t in self.tunings.items()}
+        return dict(self.tables.design["tunings"])

@@ -19,19 +19,24 @@ reference is held at zero.
 Scales of task entries: the task class's ``ref_scales`` mapping (label -> unit per normalised
 value) when it has one, else :data:`REF_SCALES`.  A task entry named like a reference whose scale is
 unknown is ignored with a warning.
+
+Runtime and design are apart: :func:`signal_scales` reads every scale above from ``rig_env`` (the
+sensors, the mixer, the task) into :class:`SignalScales`, plain numbers; :class:`Signals` parses with
+numpy alone from those numbers, so a deployed law stores them (:meth:`SignalScales.to_data`) and
+parses exactly as in simulation without importing ``rig_env``.
 """
 
 from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from controllers.base import LoopSpec, UnsupportedTask
-from rig_env.envs import TASKS
-from rig_env.envs.sensors import AIRSPEED_SCALE, ANGLE_SCALE, FLAP_SCALE, RATE_SCALE, UNLIMITED
-from rig_env.physics.aero import MIX_ELEVATOR, MIX_RUDDER
 
 REF_SCALES = {
     "roll_error": math.radians(45.0),
@@ -44,46 +49,143 @@ REF_SCALES = {
 TRACKED = ("rig_roll", "rig_pitch", "rig_yaw")
 _ERROR_LABEL = {"rig_roll": "roll_error", "rig_pitch": "rig_pitch_error", "rig_yaw": "rig_yaw_error"}
 _RATE_REF_LABEL = {"rig_roll": "roll_rate_ref", "rig_pitch": "rig_pitch_rate_ref", "rig_yaw": "rig_yaw_rate_ref"}
-_UNMIX = np.array([[0.25] * 4, [0.25 * m for m in MIX_ELEVATOR], [0.25 * m for m in MIX_RUDDER]])
+
+
+@dataclass(frozen=True)
+class SignalScales:
+    """The observation's normalisation for one :class:`LoopSpec`, as plain numbers.
+
+    | field | shape | unit |
+    |---|---|---|
+    | angle_scale | scalar | rad per ``<j>_angle`` unit |
+    | rate_scale | (n_free,) | rad/s per ``<j>_rate`` unit, ``spec.free_dofs`` order |
+    | airspeed_scale | scalar | m/s per ``airspeed`` unit |
+    | flap_scale | scalar | rad per ``flapk`` unit |
+    | unmix | (3, 4) | (aileron, elevator, rudder) from flaps 1-4 |
+    | unlimited | names | free joints observed as sin/cos |
+    | ref_labels, ref_scales | names, (k,) | task entries the laws read and their units (rad, rad/s) |
+    """
+
+    angle_scale: float
+    rate_scale: np.ndarray
+    airspeed_scale: float
+    flap_scale: float
+    unmix: np.ndarray
+    unlimited: tuple[str, ...]
+    ref_labels: tuple[str, ...]
+    ref_scales: np.ndarray
+
+    def to_data(self) -> dict[str, Any]:
+        """Artefact entries (``sig_*``): arrays and JSON scalars / lists."""
+        return {"sig_angle_scale": float(self.angle_scale), "sig_rate_scale": np.array(self.rate_scale, dtype=np.float64),
+                "sig_airspeed_scale": float(self.airspeed_scale), "sig_flap_scale": float(self.flap_scale),
+                "sig_unmix": np.array(self.unmix, dtype=np.float64), "sig_unlimited": list(self.unlimited),
+                "sig_ref_labels": list(self.ref_labels), "sig_ref_scales": np.array(self.ref_scales, dtype=np.float64)}
+
+    @classmethod
+    def from_data(cls, d: Mapping[str, Any], spec: LoopSpec) -> SignalScales:
+        """Inverse of :meth:`to_data`; a ValueError names a missing, mis-shaped or non-finite entry."""
+        missing = [k for k in ("sig_angle_scale", "sig_rate_scale", "sig_airspeed_scale", "sig_flap_scale", "sig_unmix",
+                               "sig_unlimited", "sig_ref_labels", "sig_ref_scales") if k not in d]
+        if missing:
+            raise ValueError(f"signal scales: missing {missing}")
+        names = {k: d[k] for k in ("sig_unlimited", "sig_ref_labels")}
+        for k, v in names.items():
+            if not isinstance(v, (list, tuple)) or not all(isinstance(x, str) for x in v):
+                raise ValueError(f"{k}: must be a list of names")
+        k = len(names["sig_ref_labels"])
+        sc = cls(_scalar(d, "sig_angle_scale"), _array(d, "sig_rate_scale", (len(spec.free_dofs),)), _scalar(d, "sig_airspeed_scale"),
+                 _scalar(d, "sig_flap_scale"), _array(d, "sig_unmix", (3, 4)), tuple(names["sig_unlimited"]),
+                 tuple(names["sig_ref_labels"]), _array(d, "sig_ref_scales", (k,)))
+        unknown = [x for x in sc.ref_labels if x not in spec.obs_labels]
+        if unknown or any(j not in spec.free_dofs for j in sc.unlimited):
+            raise ValueError(f"signal scales: entries {unknown or list(sc.unlimited)} do not match the spec's observation / free joints")
+        return sc
+
+
+def _scalar(d: Mapping[str, Any], k: str) -> float:
+    v = d[k]
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+        raise ValueError(f"{k} = {v!r}: must be a finite number > 0")
+    return float(v)
+
+
+def _array(d: Mapping[str, Any], k: str, shape: tuple[int, ...]) -> np.ndarray:
+    a = np.asarray(d[k], dtype=np.float64)
+    if a.shape != shape:
+        raise ValueError(f"{k}: expected shape {shape}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{k}: non-finite value(s)")
+    return a
+
+
+def signal_scales(spec: LoopSpec) -> SignalScales:
+    """Read the scales of ``spec``'s observation from ``rig_env`` (design time; imports the environments)."""
+    from rig_env.envs import TASKS
+    from rig_env.envs.sensors import (
+        AIRSPEED_SCALE,
+        ANGLE_SCALE,
+        FLAP_SCALE,
+        RATE_SCALE,
+        UNLIMITED,
+    )
+    from rig_env.physics.aero import MIX_ELEVATOR, MIX_RUDDER
+
+    labels = set(spec.obs_labels)
+    task = TASKS.get(spec.task)
+    scales = {**REF_SCALES, **dict(getattr(task, "ref_scales", {}) or {})}
+    ref: dict[str, float] = {}
+    for j in TRACKED:
+        for label in (_ERROR_LABEL[j], _RATE_REF_LABEL[j]):
+            if label in labels and j in spec.free_dofs:
+                if label in scales:
+                    ref[label] = float(scales[label])
+                else:
+                    warnings.warn(f"task {spec.task!r}: observation entry {label!r} has no known scale; ignored", stacklevel=3)
+    unmix = np.array([[0.25] * 4, [0.25 * m for m in MIX_ELEVATOR], [0.25 * m for m in MIX_RUDDER]])
+    return SignalScales(float(ANGLE_SCALE), np.array([float(RATE_SCALE[j]) for j in spec.free_dofs]), float(AIRSPEED_SCALE),
+                        float(FLAP_SCALE), unmix, tuple(j for j in spec.free_dofs if j in UNLIMITED), tuple(ref), np.array(list(ref.values())))
+
+
+def require_roll(spec: LoopSpec) -> None:
+    """UnsupportedTask unless rig_roll is free: the compensator laws' roll loops need it (checked before any design)."""
+    if "rig_roll" not in spec.free_dofs:
+        raise UnsupportedTask(f"free_dofs = {list(spec.free_dofs)}: this law's roll loops need rig_roll free")
 
 
 class Signals:
-    """Parser built once per law from its :class:`LoopSpec`; :meth:`__call__` fills the attributes."""
+    """Parser built once per law from its :class:`LoopSpec` (and its :class:`SignalScales`, read from
+    ``rig_env`` when not given); :meth:`__call__` fills the attributes.  Numpy only."""
 
-    def __init__(self, spec: LoopSpec) -> None:
-        if "rig_roll" not in spec.free_dofs:
-            raise UnsupportedTask(f"free_dofs = {list(spec.free_dofs)}: this law's roll loops need rig_roll free")
+    def __init__(self, spec: LoopSpec, scales: SignalScales | None = None) -> None:
+        require_roll(spec)
         self.spec = spec
+        self.scales = sc = scales if scales is not None else signal_scales(spec)
         ix = spec.index
         self._angle: dict[str, tuple[int, ...]] = {}
         for j in spec.free_dofs:
-            self._angle[j] = (ix(f"sin_{j}"), ix(f"cos_{j}")) if j in UNLIMITED else (ix(f"{j}_angle"),)
-        self._rate = {j: ix(f"{j}_rate") for j in spec.free_dofs}
+            self._angle[j] = (ix(f"sin_{j}"), ix(f"cos_{j}")) if j in sc.unlimited else (ix(f"{j}_angle"),)
+        self._rate = {j: (ix(f"{j}_rate"), float(sc.rate_scale[k])) for k, j in enumerate(spec.free_dofs)}
         self._flaps = [ix(f"flap{k}") for k in range(1, 5)]
         self._air = ix("airspeed")
-        labels = set(spec.obs_labels)
-        task = TASKS.get(spec.task)
-        scales = {**REF_SCALES, **dict(getattr(task, "ref_scales", {}) or {})}
+        ref = dict(zip(sc.ref_labels, (float(x) for x in sc.ref_scales)))
         self._err: dict[str, tuple[int, float]] = {}
         self._rref: dict[str, tuple[int, float]] = {}
         for j in TRACKED:
             for table, label in ((self._err, _ERROR_LABEL[j]), (self._rref, _RATE_REF_LABEL[j])):
-                if label in labels and j in spec.free_dofs:
-                    if label in scales:
-                        table[j] = (ix(label), float(scales[label]))
-                    else:
-                        warnings.warn(f"task {spec.task!r}: observation entry {label!r} has no known scale; ignored", stacklevel=2)
+                if label in ref and j in spec.free_dofs:
+                    table[j] = (ix(label), ref[label])
         self.has_rate_ref = "rig_roll" in self._rref
 
-    def __call__(self, obs: np.ndarray) -> "Signals":
-        o = obs
+    def __call__(self, obs: np.ndarray) -> Signals:
+        o, sc = obs, self.scales
         self.angle = {}
         for j, cols in self._angle.items():
-            self.angle[j] = np.arctan2(o[:, cols[0]], o[:, cols[1]]) if len(cols) == 2 else o[:, cols[0]] * ANGLE_SCALE
+            self.angle[j] = np.arctan2(o[:, cols[0]], o[:, cols[1]]) if len(cols) == 2 else o[:, cols[0]] * sc.angle_scale
         self.phi = self.angle["rig_roll"]
-        self.rate = {j: o[:, c] * RATE_SCALE[j] for j, c in self._rate.items()}
-        self.airspeed = o[:, self._air] * AIRSPEED_SCALE
-        self.surfaces = (o[:, self._flaps] * FLAP_SCALE / math.radians(self.spec.action_scale_deg)) @ _UNMIX.T
+        self.rate = {j: o[:, c] * scale for j, (c, scale) in self._rate.items()}
+        self.airspeed = o[:, self._air] * sc.airspeed_scale
+        self.surfaces = (o[:, self._flaps] * sc.flap_scale / math.radians(self.spec.action_scale_deg)) @ sc.unmix.T
         n = o.shape[0]
         self.error = {j: (o[:, self._err[j][0]] * self._err[j][1] if j in self._err else -self.angle[j])
                       for j in TRACKED if j in self.angle}

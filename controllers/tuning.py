@@ -26,11 +26,13 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import control
 import numpy as np
 
-from controllers.model import AXES, AXIS_OF, design_model, loop_elements
+from controllers.axes import AXES, AXIS_OF, axes_of
+from controllers.model import design_model, loop_elements
 from rig_env.params import RigParams
 
 
@@ -136,9 +138,19 @@ def tune_axis(params: RigParams, free_dofs: tuple[str, ...], joint: str, airspee
                       float(wx_o), pm_o, gm_o, b)
 
 
-def axes_of(free_dofs: tuple[str, ...]) -> list[str]:
-    """The rig joints of ``free_dofs`` that a compensator axis holds, in :data:`AXES` order."""
-    return [j for j in sorted(AXIS_OF, key=AXIS_OF.get) if j in free_dofs]
+def plain(x: Any) -> Any:
+    """``x`` as plain finite JSON data for a design's provenance: complex -> [re, im], non-finite -> "inf"/"nan"."""
+    if isinstance(x, dict):
+        return {str(k): plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple, np.ndarray)):
+        return [plain(v) for v in list(x)]
+    if isinstance(x, (complex, np.complexfloating)):
+        return [float(x.real), float(x.imag)]
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(x) else str(float(x))
+    if isinstance(x, (np.integer, np.bool_)):
+        return x.item()
+    return x
 
 
-__all__ = ["AXES", "AxisTuning", "axes_of", "margins", "rate_plant", "tune_axis"]
+__all__ = ["AXES", "AxisTuning", "axes_of", "margins", "plain", "rate_plant", "tune_axis"]

@@ -1,0 +1,46 @@
+"""The compensator's virtual axes (roll, heave, sway) and their map onto its surfaces (numpy only).
+
+The compensator rolls with the rig, so its elevator and rudder act on rig_pitch and rig_yaw through
+the roll angle ``phi``.  The laws command *heave* ``h`` and *sway* ``s`` in the unrolled frame
+(derivation in :mod:`controllers.model`, checked in ``tests/test_controllers.py``):
+
+    aileron = roll,    de = cos(phi) h + sin(phi) s,    dr = -sin(phi) h + cos(phi) s
+
+This module holds only that geometry, so the runtime laws (what a deployed artefact executes) need
+numpy alone; the design side (:mod:`controllers.model`, python-control, the numba model) re-exports it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+AXES = ("roll", "heave", "sway")
+"""Virtual inputs of the designs: aileron, heave and sway (normalised; see :func:`resolve`)."""
+AXIS_OF = {"rig_roll": 0, "rig_pitch": 1, "rig_yaw": 2}
+"""Virtual input that moves each rig joint."""
+
+
+def axes_of(free_dofs: tuple[str, ...]) -> list[str]:
+    """The rig joints of ``free_dofs`` that a compensator axis holds, in :data:`AXES` order."""
+    return [j for j in sorted(AXIS_OF, key=AXIS_OF.get) if j in free_dofs]
+
+
+def resolve(phi: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(n, 3) compensator (aileron, elevator, rudder) from virtual (roll, heave, sway) v (n, 3) at roll phi (n,), rad."""
+    c, s = np.cos(phi), np.sin(phi)
+    return np.stack([v[:, 0], c * v[:, 1] + s * v[:, 2], -s * v[:, 1] + c * v[:, 2]], axis=1)
+
+
+def unresolve(phi: np.ndarray, surfaces: np.ndarray) -> np.ndarray:
+    """(n, 3) virtual (roll, heave, sway) from surfaces (n, 3) at roll phi (n,): the inverse of :func:`resolve`."""
+    c, s = np.cos(phi), np.sin(phi)
+    a, de, dr = surfaces[:, 0], surfaces[:, 1], surfaces[:, 2]
+    return np.stack([a, c * de - s * dr, s * de + c * dr], axis=1)
+
+
+def rotation(phi: float) -> np.ndarray:
+    """(3, 3) matrix R with surfaces = R @ virtual inputs (the linear form of :func:`resolve`)."""
+    c, s = math.cos(phi), math.sin(phi)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, s], [0.0, -s, c]])

@@ -1,0 +1,45 @@
+"""Artefact kinds ``"pid"`` and ``"lqr"``: the designed tables of the model-based laws as plain data.
+
+Both laws keep their design apart from their runtime (:class:`controllers.pid.PIDTables`,
+:class:`controllers.lqr.LQRTables`), so the artefact stores the tables and loading builds the very
+class that flies in simulation, from numpy alone (no python-control, scipy, numba or rig_env):
+
+| kind | arrays | params |
+|---|---|---|
+| pid | ``kp``, ``ki``, ``k_angle``, ``rate_demand_max`` (n_axes,); ``phi_grid``, ``trim_roll`` (37,); ``sig_*`` | ``axes``, ``v_design``, ``rate_limit``, ``feedforward``, ``b_roll``, ``damp_roll``, ``sig_*``, ``design`` |
+| lqr | ``airspeeds``, ``phis``; ``K``, ``u_trim``, ``q_op``, ``A_q``, ``A_w``, ``B`` over (V, phi); ``kalman_gain``; ``sig_*`` | ``phi_step``, ``link_delay_steps``, ``estimator``, ``sig_*``, ``design`` |
+
+``design`` is the law's provenance: tuning targets and achieved margins (pid), weights, grid, noise
+model and loop margins (lqr), the airspeed range and the sensor layout assumed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from controllers.base import Controller, LoopSpec
+from controllers.deploy.artefact import register_kind
+from controllers.lqr import LQRLaw
+from controllers.pid import PIDLaw
+
+
+def _exporter(cls: type[Controller]) -> Any:
+    def to_arrays(law: Controller) -> dict[str, Any]:
+        if not isinstance(law, cls):
+            raise TypeError(f"kind {cls.kind!r} exports a {cls.__name__}; got {type(law).__name__}")
+        return law.to_data()
+
+    return to_arrays
+
+
+def _pid(data: Mapping[str, Any], spec: LoopSpec) -> PIDLaw:
+    return PIDLaw.from_data(data, spec)
+
+
+def _lqr(data: Mapping[str, Any], spec: LoopSpec) -> LQRLaw:
+    return LQRLaw.from_data(data, spec)
+
+
+register_kind("pid", _exporter(PIDLaw), _pid)
+register_kind("lqr", _exporter(LQRLaw), _lqr)
