@@ -53,8 +53,8 @@ _SAC_BASE: dict[str, Any] = dict(
     train_freq=1, gradient_steps=2, ent_coef="auto", policy_kwargs=dict(net_arch=[64, 64]),
 )
 _PPO_BASE: dict[str, Any] = dict(
-    n_steps=256, batch_size=1024, n_epochs=10, learning_rate=3e-4, gamma=0.99, gae_lambda=0.95,
-    clip_range=0.2, ent_coef=0.0, policy_kwargs=dict(net_arch=[64, 64], log_std_init=-1.0),
+    n_steps=128, batch_size=2048, n_epochs=5, learning_rate=3e-4, gamma=0.98, gae_lambda=0.95,
+    clip_range=0.2, ent_coef=0.0, policy_kwargs=dict(net_arch=[64, 64], log_std_init=-0.5),
 )
 # Potential-based shaping weights (scripts/rl_callbacks.PotentialShaping) on the task's normalised
 # error entries: the tasks' exp(-cost) rewards are flat once the error is large (see RESULTS.md).
@@ -66,7 +66,7 @@ HYPERPARAMS: dict[tuple[str, str], dict[str, Any]] = {
         shaping=_VVR_SHAPING, algo_kwargs=_SAC_BASE, source="RL Zoo SAC conventions; own runs (RESULTS.md)",
     ),
     ("ppo", "velocity_vector_roll"): dict(
-        num_envs=32, timesteps=3_000_000, eval_every=100_000, normalize=True, clip_obs=10.0, env_overrides={},
+        num_envs=64, timesteps=3_000_000, eval_every=200_000, normalize=True, clip_obs=10.0, env_overrides={},
         shaping=_VVR_SHAPING, algo_kwargs=_PPO_BASE, source="RL Zoo PPO conventions; own runs (RESULTS.md)",
     ),
     ("sac", "bank_to_bank"): dict(
@@ -74,7 +74,7 @@ HYPERPARAMS: dict[tuple[str, str], dict[str, Any]] = {
         shaping=_B2B_SHAPING, algo_kwargs=_SAC_BASE, source="RL Zoo SAC conventions; own runs (RESULTS.md)",
     ),
     ("ppo", "bank_to_bank"): dict(
-        num_envs=32, timesteps=3_000_000, eval_every=100_000, normalize=True, clip_obs=10.0, env_overrides={},
+        num_envs=64, timesteps=3_000_000, eval_every=200_000, normalize=True, clip_obs=10.0, env_overrides={},
         shaping=_B2B_SHAPING, algo_kwargs=_PPO_BASE, source="RL Zoo PPO conventions; own runs (RESULTS.md)",
     ),
 }
@@ -152,9 +152,11 @@ def main(argv: list[str] | None = None) -> int:
     def make_env(n: int, seed: int, training: bool) -> tuple[Any, Any]:
         base = RigSB3VecEnv(n, task=args.task, **overrides)
         base.seed(seed)
+        # shaping on the training batch only; the eval batch gets the identity (no weights) so that
+        # both wrapper stacks match, as SB3's sync_envs_normalization requires
+        weights = hp["shaping"] if training and not args.no_shaping else {}
         env = SuccessInfo(VecMonitor(base))
-        if training and hp["shaping"] and not args.no_shaping:
-            env = PotentialShaping(env, tuple(base.vec.obs_labels), hp["shaping"], hp["algo_kwargs"]["gamma"])
+        env = PotentialShaping(env, tuple(base.vec.obs_labels), weights, hp["algo_kwargs"]["gamma"])
         if hp["normalize"]:
             env = VecNormalize(env, training=training, norm_obs=True, norm_reward=False, clip_obs=hp["clip_obs"])
         return base, env
