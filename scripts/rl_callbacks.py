@@ -3,7 +3,8 @@
 | piece | what |
 |---|---|
 | ``SuccessInfo`` | VecEnvWrapper: copies the task's ``success`` into ``is_success`` (what SB3's EvalCallback counts) |
-| ``PotentialShaping`` | VecEnvWrapper: adds ``gamma Phi(o') - Phi(o)``, ``Phi = -sum w_k abs(o[k])``, to the training reward only |
+| ``ErrorReset`` | VecEnvWrapper: ends a training episode once the tracking error passes a bound (curriculum) |
+| ``TrainingReward`` | VecEnvWrapper: potential-based shaping and a hold-rate penalty, training batch only |
 | ``SeededEvalCallback`` | EvalCallback that reseeds its batch before each evaluation and records wall time |
 | ``StopAtSuccess`` | after an evaluation: stop once the success rate reaches the target |
 | ``ProgressLine`` | a printed progress line every 15 s (when tqdm/rich are missing) |
@@ -21,6 +22,10 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList, Check
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
 
+RATE_SCALE = 12.0  # rad/s per unit of the task's roll_rate_error entry (rig_env.envs.tasks.VelocityVectorRoll)
+HOLD_RATE_BOUND = np.radians(20.0)  # rad/s: the velocity-vector-roll success bound on |roll rate|
+
+
 class SuccessInfo(VecEnvWrapper):
     """Adds ``infos[i]["is_success"] = infos[i]["success"]`` on finishing steps (RigSB3VecEnv's episode metric)."""
 
@@ -34,24 +39,35 @@ class SuccessInfo(VecEnvWrapper):
         return obs, rew, done, infos
 
 
-class PotentialShaping(VecEnvWrapper):
-    """Potential-based reward shaping (Ng, Harada and Russell, ICML 1999) for training only.
+class TrainingReward(VecEnvWrapper):
+    """The training reward: the task's reward plus potential-based shaping plus an optional hold-rate penalty.
 
-    ``r' = r + gamma Phi(o') - Phi(o)`` with ``Phi(o) = -sum_k w_k |o[k]|`` over named raw observation
-    entries (e.g. ``roll_error``, normalised by the task).  Such a term changes no optimal policy of
-    the discounted task; it gives a gradient where the task's ``exp(-cost)`` reward is flat (large
-    errors).  ``o'`` is the last observation of a finishing episode (``terminal_observation``), so the
-    first observation of the next episode never enters.  Evaluation always uses the task's own reward.
+    ``r' = r + (gamma Phi(o') - Phi(o)) - w_hold (rate_error(o') / 20 deg/s)^2 [roll_rate_ref(o') = 0]``
+
+    - ``Phi(o) = -sum_k w_k |o[k]|`` over named raw observation entries (e.g. ``roll_error``): potential-
+      based shaping (Ng, Harada and Russell, ICML 1999) changes no optimal policy of the discounted task
+      and gives a gradient where the task's ``exp(-cost)`` reward is flat (large errors).
+    - the hold-rate penalty (velocity-vector roll) charges roll-rate error while the reference is at
+      rest, scaled to the task's success bound (|roll rate| < 20 deg/s); without it PPO learns to hold
+      the angle to 0.3 deg while chattering at 15-21 deg/s (benchmarks/RESULTS.md, "RL training").
+
+    ``o'`` is the last observation of a finishing episode (``terminal_observation``), so the first
+    observation of the next episode never enters.  No weights and ``w_hold = 0``: the identity (the
+    eval batch uses that, so that both wrapper stacks match).  Evaluation always uses the task's reward.
     """
 
-    def __init__(self, venv: VecEnv, labels: tuple[str, ...], weights: dict[str, float], gamma: float) -> None:
+    def __init__(self, venv: VecEnv, labels: tuple[str, ...], weights: dict[str, float], gamma: float, hold_rate: float = 0.0) -> None:
         super().__init__(venv)
         unknown = sorted(set(weights) - set(labels))
         if unknown:
             raise ValueError(f"shaping: observation has no entries {unknown}; entries: {list(labels)}")
+        if hold_rate and not {"roll_rate_ref", "roll_rate_error"} <= set(labels):
+            raise ValueError("hold_rate penalty needs observation entries roll_rate_ref and roll_rate_error")
         self.cols = np.array([labels.index(k) for k in weights], dtype=np.int64)
         self.w = np.array(list(weights.values()), dtype=np.float64)
-        self.gamma = float(gamma)
+        self.gamma, self.hold_rate = float(gamma), float(hold_rate)
+        if hold_rate:
+            self.c_ref, self.c_err = labels.index("roll_rate_ref"), labels.index("roll_rate_error")
         self.phi = np.zeros(venv.num_envs)
 
     def _potential(self, obs: np.ndarray) -> np.ndarray:
@@ -69,8 +85,42 @@ class PotentialShaping(VecEnvWrapper):
             nxt[i] = infos[i]["terminal_observation"]
         phi_next = self._potential(nxt)
         shaped = rew + (self.gamma * phi_next - self.phi)
+        if self.hold_rate:
+            rate_err = nxt[:, self.c_err] * RATE_SCALE / HOLD_RATE_BOUND
+            shaped = shaped - self.hold_rate * np.where(nxt[:, self.c_ref] == 0.0, rate_err**2, 0.0)
         self.phi = np.where(done, self._potential(obs), phi_next)
         return obs, shaped.astype(np.float32), done, infos
+
+
+class ErrorReset(VecEnvWrapper):
+    """Training curriculum: end an episode early once ``|o[label]| > limit`` (a lost track), as a failure.
+
+    Sits directly on a :class:`RigSB3VecEnv` (``base``); the lost environments are reset in place through
+    ``base.vec.reset(options={"reset_mask": ...})`` and reported as terminated (``terminal_observation``
+    set, not truncated).  The task's reward is nonnegative, so losing the remaining steps is the
+    penalty.  ``limit = inf`` is the identity (used on the eval batch).
+    """
+
+    def __init__(self, base: Any, label: str | None, limit: float) -> None:
+        super().__init__(base)
+        self.base = base
+        self.col = base.vec.obs_labels.index(label) if label is not None else 0
+        self.limit = float(limit)
+
+    def reset(self) -> Any:
+        return self.venv.reset()
+
+    def step_wait(self) -> Any:
+        obs, rew, done, infos = self.venv.step_wait()
+        lost = (np.abs(obs[:, self.col]) > self.limit) & ~done
+        if lost.any():
+            for i in np.flatnonzero(lost):
+                infos[i]["terminal_observation"] = obs[i].copy()
+                infos[i]["TimeLimit.truncated"] = False
+            new, _ = self.base.vec.reset(options={"reset_mask": lost})
+            obs = np.where(lost[:, None], new, obs)
+            done = done | lost
+        return obs, rew, done, infos
 
 
 class SeededEvalCallback(EvalCallback):

@@ -176,12 +176,12 @@ def test_missing_shipped_policy_names_the_file():
 def test_potential_shaping_telescopes():
     """With gamma = 1 the shaped return minus the task's return is Phi(last obs) - Phi(first obs)."""
     from rig_env.envs.sb3 import RigSB3VecEnv
-    from scripts.rl_callbacks import PotentialShaping
+    from scripts.rl_callbacks import TrainingReward
 
     base = RigSB3VecEnv(3, task=TASK, episode_seconds=0.5)
     base.seed(5)
     w = {"roll_error": 1.0, "roll_rate_error": 0.5}
-    env = PotentialShaping(base, tuple(base.vec.obs_labels), w, gamma=1.0)
+    env = TrainingReward(base, tuple(base.vec.obs_labels), w, gamma=1.0)
     cols = [base.vec.obs_labels.index(k) for k in w]
     phi = lambda o: -np.abs(np.asarray(o, dtype=np.float64)[..., cols]) @ np.array(list(w.values()))  # noqa: E731
     obs = env.reset()
