@@ -136,19 +136,20 @@ class SeededEvalCallback(EvalCallback):
         self.t0 = time.perf_counter()
 
     def _on_step(self) -> bool:
-        due = self.eval_freq > 0 and self.n_calls % self.eval_freq == 0
-        if due:
-            self.eval_env.seed(self.eval_seed)
-        ok = super()._on_step()
-        if due:
-            succ = float(np.mean(self._is_success_buffer)) if self._is_success_buffer else float("nan")
-            self.points.append({
-                "timesteps": int(self.num_timesteps), "wall_s": round(time.perf_counter() - self.t0, 1),
-                "mean_return": round(float(self.last_mean_reward), 2), "success_rate": succ,
-            })
-            print(f"  eval at {self.num_timesteps:>9d} steps, {self.points[-1]['wall_s']:7.1f} s: "
-                  f"return {self.last_mean_reward:7.1f}, success {succ:.2f}", flush=True)
-        return ok
+        if self.eval_freq > 0 and self.n_calls % self.eval_freq == 0:
+            self.eval_env.seed(self.eval_seed)  # consumed by the reset at the start of the evaluation
+        return super()._on_step()
+
+    def _on_event(self) -> bool:
+        """Right after each evaluation, before ``callback_after_eval``: record the point."""
+        succ = float(np.mean(self._is_success_buffer)) if self._is_success_buffer else float("nan")
+        self.points.append({
+            "timesteps": int(self.num_timesteps), "wall_s": round(time.perf_counter() - self.t0, 1),
+            "mean_return": round(float(self.last_mean_reward), 2), "success_rate": succ,
+        })
+        print(f"  eval at {self.num_timesteps:>9d} steps, {self.points[-1]['wall_s']:7.1f} s: "
+              f"return {self.last_mean_reward:7.1f}, success {succ:.2f}", flush=True)
+        return super()._on_event()
 
 
 class StopAtSuccess(BaseCallback):

@@ -209,6 +209,28 @@ def test_potential_shaping_telescopes():
     np.testing.assert_allclose(diff - task_return, phi(last) - phi0, rtol=0, atol=1e-4)
 
 
+def test_error_reset_ends_lost_episodes_as_failures():
+    """Zero action loses the spinning reference: every episode ends once |roll_error| > 45 deg, terminated."""
+    from rig_env.envs.sb3 import RigSB3VecEnv
+    from scripts.rl_callbacks import ErrorReset
+
+    base = RigSB3VecEnv(4, task=TASK)
+    base.seed(2)
+    env = ErrorReset(base, "roll_error", 1.0)
+    col = base.vec.obs_labels.index("roll_error")
+    obs = env.reset()
+    ended = np.zeros(4, dtype=bool)
+    for _ in range(base.vec.max_steps - 1):  # shorter than the time limit: only lost tracks end
+        env.step_async(np.zeros((4, 3), dtype=np.float32))
+        obs, _, done, infos = env.step_wait()
+        for i in np.flatnonzero(done):
+            assert abs(infos[i]["terminal_observation"][col]) > 1.0 and not infos[i]["TimeLimit.truncated"]
+            assert abs(obs[i, col]) < 1.0  # the next episode starts on its reference
+        ended |= done
+        assert np.all(np.abs(obs[:, col]) <= 1.0)
+    assert ended.all()
+
+
 SHIPPED = sorted(POLICY_DIR.glob("*.json"))
 
 
@@ -235,13 +257,16 @@ def test_policies_are_shipped_for_both_tasks():
 
 @pytest.mark.slow
 def test_short_ppo_run_improves_the_return(tmp_path):
-    """scripts/train.py end to end on a small budget: the exported policy beats the untrained one."""
+    """scripts/train.py end to end on a small budget (bank-to-bank, its table settings): the exported
+    policy after 400k steps earns clearly more of the task's reward than after one PPO update."""
     from scripts.train import main
 
-    common = ["--algo", "ppo", "--task", "bank_to_bank", "--seed", "0", "--num-envs", "32", "--eval-every", "100000",
-              "--eval-episodes", "16", "--final-episodes", "32", "--no-stop"]
+    common = ["--algo", "ppo", "--task", "bank_to_bank", "--seed", "0", "--eval-every", "400000",
+              "--eval-episodes", "8", "--final-episodes", "32", "--no-stop"]
     assert main(common + ["--timesteps", "1", "--out", str(tmp_path / "t0")]) == 0
-    assert main(common + ["--timesteps", "150000", "--out", str(tmp_path / "t1")]) == 0
+    assert main(common + ["--timesteps", "400000", "--out", str(tmp_path / "t1")]) == 0
     before = load_policy(tmp_path / "t0" / "policy.json").provenance["final_eval"]
     after = load_policy(tmp_path / "t1" / "policy.json").provenance["final_eval"]
-    assert after["mean_return"] > before["mean_return"] + 0.1 * before["max_return"] * 0 + 20.0, (before, after)
+    # one update: about 0.2 of the maximum return; 400k steps: about 0.55 (RESULTS.md, "RL training")
+    assert after["mean_return"] > before["mean_return"] + 0.1 * after["max_return"], (before, after)
+    assert (tmp_path / "t1" / "curve.png").is_file() and (tmp_path / "t1" / "evaluations.npz").is_file()
