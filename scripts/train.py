@@ -5,8 +5,10 @@
     python scripts/train.py --algo sac --task velocity_vector_roll --ship       # also into controllers/policies/
 
 The batch is one :class:`rig_env.envs.sb3.RigSB3VecEnv` (no per-environment Python objects), wrapped in
-``VecMonitor`` and, where the table says so, ``VecNormalize`` of observations (its statistics are
-shipped with the policy; rewards are not normalised).  An ``EvalCallback`` runs every
+``VecMonitor``, the training-side signals of the table (``scripts/rl_callbacks.py``: episode reset on
+a lost track, potential-based shaping, hold-rate penalty; ``--no-shaping`` drops them) and, where the
+table says so, ``VecNormalize`` of observations (its statistics are shipped with the policy; rewards
+are not normalised).  An ``EvalCallback`` runs every
 ``eval_every`` timesteps on a separate batch seeded ``seed + 10000``, reseeded before every evaluation
 (the same episodes each time, so the curve compares like with like); training stops once its success
 rate reaches ``--target-success`` (the task's per-episode success criterion met in that share of
@@ -42,57 +44,46 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 EVAL_SEED_OFFSET, FINAL_SEED_OFFSET = 10_000, 20_000
 
-# Known-good settings per (algo, task).  Sources: RL Zoo (rl-baselines3-zoo hyperparams/*.yml)
-# conventions for continuous control -- SAC: lr 7.3e-4 to 1e-3, batch 256, gamma 0.98-0.99, tau 0.02,
-# learning_starts 1e4, several envs with gradient_steps per step; PPO: 2x64 tanh MLP, n_epochs 10,
-# gae_lambda 0.9-0.95, clip 0.2, VecNormalize -- then narrowed by our own runs on this machine
-# (benchmarks/RESULTS.md, "RL training").  Networks stay 2x64 so the shipped file is small and the
-# numpy runtime is fast.
-_SAC_BASE: dict[str, Any] = dict(
-    learning_rate=1e-3, buffer_size=1_000_000, batch_size=256, gamma=0.98, tau=0.02, learning_starts=10_000,
-    train_freq=1, gradient_steps=2, ent_coef="auto", policy_kwargs=dict(net_arch=[64, 64]),
-)
-_PPO_BASE: dict[str, Any] = dict(
+# Known-good settings per (algo, task).  Starting points: RL Zoo (rl-baselines3-zoo, hyperparams/ppo.yml
+# and sac.yml) conventions for continuous control -- PPO: many envs, short rollouts, clip 0.2,
+# gae_lambda 0.95, VecNormalize of observations; SAC: lr ~1e-3, batch 256, gamma 0.98, tau 0.02,
+# learning_starts 1e4, several envs with gradient_steps > 1.  Then our own runs on this machine
+# (benchmarks/RESULTS.md, "RL training"): gamma 0.98, 64 envs x 128 steps, 5 epochs of 2048-sample
+# minibatches, and the training-side signals below.  Networks stay 2x64 (tanh for PPO, relu for
+# SAC, SB3's defaults) so a shipped file is about 65 kB and the numpy runtime is fast.
+_PPO: dict[str, Any] = dict(
     n_steps=128, batch_size=2048, n_epochs=5, learning_rate=3e-4, gamma=0.98, gae_lambda=0.95,
     clip_range=0.2, ent_coef=0.0, policy_kwargs=dict(net_arch=[64, 64], log_std_init=-0.5),
 )
-# Potential-based shaping weights (scripts/rl_callbacks.PotentialShaping) on the task's normalised
-# error entries: the tasks' exp(-cost) rewards are flat once the error is large (see RESULTS.md).
-_VVR_SHAPING = {"roll_error": 1.0, "roll_rate_error": 1.0}
-_B2B_SHAPING = {"roll_error": 1.0}
-# bank_to_bank's default 17 s episode ends on the control step where the reference jumps to the next
-# bank (t = 1 + 4 * 4 s), so its final-error check fails for every law; 16.5 s ends inside the 4th
-# hold (a task fix is proposed in RESULTS.md).
-_B2B_ENV = {"episode_seconds": 16.5}
+_SAC: dict[str, Any] = dict(
+    learning_rate=1e-3, buffer_size=1_000_000, batch_size=256, gamma=0.98, tau=0.02, learning_starts=10_000,
+    train_freq=1, gradient_steps=2, ent_coef="auto", policy_kwargs=dict(net_arch=[64, 64]),
+)
+# Training-side signals (scripts/rl_callbacks.py; evaluation always uses the task's own reward):
+#   shaping      potential-based shaping weights on normalised observation entries (TrainingReward)
+#   error_reset  (entry, bound): end a training episode once |entry| > bound (ErrorReset)
+#   hold_rate    weight of the hold-phase roll-rate penalty (TrainingReward)
+# bank_to_bank runs 16.5 s: its default 17 s episode ends on the control step where the reference
+# jumps to the next bank (t = 1 + 4 * 4 s), so its final-error check fails for every law (RESULTS.md).
+_VVR = dict(env_overrides={}, shaping={"roll_error": 1.0, "roll_rate_error": 1.0}, error_reset=("roll_error", 1.0), hold_rate=0.2)
+_B2B = dict(env_overrides={"episode_seconds": 16.5}, shaping={"roll_error": 1.0}, error_reset=None, hold_rate=0.0)
+_PPO_RUN = dict(num_envs=64, timesteps=3_000_000, eval_every=200_000, normalize=True, clip_obs=10.0, algo_kwargs=_PPO)
+_SAC_RUN = dict(num_envs=8, timesteps=600_000, eval_every=40_000, normalize=True, clip_obs=10.0, algo_kwargs=_SAC)
 HYPERPARAMS: dict[tuple[str, str], dict[str, Any]] = {
-    ("sac", "velocity_vector_roll"): dict(
-        num_envs=8, timesteps=600_000, eval_every=40_000, normalize=True, clip_obs=10.0, env_overrides={},
-        shaping=_VVR_SHAPING, error_reset=("roll_error", 1.0), hold_rate=0.2, algo_kwargs=_SAC_BASE, source="RL Zoo SAC conventions; own runs (RESULTS.md)",
-    ),
-    ("ppo", "velocity_vector_roll"): dict(
-        num_envs=64, timesteps=3_000_000, eval_every=200_000, normalize=True, clip_obs=10.0, env_overrides={},
-        shaping=_VVR_SHAPING, error_reset=("roll_error", 1.0), hold_rate=0.2, algo_kwargs=_PPO_BASE, source="RL Zoo PPO conventions; own runs (RESULTS.md)",
-    ),
-    ("sac", "bank_to_bank"): dict(
-        num_envs=8, timesteps=600_000, eval_every=40_000, normalize=True, clip_obs=10.0, env_overrides=_B2B_ENV,
-        shaping=_B2B_SHAPING, error_reset=None, hold_rate=0.0, algo_kwargs=_SAC_BASE, source="RL Zoo SAC conventions; own runs (RESULTS.md)",
-    ),
-    ("ppo", "bank_to_bank"): dict(
-        num_envs=64, timesteps=3_000_000, eval_every=200_000, normalize=True, clip_obs=10.0, env_overrides=_B2B_ENV,
-        shaping=_B2B_SHAPING, error_reset=None, hold_rate=0.0, algo_kwargs=_PPO_BASE, source="RL Zoo PPO conventions; own runs (RESULTS.md)",
-    ),
+    ("ppo", "velocity_vector_roll"): _PPO_RUN | _VVR | dict(source="RL Zoo PPO conventions + own runs: success 0.97 after 2.0M steps, 272 s"),
+    ("ppo", "bank_to_bank"): _PPO_RUN | _B2B | dict(source="RL Zoo PPO conventions + own runs: success 0.96 after 1.0M steps, 215 s"),
+    ("sac", "velocity_vector_roll"): _SAC_RUN | _VVR | dict(source="RL Zoo SAC conventions; not trained to the criterion here (too slow in wall time)"),
+    ("sac", "bank_to_bank"): _SAC_RUN | _B2B | dict(source="RL Zoo SAC conventions; not trained to the criterion here (too slow in wall time)"),
 }
-DEFAULT = {"sac": ("sac", "velocity_vector_roll"), "ppo": ("ppo", "velocity_vector_roll")}
+_UNTUNED = dict(env_overrides={}, shaping={}, error_reset=None, hold_rate=0.0)
 
 
 def hyperparams(algo: str, task: str) -> dict[str, Any]:
-    """The table's entry; an untuned task gets the algorithm's velocity-vector-roll settings (said so)."""
+    """The table's entry; a task not in the table gets the algorithm's settings without training-side signals."""
     if (algo, task) in HYPERPARAMS:
         return HYPERPARAMS[(algo, task)]
-    hp = dict(HYPERPARAMS[DEFAULT[algo]])
-    hp["source"] = f"untuned for {task}: {algo} settings of {DEFAULT[algo][1]}"
-    print(f"note: no tuned {algo} settings for {task!r}; using those of {DEFAULT[algo][1]}", flush=True)
-    return hp
+    print(f"note: no tuned {algo} settings for {task!r}: {algo} defaults of the table, no shaping", flush=True)
+    return {"ppo": _PPO_RUN, "sac": _SAC_RUN}[algo] | _UNTUNED | dict(source=f"untuned for {task}")
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -156,11 +147,10 @@ def main(argv: list[str] | None = None) -> int:
     def make_env(n: int, seed: int, training: bool) -> tuple[Any, Any]:
         base = RigSB3VecEnv(n, task=args.task, **overrides)
         base.seed(seed)
-        # shaping on the training batch only; the eval batch gets the identity (no weights) so that
-        # both wrapper stacks match, as SB3's sync_envs_normalization requires
-        shaped = training and not args.no_shaping
-        weights, hold = (hp["shaping"], hp["hold_rate"]) if shaped else ({}, 0.0)
-        reset_at = hp["error_reset"] if training and not args.no_shaping else None  # see --no-shaping
+        # training-side signals on the training batch only; the eval batch gets the same wrappers as
+        # identities, so that both stacks match (SB3's sync_envs_normalization walks them in step)
+        signals = training and not args.no_shaping
+        weights, hold, reset_at = (hp["shaping"], hp["hold_rate"], hp["error_reset"]) if signals else ({}, 0.0, None)
         env = SuccessInfo(VecMonitor(ErrorReset(base, *(reset_at or (None, np.inf)))))
         env = TrainingReward(env, tuple(base.vec.obs_labels), weights, hp["algo_kwargs"]["gamma"], hold)
         if hp["normalize"]:
