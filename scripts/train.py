@@ -119,6 +119,8 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parse_args(argv)
     os.environ["NUMBA_NUM_THREADS"] = str(args.threads)  # must precede the first numba import
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):  # numpy's BLAS, before numpy loads
+        os.environ.setdefault(var, str(args.threads))
     sys.path.insert(0, str(ROOT))
     from rig_env.envs.tasks import TASKS
 
