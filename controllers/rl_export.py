@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from controllers.base import Controller, LoopSpec
-from controllers.rl import FORMAT, FORMAT_VERSION, POSTPROCESS, parse_policy
+from controllers.rl import FORMAT, FORMAT_VERSION, POSTPROCESS
 
 
 def encode(a: Any) -> list:
@@ -40,7 +40,7 @@ def encode(a: Any) -> list:
 
 def _sequential_layers(seq: Any, where: str) -> tuple[list[tuple[np.ndarray, np.ndarray]], set[str]]:
     """Linear layers and activation names of an ``nn.Sequential`` of Linear/activation pairs."""
-    import torch.nn as nn
+    from torch import nn
 
     names = {nn.Tanh: "tanh", nn.ReLU: "relu"}
     layers, acts, expect_linear = [], set(), True
@@ -72,7 +72,7 @@ def export_sb3(
     from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.distributions import DiagGaussianDistribution
     from stable_baselines3.common.torch_layers import FlattenExtractor
-    import torch.nn as nn
+    from torch import nn
 
     if isinstance(model, PPO):
         kind, pol = "ppo", model.policy

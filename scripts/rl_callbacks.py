@@ -18,9 +18,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback, EvalCallback
+from stable_baselines3.common.callbacks import (
+    BaseCallback,
+    CallbackList,
+    CheckpointCallback,
+    EvalCallback,
+)
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
-
 
 RATE_SCALE = 12.0  # rad/s per unit of the task's roll_rate_error entry (rig_env.envs.tasks.VelocityVectorRoll)
 HOLD_RATE_BOUND = np.radians(20.0)  # rad/s: the velocity-vector-roll success bound on |roll rate|

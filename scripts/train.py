@@ -135,7 +135,13 @@ def main(argv: list[str] | None = None) -> int:
     from controllers.rl import policy_path, save_policy
     from controllers.rl_export import evaluate, export_sb3
     from rig_env.envs.sb3 import RigSB3VecEnv
-    from scripts.rl_callbacks import ErrorReset, TrainingReward, SuccessInfo, build_callbacks, plot_curve
+    from scripts.rl_callbacks import (
+        ErrorReset,
+        SuccessInfo,
+        TrainingReward,
+        build_callbacks,
+        plot_curve,
+    )
 
     torch.set_num_threads(args.threads)
     hp = hyperparams(args.algo, args.task)

@@ -14,9 +14,15 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from controllers.base import LoopSpec, make_controller  # noqa: E402
-from controllers.rl import POLICY_DIR, PolicyFileError, checksum, load_policy, save_policy  # noqa: E402
-from controllers.rl_export import evaluate, export_sb3  # noqa: E402
+from controllers.base import LoopSpec, make_controller
+from controllers.rl import (
+    POLICY_DIR,
+    PolicyFileError,
+    checksum,
+    load_policy,
+    save_policy,
+)
+from controllers.rl_export import evaluate, export_sb3
 
 ROOT = Path(__file__).resolve().parents[1]
 TASK = "velocity_vector_roll"
@@ -81,7 +87,7 @@ def test_file_is_plain_json_and_small(exported):
 
 
 def test_runtime_never_imports_torch_or_sb3_and_never_unpickles(exported, monkeypatch):
-    algo, _, _, spec, path = exported
+    algo, _, _, _, path = exported
     code = (
         "import sys, numpy as np\n"
         "from controllers.base import LoopSpec, make_controller\n"
@@ -183,7 +189,7 @@ def test_potential_shaping_telescopes():
     w = {"roll_error": 1.0, "roll_rate_error": 0.5}
     env = TrainingReward(base, tuple(base.vec.obs_labels), w, gamma=1.0)
     cols = [base.vec.obs_labels.index(k) for k in w]
-    phi = lambda o: -np.abs(np.asarray(o, dtype=np.float64)[..., cols]) @ np.array(list(w.values()))  # noqa: E731
+    phi = lambda o: -np.abs(np.asarray(o, dtype=np.float64)[..., cols]) @ np.array(list(w.values()))
     obs = env.reset()
     phi0, diff = phi(obs), np.zeros(3)
     rng = np.random.default_rng(0)
@@ -229,6 +235,38 @@ def test_error_reset_ends_lost_episodes_as_failures():
         ended |= done
         assert np.all(np.abs(obs[:, col]) <= 1.0)
     assert ended.all()
+
+
+def test_evaluate_equals_single_episodes_of_rigenv():
+    """evaluate() over a batch = each seeded RigEnv episode on its own (returns, success, RMS error)."""
+    from controllers.base import Controller
+    from rig_env.envs import RigEnv
+
+    class Hold(Controller):  # a fixed small aileron: ends every episode unsuccessfully but not trivially
+        kind = "test_hold"
+
+        def reset(self, mask=None):
+            self._mask(mask)
+
+        def act(self, obs):
+            return np.tile([0.05, 0.0, 0.0], (self._check_obs(obs).shape[0], 1))
+
+    overrides = {"episode_seconds": 1.0}
+    env = RigEnv(task=TASK, **overrides)
+    law = Hold(LoopSpec.from_env(env), 3)
+    got = evaluate(law, overrides, seed=7)
+    rets, rms = [], []
+    for i in range(3):
+        obs, _ = env.reset(seed=7 + i)
+        total, done = 0.0, False
+        while not done:
+            _, r, term, trunc, info = env.step(np.array([0.05, 0.0, 0.0]))
+            total, done = total + r, term or trunc
+        rets.append(total)
+        rms.append(info["rms_error"])
+    assert got["mean_return"] == pytest.approx(np.mean(rets), rel=1e-12)
+    assert got["rms_error_deg"] == pytest.approx(np.mean(rms), rel=1e-12)
+    assert got["episodes"] == 3 and got["max_return"] == 80.0
 
 
 SHIPPED = sorted(POLICY_DIR.glob("*.json"))
