@@ -1,0 +1,249 @@
+"""Training-side helpers of ``scripts/train.py``: success in the infos, evaluation, stopping, progress, the curve.
+
+| piece | what |
+|---|---|
+| ``SuccessInfo`` | VecEnvWrapper: copies the task's ``success`` into ``is_success`` (what SB3's EvalCallback counts) |
+| ``ErrorReset`` | VecEnvWrapper: ends a training episode once the tracking error passes a bound (curriculum) |
+| ``TrainingReward`` | VecEnvWrapper: potential-based shaping and a hold-rate penalty, training batch only |
+| ``SeededEvalCallback`` | EvalCallback that reseeds its batch before each evaluation and records wall time |
+| ``StopAtSuccess`` | after an evaluation: stop once the success rate reaches the target |
+| ``ProgressLine`` | a printed progress line every 15 s (when tqdm/rich are missing) |
+| ``plot_curve`` | mean return and success rate vs timesteps, PNG |
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.callbacks import (
+    BaseCallback,
+    CallbackList,
+    CheckpointCallback,
+    EvalCallback,
+)
+from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
+
+RATE_SCALE = 12.0  # rad/s per unit of the task's roll_rate_error entry (rig_env.envs.tasks.VelocityVectorRoll)
+HOLD_RATE_BOUND = np.radians(20.0)  # rad/s: the velocity-vector-roll success bound on |roll rate|
+
+
+class SuccessInfo(VecEnvWrapper):
+    """Adds ``infos[i]["is_success"] = infos[i]["success"]`` on finishing steps (RigSB3VecEnv's episode metric)."""
+
+    def reset(self) -> Any:
+        return self.venv.reset()
+
+    def step_wait(self) -> Any:
+        obs, rew, done, infos = self.venv.step_wait()
+        for i in np.flatnonzero(done):
+            infos[i]["is_success"] = bool(infos[i].get("success", False))
+        return obs, rew, done, infos
+
+
+class TrainingReward(VecEnvWrapper):
+    """The training reward: the task's reward plus potential-based shaping plus an optional hold-rate penalty.
+
+    ``r' = r + (gamma Phi(o') - Phi(o)) - w_hold (rate_error(o') / 20 deg/s)^2 [roll_rate_ref(o') = 0]``
+
+    - ``Phi(o) = -sum_k w_k |o[k]|`` over named raw observation entries (e.g. ``roll_error``): potential-
+      based shaping (Ng, Harada and Russell, ICML 1999) changes no optimal policy of the discounted task
+      and gives a gradient where the task's ``exp(-cost)`` reward is flat (large errors).
+    - the hold-rate penalty (velocity-vector roll) charges roll-rate error while the reference is at
+      rest, scaled to the task's success bound (|roll rate| < 20 deg/s); without it PPO learns to hold
+      the angle to 0.3 deg while chattering at 15-21 deg/s (benchmarks/RESULTS.md, "RL training").
+
+    ``o'`` is the last observation of a finishing episode (``terminal_observation``), so the first
+    observation of the next episode never enters.  No weights and ``w_hold = 0``: the identity (the
+    eval batch uses that, so that both wrapper stacks match).  Evaluation always uses the task's reward.
+    """
+
+    def __init__(self, venv: VecEnv, labels: tuple[str, ...], weights: dict[str, float], gamma: float, hold_rate: float = 0.0) -> None:
+        super().__init__(venv)
+        unknown = sorted(set(weights) - set(labels))
+        if unknown:
+            raise ValueError(f"shaping: observation has no entries {unknown}; entries: {list(labels)}")
+        if hold_rate and not {"roll_rate_ref", "roll_rate_error"} <= set(labels):
+            raise ValueError("hold_rate penalty needs observation entries roll_rate_ref and roll_rate_error")
+        self.cols = np.array([labels.index(k) for k in weights], dtype=np.int64)
+        self.w = np.array(list(weights.values()), dtype=np.float64)
+        self.gamma, self.hold_rate = float(gamma), float(hold_rate)
+        if hold_rate:
+            self.c_ref, self.c_err = labels.index("roll_rate_ref"), labels.index("roll_rate_error")
+        self.phi = np.zeros(venv.num_envs)
+
+    def _potential(self, obs: np.ndarray) -> np.ndarray:
+        return -np.abs(np.asarray(obs, dtype=np.float64)[..., self.cols]) @ self.w
+
+    def reset(self) -> Any:
+        obs = self.venv.reset()
+        self.phi = self._potential(obs)
+        return obs
+
+    def step_wait(self) -> Any:
+        obs, rew, done, infos = self.venv.step_wait()
+        nxt = np.array(obs, dtype=np.float64, copy=True)
+        for i in np.flatnonzero(done):
+            nxt[i] = infos[i]["terminal_observation"]
+        phi_next = self._potential(nxt)
+        shaped = rew + (self.gamma * phi_next - self.phi)
+        if self.hold_rate:
+            rate_err = nxt[:, self.c_err] * RATE_SCALE / HOLD_RATE_BOUND
+            shaped = shaped - self.hold_rate * np.where(nxt[:, self.c_ref] == 0.0, rate_err**2, 0.0)
+        self.phi = np.where(done, self._potential(obs), phi_next)
+        return obs, shaped.astype(np.float32), done, infos
+
+
+class ErrorReset(VecEnvWrapper):
+    """Training curriculum: end an episode early once ``|o[label]| > limit`` (a lost track), as a failure.
+
+    Sits directly on a :class:`RigSB3VecEnv` (``base``); the lost environments are reset in place through
+    ``base.vec.reset(options={"reset_mask": ...})`` and reported as terminated (``terminal_observation``
+    set, not truncated).  The task's reward is nonnegative, so losing the remaining steps is the
+    penalty.  ``limit = inf`` is the identity (used on the eval batch).
+    """
+
+    def __init__(self, base: Any, label: str | None, limit: float) -> None:
+        super().__init__(base)
+        self.base = base
+        self.col = base.vec.obs_labels.index(label) if label is not None else 0
+        self.limit = float(limit)
+
+    def reset(self) -> Any:
+        return self.venv.reset()
+
+    def step_wait(self) -> Any:
+        obs, rew, done, infos = self.venv.step_wait()
+        lost = (np.abs(obs[:, self.col]) > self.limit) & ~done
+        if lost.any():
+            for i in np.flatnonzero(lost):
+                infos[i]["terminal_observation"] = obs[i].copy()
+                infos[i]["TimeLimit.truncated"] = False
+            new, _ = self.base.vec.reset(options={"reset_mask": lost})
+            obs = np.where(lost[:, None], new, obs)
+            done = done | lost
+        return obs, rew, done, infos
+
+
+class SeededEvalCallback(EvalCallback):
+    """EvalCallback on the same seeded episodes every time; keeps (timesteps, wall s, return, success) points."""
+
+    def __init__(self, eval_env: VecEnv, eval_seed: int, **kwargs: Any) -> None:
+        super().__init__(eval_env, **kwargs)
+        self.eval_seed = eval_seed
+        self.points: list[dict[str, float]] = []
+        self.t0 = time.perf_counter()
+
+    def _on_training_start(self) -> None:
+        self.t0 = time.perf_counter()
+
+    def _on_step(self) -> bool:
+        if self.eval_freq > 0 and self.n_calls % self.eval_freq == 0:
+            self.eval_env.seed(self.eval_seed)  # consumed by the reset at the start of the evaluation
+        return super()._on_step()
+
+    def _on_event(self) -> bool:
+        """Right after each evaluation, before ``callback_after_eval``: record the point."""
+        succ = float(np.mean(self._is_success_buffer)) if self._is_success_buffer else float("nan")
+        self.points.append({
+            "timesteps": int(self.num_timesteps), "wall_s": round(time.perf_counter() - self.t0, 1),
+            "mean_return": round(float(self.last_mean_reward), 2), "success_rate": succ,
+        })
+        print(f"  eval at {self.num_timesteps:>9d} steps, {self.points[-1]['wall_s']:7.1f} s: "
+              f"return {self.last_mean_reward:7.1f}, success {succ:.2f}", flush=True)
+        return super()._on_event()
+
+
+class StopAtSuccess(BaseCallback):
+    """Child of the eval callback: stop training when the last evaluation's success rate >= target."""
+
+    def __init__(self, target: float | None) -> None:
+        super().__init__()
+        self.target = target
+        self.reached: dict[str, float] | None = None
+
+    def _on_step(self) -> bool:
+        parent = self.parent
+        assert isinstance(parent, SeededEvalCallback)
+        if not parent.points or self.reached is not None:
+            return True
+        if parent.points[-1]["success_rate"] >= self.target_or_never:
+            self.reached = dict(parent.points[-1])
+            return False
+        return True
+
+    @property
+    def target_or_never(self) -> float:
+        return self.target if self.target is not None else np.inf
+
+
+class ProgressLine(BaseCallback):
+    """Prints timesteps, share done and steps/s every ``every_s`` seconds."""
+
+    def __init__(self, total: int, every_s: float = 15.0) -> None:
+        super().__init__()
+        self.total, self.every_s = total, every_s
+        self.t0 = self.last = time.perf_counter()
+
+    def _on_step(self) -> bool:
+        now = time.perf_counter()
+        if now - self.last >= self.every_s:
+            self.last = now
+            n = self.num_timesteps
+            print(f"  {n:>9d} / {self.total} steps ({100.0 * n / self.total:5.1f} %), {n / (now - self.t0):7.0f} steps/s", flush=True)
+        return True
+
+
+class _Tracker:
+    def __init__(self, ev: SeededEvalCallback, stop: StopAtSuccess) -> None:
+        self.ev, self.stop = ev, stop
+
+    @property
+    def reached(self) -> dict[str, float] | None:
+        return self.stop.reached
+
+    def curve(self) -> list[dict[str, float]]:
+        return list(self.ev.points)
+
+
+def build_callbacks(
+    eval_env: VecEnv, out: Path, *, eval_seed: int, eval_freq: int, n_eval: int, checkpoint_freq: int,
+    target: float | None, progress_line: bool, total: int,
+) -> tuple[CallbackList, _Tracker]:
+    """Eval (+ stop at target), checkpoints, optional progress line; frequencies in vec-env steps."""
+    stop = StopAtSuccess(target)
+    ev = SeededEvalCallback(
+        eval_env, eval_seed, n_eval_episodes=n_eval, eval_freq=eval_freq, log_path=str(out),
+        best_model_save_path=str(out), deterministic=True, callback_after_eval=stop, verbose=0,
+    )
+    cbs: list[BaseCallback] = [ev, CheckpointCallback(checkpoint_freq, str(out / "checkpoints"), save_vecnormalize=True)]
+    if progress_line:
+        cbs.append(ProgressLine(total))
+    return CallbackList(cbs), _Tracker(ev, stop)
+
+
+def plot_curve(curve: list[dict[str, float]], path: Path, title: str, target: float) -> None:
+    """Mean eval return (left axis) and success rate (right axis) vs timesteps."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 3.6), dpi=100)
+    if curve:
+        x = np.array([p["timesteps"] for p in curve])
+        ax.plot(x, [p["mean_return"] for p in curve], "o-", color="C0", label="mean eval return")
+        ax2 = ax.twinx()
+        ax2.plot(x, [p["success_rate"] for p in curve], "s--", color="C1", label="success rate")
+        ax2.axhline(target, color="C1", lw=0.8, ls=":")
+        ax2.set_ylim(-0.02, 1.02)
+        ax2.set_ylabel("success rate", color="C1")
+    ax.set_xlabel("timesteps")
+    ax.set_ylabel("mean eval return", color="C0")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
