@@ -60,6 +60,15 @@ def interp(x, xs, ys):
 
 
 @njit(**_JIT)
+def incidence(z, x):
+    """atan2(z, x) (rad), computed as atan(z / x) when x > 0 (flow from ahead): the same angle, and
+    glibc's atan costs about half its atan2."""
+    if x > 0.0:
+        return math.atan(z / x)
+    return math.atan2(z, x)
+
+
+@njit(**_JIT)
 def mix(da, de, dr, i):
     """Flap i (0-3) deflection from compensator aileron, elevator and rudder (rad)."""
     return da + MIX_ELEVATOR[i] * de + MIX_RUDDER[i] * dr
@@ -79,7 +88,7 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
     if V < MIN_AIRSPEED:
         return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
     wb = mtv(A, omega)
-    alpha = math.atan2(vb[2], vb[0])
+    alpha = incidence(vb[2], vb[0])
     sb = vb[1] / V
     beta = math.asin(min(1.0, max(-1.0, sb)))
     S = p[L.P_HAWK_AERO_S]
@@ -188,7 +197,7 @@ def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn):
             V = math.sqrt(u * u + wn * wn)
             if V < MIN_AIRSPEED:
                 continue
-            alpha = math.atan2(wn, u)
+            alpha = incidence(wn, u)
             qhat = qp * c / (2.0 * V)
             if nonlinear:
                 cl_static = interp(alpha, tab_alpha, tab_cn)
