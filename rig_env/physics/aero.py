@@ -21,9 +21,9 @@ import math
 from numba import njit
 
 from rig_env.physics import layout as L
-from rig_env.physics.vec import mtv, mv, norm, sub
+from rig_env.physics.vec import FASTMATH, mtv, mv, norm, sub
 
-_JIT = dict(cache=True, error_model="numpy", _nrt=False)
+_JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
 
 MIN_AIRSPEED = 0.5
 """Below this local airspeed (m/s) a body or strip produces no aerodynamic load (wind off)."""

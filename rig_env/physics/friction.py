@@ -17,8 +17,9 @@ import math
 from numba import njit
 
 from rig_env.physics import layout as L
+from rig_env.physics.vec import FASTMATH
 
-_JIT = dict(cache=True, error_model="numpy", _nrt=False)
+_JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
 
 # offset of joint j's seven LuGre parameters in the parameter vector
 FRICTION_BASE = (

@@ -20,12 +20,13 @@ from numba import njit, prange
 
 from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
+from rig_env.physics.vec import FASTMATH
 from rig_env.physics import servo as sv
 from rig_env.physics.joint_space import accelerations, kinetic_energy, potential_energy
 
-_JIT = dict(cache=True, error_model="numpy", _nrt=False)  # allocation-free kernels: no NRT refcounting
+_JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)  # allocation-free kernels: no NRT refcounting
 # batch drivers keep NRT: numba does not parallelise a prange loop compiled with _nrt=False
-_JIT_BATCH = dict(cache=True, error_model="numpy")
+_JIT_BATCH = dict(cache=True, error_model="numpy", fastmath=FASTMATH)
 
 N_Y = 24  # RK state: q (5), qd (5), servo positions (7), servo rates (7)
 # scratch layout of one environment's work row

@@ -32,9 +32,9 @@ from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.aero import comp_aero, hawk_aero
-from rig_env.physics.vec import add, col, cross, dot, inertia_world, mm, mtv, mv, rot_x, rot_y, rot_z, scale
+from rig_env.physics.vec import FASTMATH, add, col, cross, dot, inertia_world, mm, mtv, mv, rot_x, rot_y, rot_z, scale
 
-_JIT = dict(cache=True, error_model="numpy", _nrt=False)
+_JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
 
 STOP_BASE = (-1, L.P_STOPS_RIG_PITCH_LOWER_DEG, L.P_STOPS_RIG_YAW_LOWER_DEG, L.P_STOPS_MODEL_PITCH_LOWER_DEG, -1)
 

@@ -10,7 +10,12 @@ import math
 
 from numba import njit
 
-_JIT = dict(cache=True, inline="always", error_model="numpy", _nrt=False)
+FASTMATH = {"contract", "nsz", "arcp", "reassoc"}
+"""LLVM fast-math flags of every physics kernel: fused multiply-adds, reassociation, reciprocals and the
+sign of zero may change results in the last bits.  Never "nnan"/"ninf"/"fast": the blow-up detection
+relies on NaN and inf propagating and on np.isfinite."""
+
+_JIT = dict(cache=True, inline="always", error_model="numpy", fastmath=FASTMATH, _nrt=False)
 
 
 @njit(**_JIT)
