@@ -32,7 +32,7 @@ from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.aero import comp_aero, hawk_aero
-from rig_env.physics.vec import FASTMATH, add, col, cross, dot, inertia_world, mm, mtv, mv, rot_x, rot_y, rot_z, scale
+from rig_env.physics.vec import FASTMATH, add, col, cross, dot, inertia_world, mm, mtv, mv, rot_zy, rot_zyx, scale
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
 
@@ -40,12 +40,18 @@ STOP_BASE = (-1, L.P_STOPS_RIG_PITCH_LOWER_DEG, L.P_STOPS_RIG_YAW_LOWER_DEG, L.P
 
 
 @njit(**_JIT)
+def pitch_axis(psi):
+    """Rig-pitch axis (world): Rz(psi) e_y."""
+    return (-math.sin(psi), math.cos(psi), 0.0)
+
+
+@njit(**_JIT)
 def frames(q, p):
     """Rotations, joint axes (world) and body points (world, from the pivot) at joint angles q."""
-    Rz = rot_z(q[L.J_RIG_YAW])
-    As = mm(mm(Rz, rot_y(q[L.J_RIG_PITCH])), rot_x(q[L.J_RIG_ROLL]))
-    Aa = mm(As, mm(rot_z(q[L.J_MODEL_YAW]), rot_y(q[L.J_MODEL_PITCH])))
-    axes = (col(As, 0), col(Rz, 1), (0.0, 0.0, 1.0), col(Aa, 1), col(As, 2))  # JOINTS order
+    As = rot_zyx(q[L.J_RIG_YAW], q[L.J_RIG_PITCH], q[L.J_RIG_ROLL])
+    Aa = mm(As, rot_zy(q[L.J_MODEL_YAW], q[L.J_MODEL_PITCH]))
+    # JOINTS order
+    axes = (col(As, 0), pitch_axis(q[L.J_RIG_YAW]), (0.0, 0.0, 1.0), col(Aa, 1), col(As, 2))
     G = scale(col(As, 0), p[L.P_GEOMETRY_ARM_LENGTH])
     rho = mv(Aa, (p[L.P_GEOMETRY_HAWK_CG_X], 0.0, p[L.P_GEOMETRY_HAWK_CG_Z]))
     r_s = mv(As, (p[L.P_GEOMETRY_ARM_CG_X], p[L.P_GEOMETRY_ARM_CG_Y], p[L.P_GEOMETRY_ARM_CG_Z]))
