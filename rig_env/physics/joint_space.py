@@ -235,7 +235,8 @@ def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q):
 
 @njit(**_JIT)
 def solve_free(M, rhs, free_idx, n, out):
-    """out[free] = M[free, free]^-1 rhs[free]; out[locked] = 0.  M and rhs are overwritten.
+    """out[free] = M[free, free]^-1 rhs[free]; out[locked] = 0.  M and rhs are overwritten (M by its
+    Cholesky factor, with reciprocals on the diagonal).
 
     Locked rows and columns are replaced by the identity (and their rhs by 0), so the fixed 5x5
     Cholesky below needs no index indirection.  A matrix that is not positive definite gives NaN,
@@ -252,13 +253,15 @@ def solve_free(M, rhs, free_idx, n, out):
                 M[k, j] = 0.0
             M[j, j] = 1.0
             rhs[j] = 0.0
+    # Cholesky M = L L^T in the lower triangle, with 1 / L_aa on the diagonal so that the two triangular
+    # solves multiply instead of divide (they sit on the critical path of every RK stage)
     for a in range(5):
         s = M[a, a]
         for c in range(a):
             s -= M[a, c] * M[a, c]
         d = math.sqrt(s) if s > 0.0 else np.nan
-        M[a, a] = d
         inv = 1.0 / d
+        M[a, a] = inv
         for b in range(a + 1, 5):
             t = M[b, a]
             for c in range(a):
@@ -268,12 +271,12 @@ def solve_free(M, rhs, free_idx, n, out):
         t = rhs[a]
         for c in range(a):
             t -= M[a, c] * out[c]
-        out[a] = t / M[a, a]
+        out[a] = t * M[a, a]
     for a in range(4, -1, -1):
         t = out[a]
         for c in range(a + 1, 5):
             t -= M[c, a] * out[c]
-        out[a] = t / M[a, a]
+        out[a] = t * M[a, a]
 
 
 @njit(**_JIT)
