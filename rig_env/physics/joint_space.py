@@ -234,27 +234,27 @@ def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q):
 
 
 @njit(**_JIT)
-def solve_free(M, rhs, free_idx, n, out):
-    """out[free] = M[free, free]^-1 rhs[free]; out[locked] = 0.  M and rhs are overwritten (M by its
-    Cholesky factor, with reciprocals on the diagonal).
+def is_free(j, free_idx, n):
+    for a in range(n):
+        if free_idx[a] == j:
+            return True
+    return False
 
-    Locked rows and columns are replaced by the identity (and their rhs by 0), so the fixed 5x5
-    Cholesky below needs no index indirection.  A matrix that is not positive definite gives NaN,
-    which the caller reports as a blow-up of that environment.
+
+@njit(**_JIT)
+def factor_free(M, free_idx, n):
+    """Cholesky factor of M[free, free] in place (lower triangle; 1 / L_aa on the diagonal).
+
+    Locked rows and columns are replaced by the identity, so the fixed 5x5 Cholesky below needs no
+    index indirection.  A matrix that is not positive definite gives NaN, which the caller reports as
+    a blow-up of that environment.  The reciprocal pivots let the triangular solves multiply.
     """
     for j in range(5):
-        is_free = False
-        for a in range(n):
-            if free_idx[a] == j:
-                is_free = True
-        if not is_free:
+        if not is_free(j, free_idx, n):
             for k in range(5):
                 M[j, k] = 0.0
                 M[k, j] = 0.0
             M[j, j] = 1.0
-            rhs[j] = 0.0
-    # Cholesky M = L L^T in the lower triangle, with 1 / L_aa on the diagonal so that the two triangular
-    # solves multiply instead of divide (they sit on the critical path of every RK stage)
     for a in range(5):
         s = M[a, a]
         for c in range(a):
@@ -267,6 +267,14 @@ def solve_free(M, rhs, free_idx, n, out):
             for c in range(a):
                 t -= M[b, c] * M[a, c]
             M[b, a] = t * inv
+
+
+@njit(**_JIT)
+def solve_factored(M, rhs, free_idx, n, out):
+    """out = M^-1 rhs from the factor of :func:`factor_free`; out[locked] = 0 (rhs[locked] set to 0)."""
+    for j in range(5):
+        if not is_free(j, free_idx, n):
+            rhs[j] = 0.0
     for a in range(5):
         t = rhs[a]
         for c in range(a):
@@ -281,12 +289,17 @@ def solve_free(M, rhs, free_idx, n, out):
 
 @njit(**_JIT)
 def accelerations(q, qd, z, flaps, u, p, flags, free_idx, n_free, tabs, M, hvec, Q, jv, qdd):
-    """Joint accelerations qdd (5; zero for locked joints) of the joint-space model."""
+    """Joint accelerations qdd (5; zero for locked joints) of the joint-space model.
+
+    M is factored before the forces are evaluated: the factorisation (a chain of square roots and
+    divisions) then overlaps with the force terms in the processor instead of following them.
+    """
     kin = mass_matrix_and_bias(q, qd, p, M, hvec, jv)
+    factor_free(M, free_idx, n_free)
     generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q)
     for k in range(5):
         Q[k] -= hvec[k]
-    solve_free(M, Q, free_idx, n_free, qdd)
+    solve_factored(M, Q, free_idx, n_free, qdd)
 
 
 @njit(**_JIT)
