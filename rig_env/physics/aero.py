@@ -210,10 +210,12 @@ def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn):
             CD = cd0 + k_ind * CL * CL
             qS = 0.5 * rho * V * V * dS
             # lift normal to the in-plane velocity (u e_x - wn n); drag against the full strip velocity
-            # (so that the panels' drag sums to a force along the free stream, as Table 4's CD does)
+            # (so that the panels' drag sums to a force along the free stream, as Table 4's CD does).
+            # The lift's qS / V is written as 0.5 rho V dS: no division
             vabs = math.sqrt(u * u + v1 * v1 + v2 * v2)
-            lift_x = qS * CL * wn / V
-            lift_n = qS * CL * u / V
+            lk = 0.5 * rho * V * dS * CL
+            lift_x = lk * wn
+            lift_n = lk * u
             dk = qS * CD / vabs
             fxs = lift_x - dk * u
             fys = lift_n * -sg - dk * v1
