@@ -152,7 +152,7 @@ import numpy as np
 from rig_env import RigParams
 import benchmarks.bench_step as b
 t1 = time.perf_counter()
-a = b.setup(RigParams.default(), 1)
+a = b.setup(RigParams.default(), 64)  # the parallel kernel, as at 4096 envs
 step = b.joint_stepper(a)
 t2 = time.perf_counter()
 step()

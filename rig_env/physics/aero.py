@@ -24,6 +24,7 @@ from rig_env.physics import layout as L
 from rig_env.physics.vec import FASTMATH, mtv, mv, norm, sub
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
+_INLINE = dict(_JIT, inline="always")  # inlined into the right-hand side (see joint_space._INLINE)
 
 MIN_AIRSPEED = 0.5
 """Below this local airspeed (m/s) a body or strip produces no aerodynamic load (wind off)."""
@@ -74,7 +75,7 @@ def mix(da, de, dr, i):
     return da + MIX_ELEVATOR[i] * de + MIX_RUDDER[i] * dr
 
 
-@njit(**_JIT)
+@njit(**_INLINE)
 def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl, tab_cm):
     """Hawk force and moment about its c.g., world axes (N, N m).
 
@@ -138,7 +139,7 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
     return mv(A, fb), mv(A, mb)
 
 
-@njit(**_JIT)
+@njit(**_INLINE)
 def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn):
     """Compensator force (world, N) and moment about its aerodynamic reference point (world, N m).
 
