@@ -111,13 +111,14 @@ def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w):
     for s in range(4):
         k = w[W_K + s * N_Y : W_K + (s + 1) * N_Y]
         if s == 0:
-            rhs(y0, z, ud, u, p, flags, free_idx, n_free, tabs, M, w, k)
+            for i in range(N_Y):
+                yt[i] = y0[i]
         else:
             kp = w[W_K + (s - 1) * N_Y : W_K + s * N_Y]
             c = RK_C[s] * h
             for i in range(N_Y):
                 yt[i] = y0[i] + c * kp[i]
-            rhs(yt, z, ud, u, p, flags, free_idx, n_free, tabs, M, w, k)
+        rhs(yt, z, ud, u, p, flags, free_idx, n_free, tabs, M, w, k)  # one call site: rhs is inlined
     for i in range(N_Y):
         acc = 0.0
         for s in range(4):
