@@ -183,8 +183,26 @@ def advance_env(x, w, M, p, u, db, d_comp, d_hawk, k0, flags, free_idx, n_free, 
     return st
 
 
-def _step_batch(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W, MW):
-    """Advance all environments by one control step of n_sub physics steps.
+@njit(**_JIT)
+def advance_slot(i, X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W, MW):
+    """Environment i of the batch over one control step: skipped when flagged, flagged when it fails."""
+    if status[i] == L.S_OK:
+        st = advance_env(
+            X[i], W[i], MW[i], P[i], U[i], dbuf[i], delay_steps[i, 0], delay_steps[i, 1],
+            k0, flags, free_idx, n_free, tabs, h, n_sub,
+        )  # fmt: skip
+        if st != L.S_OK:
+            status[i] = st
+
+
+# The serial twins below are separate functions rather than njit applied twice to one function: numba's
+# on-disk cache names an entry after the function's name and line only, so twins made from one function
+# share it, and whichever was compiled first then runs for both (a "parallel" kernel running serially).
+
+
+@njit(parallel=True, **_JIT_BATCH)
+def step_batch(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W, MW):
+    """Advance all environments by one control step of n_sub physics steps, in parallel.
 
     X: (n, N_STATE) states, in place; dbuf: (n, n_buf, 7) delay lines; k0: physics-step counter at the
     start of this control step; delay_steps: (n, 2) int delays of compensator and Hawk servos, in
@@ -192,32 +210,39 @@ def _step_batch(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h
     int8, environments with a non-zero status are skipped; W, MW: scratch from ``new_work``.
     """
     for i in prange(X.shape[0]):
-        if status[i] == L.S_OK:
-            st = advance_env(
-                X[i], W[i], MW[i], P[i], U[i], dbuf[i], delay_steps[i, 0], delay_steps[i, 1],
-                k0, flags, free_idx, n_free, tabs, h, n_sub,
-            )  # fmt: skip
-            if st != L.S_OK:
-                status[i] = st
+        advance_slot(i, X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W, MW)
 
 
-step_batch = njit(parallel=True, **_JIT_BATCH)(_step_batch)
-step_serial = njit(**_JIT_BATCH)(_step_batch)
-"""Serial twin of step_batch for small batches, where a parallel launch costs more than it saves."""
+@njit(**_JIT_BATCH)
+def step_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W, MW):
+    """Serial twin of step_batch for small batches, where a parallel launch costs more than it saves."""
+    for i in range(X.shape[0]):
+        advance_slot(i, X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W, MW)
 
 
-def _energy_batch(X, P, out, W, MW):
-    """Kinetic + gravitational energy (J) of every environment into out (n,)."""
+@njit(**_JIT)
+def energy_slot(i, X, P, out, W, MW):
+    """Kinetic + gravitational energy (J) of environment i into out[i]."""
+    x = X[i]
+    w = W[i]
+    q = x[0:5]
+    qd = x[5:10]
+    out[i] = kinetic_energy(q, qd, P[i], MW[i], w[W_H : W_H + 5], w[W_JV : W_JV + 45]) + potential_energy(q, P[i])
+
+
+@njit(parallel=True, **_JIT_BATCH)
+def energy_batch(X, P, out, W, MW):
+    """Kinetic + gravitational energy (J) of every environment into out (n,), in parallel."""
     for i in prange(X.shape[0]):
-        x = X[i]
-        w = W[i]
-        q = x[0:5]
-        qd = x[5:10]
-        out[i] = kinetic_energy(q, qd, P[i], MW[i], w[W_H : W_H + 5], w[W_JV : W_JV + 45]) + potential_energy(q, P[i])
+        energy_slot(i, X, P, out, W, MW)
 
 
-energy_batch = njit(parallel=True, **_JIT_BATCH)(_energy_batch)
-energy_serial = njit(**_JIT_BATCH)(_energy_batch)
+@njit(**_JIT_BATCH)
+def energy_serial(X, P, out, W, MW):
+    """Serial twin of energy_batch."""
+    for i in range(X.shape[0]):
+        energy_slot(i, X, P, out, W, MW)
+
 
 PARALLEL_MIN_ENVS = 32
 """Below this batch size the serial kernels are faster than a parallel launch."""
