@@ -20,9 +20,9 @@ from numba import njit, prange
 
 from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
-from rig_env.physics.vec import FASTMATH
 from rig_env.physics import servo as sv
 from rig_env.physics.joint_space import accelerations, kinetic_energy, potential_energy
+from rig_env.physics.vec import FASTMATH
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)  # allocation-free kernels: no NRT refcounting
 # batch drivers keep NRT: numba does not parallelise a prange loop compiled with _nrt=False

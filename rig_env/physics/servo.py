@@ -15,8 +15,8 @@ from __future__ import annotations
 from numba import njit
 
 from rig_env.physics import layout as L
-from rig_env.physics.vec import FASTMATH
 from rig_env.physics.aero import mix
+from rig_env.physics.vec import FASTMATH
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
 
