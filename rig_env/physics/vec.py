@@ -133,7 +133,7 @@ def inertia_world(A, ixx, iyy, izz, ixz):
 
     With a_i the rows of A: (A I A^T)_ik = ixx a_i0 a_k0 + iyy a_i1 a_k1 + izz a_i2 a_k2 - ixz (a_i0 a_k2 + a_i2 a_k0).
     """
-    # rows of I A^T's transpose, A I: (ixx a_i0 - ixz a_i2, iyy a_i1, izz a_i2 - ixz a_i0)
+    # rows of A I_body: (ixx a_i0 - ixz a_i2, iyy a_i1, izz a_i2 - ixz a_i0); then (A I_body) A^T
     b00 = ixx * A[0] - ixz * A[2]
     b01 = iyy * A[1]
     b02 = izz * A[2] - ixz * A[0]
