@@ -823,8 +823,21 @@ def advance_env_dae(y, w, p, u, db, d_comp, d_hawk, k0, flags, free_idx, n_free,
     return st
 
 
-def _step_batch_dae(Y, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W):
-    """Advance all environments by one control step of n_sub physics steps of the DAE.
+@njit(**_JIT)
+def advance_slot_dae(i, Y, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, locked, n_locked, tabs, h, n_sub, status, W):
+    """Environment i of the batch over one control step: skipped when flagged, flagged when it fails."""
+    if status[i] == L.S_OK:
+        st = advance_env_dae(
+            Y[i], W[i], P[i], U[i], dbuf[i], delay_steps[i, 0], delay_steps[i, 1],
+            k0, flags, free_idx, n_free, locked, n_locked, tabs, h, n_sub,
+        )  # fmt: skip
+        if st != L.S_OK:
+            status[i] = st
+
+
+@njit(parallel=True, **_JIT_BATCH)
+def step_batch_dae(Y, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W):
+    """Advance all environments by one control step of n_sub physics steps of the DAE, in parallel.
 
     Arguments as ``integrator.step_batch`` with Y: (n, N_DAE) DAE states (in place) and W the scratch
     of :func:`new_work_dae`.  An environment whose state turns non-finite, whose constraint residual
@@ -834,18 +847,17 @@ def _step_batch_dae(Y, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tab
     locked = np.empty(5, np.int64)
     n_locked = locked_joints(free_idx, n_free, locked)
     for i in prange(Y.shape[0]):
-        if status[i] == L.S_OK:
-            st = advance_env_dae(
-                Y[i], W[i], P[i], U[i], dbuf[i], delay_steps[i, 0], delay_steps[i, 1],
-                k0, flags, free_idx, n_free, locked, n_locked, tabs, h, n_sub,
-            )  # fmt: skip
-            if st != L.S_OK:
-                status[i] = st
+        advance_slot_dae(i, Y, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, locked, n_locked, tabs, h, n_sub, status, W)
 
 
-step_batch_dae = njit(parallel=True, **_JIT_BATCH)(_step_batch_dae)
-step_serial_dae = njit(**_JIT_BATCH)(_step_batch_dae)
-"""Serial twin of step_batch_dae for small batches (see integrator.PARALLEL_MIN_ENVS)."""
+@njit(**_JIT_BATCH)
+def step_serial_dae(Y, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W):
+    """Serial twin of step_batch_dae for small batches (see integrator.PARALLEL_MIN_ENVS); a separate
+    function so that the two have separate numba cache entries (see integrator.step_serial)."""
+    locked = np.empty(5, np.int64)
+    n_locked = locked_joints(free_idx, n_free, locked)
+    for i in range(Y.shape[0]):
+        advance_slot_dae(i, Y, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, locked, n_locked, tabs, h, n_sub, status, W)
 
 @njit(**_JIT_BATCH)
 def constraint_residual_batch(Y, P, free_idx, n_free, out):

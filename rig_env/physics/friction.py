@@ -17,8 +17,9 @@ import math
 from numba import njit
 
 from rig_env.physics import layout as L
+from rig_env.physics.vec import FASTMATH
 
-_JIT = dict(cache=True, error_model="numpy", _nrt=False)
+_JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
 
 # offset of joint j's seven LuGre parameters in the parameter vector
 FRICTION_BASE = (
@@ -52,13 +53,26 @@ def torque(p, j, v, z):
 
 
 @njit(**_JIT)
-def advance_bristle(p, j, v, z, dt):
-    """Exact solution of eq. (19) over dt with v held constant."""
+def bristle_decay(p, j, v, dt):
+    """(a, e) of eq. (19) at rate v held over dt: decay rate a = sigma0 |v| / S(v) (1/s), e = 1 - exp(-a dt)."""
     a = p[FRICTION_BASE[j] + _S0] * abs(v) / stribeck(p, j, v)
+    return a, -math.expm1(-a * dt)
+
+
+@njit(**_JIT)
+def advance_bristle_decay(v, z, dt, a, e):
+    """Exact solution of eq. (19) over dt with v held constant, from its (a, e) of :func:`bristle_decay`."""
     if a * dt < 1e-12:
         return z + v * dt
     # z -> z_ss + (z - z_ss) exp(-a dt), z_ss = v / a, written without cancellation
-    return z + (v - a * z) * (-math.expm1(-a * dt)) / a
+    return z + (v - a * z) * e / a
+
+
+@njit(**_JIT)
+def advance_bristle(p, j, v, z, dt):
+    """Exact solution of eq. (19) over dt with v held constant."""
+    a, e = bristle_decay(p, j, v, dt)
+    return advance_bristle_decay(v, z, dt, a, e)
 
 
 @njit(**_JIT)

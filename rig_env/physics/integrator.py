@@ -22,10 +22,12 @@ from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.joint_space import accelerations, kinetic_energy, potential_energy
+from rig_env.physics.vec import FASTMATH
 
-_JIT = dict(cache=True, error_model="numpy", _nrt=False)  # allocation-free kernels: no NRT refcounting
+_JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)  # allocation-free kernels: no NRT refcounting
 # batch drivers keep NRT: numba does not parallelise a prange loop compiled with _nrt=False
-_JIT_BATCH = dict(cache=True, error_model="numpy")
+_JIT_BATCH = dict(cache=True, error_model="numpy", fastmath=FASTMATH)
+_INLINE = dict(_JIT, inline="always")  # see joint_space._INLINE
 
 N_Y = 24  # RK state: q (5), qd (5), servo positions (7), servo rates (7)
 # scratch layout of one environment's work row
@@ -38,7 +40,8 @@ W_H = 156  # bias, 5
 W_JV = 161  # Jacobian columns, 45
 W_QDD = 206
 W_BACKUP = 211  # state at the start of the control step, N_STATE
-N_WORK = 240
+W_DECAY = 240  # bristle decay (a, e) over h/2 of each joint at the joint rate of the last update, 5 x 3
+N_WORK = 255
 RK_C = (0.0, 0.5, 0.5, 1.0)
 RK_W = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)
 
@@ -48,7 +51,7 @@ def new_work(n_envs: int) -> tuple[np.ndarray, np.ndarray]:
     return np.zeros((n_envs, N_WORK)), np.zeros((n_envs, 5, 5))
 
 
-@njit(**_JIT)
+@njit(**_INLINE)
 def rhs(y, z, ud, u, p, flags, free_idx, n_free, tabs, M, w, out):
     """Time derivative of the RK state y (24,) into out (24,)."""
     q = y[0:5]
@@ -70,13 +73,35 @@ def rhs(y, z, ud, u, p, flags, free_idx, n_free, tabs, M, w, out):
 
 
 @njit(**_JIT)
+def half_bristle_step(x, z, p, free_idx, n_free, h, w):
+    """Bristle states z of the free joints over h/2 at the joint rates of x (exact, eq. 19).
+
+    The decay factors depend on the joint rate only, and the rate at the end of one physics step is the
+    rate at the start of the next: w[W_DECAY:] keeps (rate, a, e) of each joint's last update and they
+    are reused when the rate is bit-for-bit the same.  advance_env invalidates them at the start of
+    every control step (the caller may have changed states or parameters in between).
+    """
+    for a in range(n_free):
+        j = free_idx[a]
+        v = x[L.X_QD + j]
+        c = W_DECAY + 3 * j
+        if v == w[c]:
+            rate = w[c + 1]
+            e = w[c + 2]
+        else:
+            rate, e = fr.bristle_decay(p, j, v, 0.5 * h)
+            w[c] = v
+            w[c + 1] = rate
+            w[c + 2] = e
+        z[j] = fr.advance_bristle_decay(v, z[j], 0.5 * h, rate, e)
+
+
+@njit(**_JIT)
 def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w):
     """Advance one environment's state x (N_STATE,) by one physics step h (in place)."""
     z = x[L.X_Z : L.X_Z + 5]
     if flags & L.F_FRICTION:
-        for a in range(n_free):
-            j = free_idx[a]
-            z[j] = fr.advance_bristle(p, j, x[L.X_QD + j], z[j], 0.5 * h)
+        half_bristle_step(x, z, p, free_idx, n_free, h, w)
     y0 = w[W_Y0 : W_Y0 + N_Y]
     yt = w[W_YT : W_YT + N_Y]
     for i in range(10):
@@ -86,13 +111,14 @@ def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w):
     for s in range(4):
         k = w[W_K + s * N_Y : W_K + (s + 1) * N_Y]
         if s == 0:
-            rhs(y0, z, ud, u, p, flags, free_idx, n_free, tabs, M, w, k)
+            for i in range(N_Y):
+                yt[i] = y0[i]
         else:
             kp = w[W_K + (s - 1) * N_Y : W_K + s * N_Y]
             c = RK_C[s] * h
             for i in range(N_Y):
                 yt[i] = y0[i] + c * kp[i]
-            rhs(yt, z, ud, u, p, flags, free_idx, n_free, tabs, M, w, k)
+        rhs(yt, z, ud, u, p, flags, free_idx, n_free, tabs, M, w, k)  # one call site: rhs is inlined
     for i in range(N_Y):
         acc = 0.0
         for s in range(4):
@@ -103,9 +129,7 @@ def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w):
     for i in range(14):
         x[L.X_SERVO + i] = y0[10 + i]
     if flags & L.F_FRICTION:
-        for a in range(n_free):
-            j = free_idx[a]
-            z[j] = fr.advance_bristle(p, j, x[L.X_QD + j], z[j], 0.5 * h)
+        half_bristle_step(x, z, p, free_idx, n_free, h, w)
     for k in range(7):
         if flags & L.F_SERVO:
             xs, vs = sv.project(p, k, x[L.X_SERVO + k], x[L.X_SERVO_RATE + k])
@@ -143,6 +167,8 @@ def advance_env(x, w, M, p, u, db, d_comp, d_hawk, k0, flags, free_idx, n_free, 
     backup = w[W_BACKUP : W_BACKUP + L.N_STATE]
     for a in range(L.N_STATE):
         backup[a] = x[a]
+    for j in range(5):
+        w[W_DECAY + 3 * j] = np.nan  # no cached bristle decay matches (NaN equals nothing)
     for s in range(n_sub):
         k = k0 + s
         push_demands(db, k % n_buf, u, p)
@@ -157,8 +183,26 @@ def advance_env(x, w, M, p, u, db, d_comp, d_hawk, k0, flags, free_idx, n_free, 
     return st
 
 
-def _step_batch(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W, MW):
-    """Advance all environments by one control step of n_sub physics steps.
+@njit(**_JIT)
+def advance_slot(i, X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W, MW):
+    """Environment i of the batch over one control step: skipped when flagged, flagged when it fails."""
+    if status[i] == L.S_OK:
+        st = advance_env(
+            X[i], W[i], MW[i], P[i], U[i], dbuf[i], delay_steps[i, 0], delay_steps[i, 1],
+            k0, flags, free_idx, n_free, tabs, h, n_sub,
+        )  # fmt: skip
+        if st != L.S_OK:
+            status[i] = st
+
+
+# The serial twins below are separate functions rather than njit applied twice to one function: numba's
+# on-disk cache names an entry after the function's name and line only, so twins made from one function
+# share it, and whichever was compiled first then runs for both (a "parallel" kernel running serially).
+
+
+@njit(parallel=True, **_JIT_BATCH)
+def step_batch(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W, MW):
+    """Advance all environments by one control step of n_sub physics steps, in parallel.
 
     X: (n, N_STATE) states, in place; dbuf: (n, n_buf, 7) delay lines; k0: physics-step counter at the
     start of this control step; delay_steps: (n, 2) int delays of compensator and Hawk servos, in
@@ -166,32 +210,39 @@ def _step_batch(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h
     int8, environments with a non-zero status are skipped; W, MW: scratch from ``new_work``.
     """
     for i in prange(X.shape[0]):
-        if status[i] == L.S_OK:
-            st = advance_env(
-                X[i], W[i], MW[i], P[i], U[i], dbuf[i], delay_steps[i, 0], delay_steps[i, 1],
-                k0, flags, free_idx, n_free, tabs, h, n_sub,
-            )  # fmt: skip
-            if st != L.S_OK:
-                status[i] = st
+        advance_slot(i, X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W, MW)
 
 
-step_batch = njit(parallel=True, **_JIT_BATCH)(_step_batch)
-step_serial = njit(**_JIT_BATCH)(_step_batch)
-"""Serial twin of step_batch for small batches, where a parallel launch costs more than it saves."""
+@njit(**_JIT_BATCH)
+def step_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W, MW):
+    """Serial twin of step_batch for small batches, where a parallel launch costs more than it saves."""
+    for i in range(X.shape[0]):
+        advance_slot(i, X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, W, MW)
 
 
-def _energy_batch(X, P, out, W, MW):
-    """Kinetic + gravitational energy (J) of every environment into out (n,)."""
+@njit(**_JIT)
+def energy_slot(i, X, P, out, W, MW):
+    """Kinetic + gravitational energy (J) of environment i into out[i]."""
+    x = X[i]
+    w = W[i]
+    q = x[0:5]
+    qd = x[5:10]
+    out[i] = kinetic_energy(q, qd, P[i], MW[i], w[W_H : W_H + 5], w[W_JV : W_JV + 45]) + potential_energy(q, P[i])
+
+
+@njit(parallel=True, **_JIT_BATCH)
+def energy_batch(X, P, out, W, MW):
+    """Kinetic + gravitational energy (J) of every environment into out (n,), in parallel."""
     for i in prange(X.shape[0]):
-        x = X[i]
-        w = W[i]
-        q = x[0:5]
-        qd = x[5:10]
-        out[i] = kinetic_energy(q, qd, P[i], MW[i], w[W_H : W_H + 5], w[W_JV : W_JV + 45]) + potential_energy(q, P[i])
+        energy_slot(i, X, P, out, W, MW)
 
 
-energy_batch = njit(parallel=True, **_JIT_BATCH)(_energy_batch)
-energy_serial = njit(**_JIT_BATCH)(_energy_batch)
+@njit(**_JIT_BATCH)
+def energy_serial(X, P, out, W, MW):
+    """Serial twin of energy_batch."""
+    for i in range(X.shape[0]):
+        energy_slot(i, X, P, out, W, MW)
+
 
 PARALLEL_MIN_ENVS = 32
 """Below this batch size the serial kernels are faster than a parallel launch."""

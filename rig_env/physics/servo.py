@@ -16,8 +16,9 @@ from numba import njit
 
 from rig_env.physics import layout as L
 from rig_env.physics.aero import mix
+from rig_env.physics.vec import FASTMATH
 
-_JIT = dict(cache=True, error_model="numpy", _nrt=False)
+_JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
 
 # group parameter offsets: servo k < 4 is a compensator flap, k >= 4 a Hawk surface
 _COMP = L.P_SERVOS_COMPENSATOR_DELAY_S

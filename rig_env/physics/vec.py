@@ -10,7 +10,12 @@ import math
 
 from numba import njit
 
-_JIT = dict(cache=True, inline="always", error_model="numpy", _nrt=False)
+FASTMATH = {"contract", "nsz", "arcp", "reassoc"}
+"""LLVM fast-math flags of every physics kernel: fused multiply-adds, reassociation, reciprocals and the
+sign of zero may change results in the last bits.  Never "nnan"/"ninf"/"fast": the blow-up detection
+relies on NaN and inf propagating and on np.isfinite."""
+
+_JIT = dict(cache=True, inline="always", error_model="numpy", fastmath=FASTMATH, _nrt=False)
 
 
 @njit(**_JIT)
@@ -103,9 +108,45 @@ def rot_z(a):
 
 
 @njit(**_JIT)
+def rot_zy(yaw, pitch):
+    """Rz(yaw) @ Ry(pitch), written out (the zero entries of the factors left out of the product)."""
+    cz, sz = math.cos(yaw), math.sin(yaw)
+    cy, sy = math.cos(pitch), math.sin(pitch)
+    return (cz * cy, -sz, cz * sy, sz * cy, cz, sz * sy, -sy, 0.0, cy)
+
+
+@njit(**_JIT)
+def rot_zyx(yaw, pitch, roll):
+    """Rz(yaw) @ Ry(pitch) @ Rx(roll), written out as :func:`rot_zy` times Rx."""
+    b = rot_zy(yaw, pitch)
+    cx, sx = math.cos(roll), math.sin(roll)
+    return (
+        b[0], b[1] * cx + b[2] * sx, b[2] * cx - b[1] * sx,
+        b[3], b[4] * cx + b[5] * sx, b[5] * cx - b[4] * sx,
+        b[6], b[8] * sx, b[8] * cx,
+    )  # fmt: skip
+
+
+@njit(**_JIT)
 def inertia_world(A, ixx, iyy, izz, ixz):
-    """A I A^T for a body inertia with principal terms and one product Ixz (body axes)."""
-    # I A^T, then A (I A^T)
-    i_body = (ixx, 0.0, -ixz, 0.0, iyy, 0.0, -ixz, 0.0, izz)
-    at = (A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8])
-    return mm(A, mm(i_body, at))
+    """A I A^T for a body inertia with principal terms and one product Ixz (body axes); symmetric.
+
+    With a_i the rows of A: (A I A^T)_ik = ixx a_i0 a_k0 + iyy a_i1 a_k1 + izz a_i2 a_k2 - ixz (a_i0 a_k2 + a_i2 a_k0).
+    """
+    # rows of A I_body: (ixx a_i0 - ixz a_i2, iyy a_i1, izz a_i2 - ixz a_i0); then (A I_body) A^T
+    b00 = ixx * A[0] - ixz * A[2]
+    b01 = iyy * A[1]
+    b02 = izz * A[2] - ixz * A[0]
+    b10 = ixx * A[3] - ixz * A[5]
+    b11 = iyy * A[4]
+    b12 = izz * A[5] - ixz * A[3]
+    b20 = ixx * A[6] - ixz * A[8]
+    b21 = iyy * A[7]
+    b22 = izz * A[8] - ixz * A[6]
+    m00 = b00 * A[0] + b01 * A[1] + b02 * A[2]
+    m01 = b00 * A[3] + b01 * A[4] + b02 * A[5]
+    m02 = b00 * A[6] + b01 * A[7] + b02 * A[8]
+    m11 = b10 * A[3] + b11 * A[4] + b12 * A[5]
+    m12 = b10 * A[6] + b11 * A[7] + b12 * A[8]
+    m22 = b20 * A[6] + b21 * A[7] + b22 * A[8]
+    return (m00, m01, m02, m01, m11, m12, m02, m12, m22)
