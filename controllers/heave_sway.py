@@ -15,7 +15,8 @@ quasi-static (they follow the rig within a fraction of the reference's period):
 
 with ``u_s`` the rig's static input curve (:func:`controllers.axis_design.static_table`: the input
 that holds the driven joint at theta with every free joint settled, from ``rig_env.trim``; its
-slope at theta_op is the linear model's quasi-static stiffness ``-(A_jj - A_jp A_pp^-1 A_pj) / b_j``,
+slope at theta_op is the linear model's static gain ``1 / G_j``, ``G = -A_q^-1 B_axis`` (every joint's
+angle per unit input; the input reaches the passive joints too, through the coupled inertia),
 but the rig stiffens away from its trim), ``A'_jj`` the driven joint's damping and ``b_j`` its
 control power.
 
@@ -74,20 +75,19 @@ class _AxisModel:
         nq, k = self.nq, fd.index(joint)
         p = [i for i in range(nq) if i != k]
         self.k, self.passive = k, p
-        keff, cw, b, th0, S = [], [], [], [], []
+        cw, b, th0, S = [], [], [], []
         for q_op, sys in self.points:
             A, B = np.asarray(sys.A), np.asarray(sys.B)
             Aq, Aw = A[nq:, :nq], A[nq:, nq:]
-            Spk = -np.linalg.solve(Aq[np.ix_(p, p)], Aq[np.ix_(p, [k])])[:, 0] if p else np.zeros(0)
-            keff.append(Aq[k, k] + Aq[k, p] @ Spk if p else Aq[k, k])
+            G = -np.linalg.solve(Aq, B[nq:, AXIS_OF[joint]])  # static gain: joint angles per unit input
             cw.append(Aw[k, k])
             b.append(B[nq + k, AXIS_OF[joint]])
             th0.append(q_op[JOINTS.index(joint)])
-            S.append(Spk)
-        self.keff, self.cw, self.b, self.th0 = (np.array(x) for x in (keff, cw, b, th0))
+            S.append(G[p] / G[k])
+        self.cw, self.b, self.th0 = (np.array(x) for x in (cw, b, th0))
         self.Arow = np.array([np.asarray(sys.A)[nq + k] for _, sys in self.points])  # (n_V, 2 nq): driven joint's acceleration row
         self.qop = np.array([q[[JOINTS.index(j) for j in self.fd]] for q, _ in self.points])  # (n_V, nq)
-        self.S = np.array(S)  # (n_V, n_passive): passive joint angle per rad of the driven joint, quasi-static
+        self.S = np.array(S)  # (n_V, n_passive): passive joint angles per rad of the driven joint held by a steady input
         self.tables = [static_table(self.params, self.fd, joint, float(v), self.scale_deg) for v in self.V]
 
     def at(self, table: np.ndarray, V: np.ndarray) -> np.ndarray:

@@ -7,7 +7,7 @@ entries and their normalisations); this parser turns them into the same three si
 | task | driven joint | e = theta_ref - theta (rad) | w_ref (rad/s) | a_ref (rad/s^2) |
 |---|---|---|---|---|
 | pull_up_push_over | rig_pitch | heave_error x 10 deg | heave_rate_ref x 5 | accel_ref g / (l cos theta_ref) (h = l sin theta) |
-| forced_oscillation | rig_pitch (heave_pitch) or rig_yaw (sway_yaw) | osc_error x 10 deg | osc_rate_error x 5 + measured rate | -A e(t) w^2 sin(phi) + 2 A e'(t) w cos(phi), envelope e from the law's own clock since osc_sin/osc_cos turned on |
+| forced_oscillation | rig_pitch (heave_pitch) or rig_yaw (sway_yaw) | osc_error x 10 deg | osc_rate_error x 5 + measured rate | A ((e'' - e w^2) sin(phi) + 2 e' w cos(phi)), envelope e(t) (the task's smooth ramp) from the parser's own clock since osc_sin/osc_cos turned on |
 | free_flight_emulation | rig_pitch | theta_ref - theta; theta_ref' = w_ref - (theta_ref - theta_0) / T_w from theta_0, the measured angle at reset | washed-out integral of a_ref, minus (V / l) c_alpha alpha_error | accel_ref g / (l cos theta) |
 
 Free-flight emulation: the rig matches the free Hawk's flight path when the model gimbal's vertical
@@ -96,8 +96,10 @@ class DrivenReference:
             on = (sn != 0.0) | (cs != 0.0)
             amp, om = obs[:, c["osc_amplitude"]] * 10.0 * D, 2.0 * math.pi * obs[:, c["osc_frequency"]]
             x = self.clock / ForcedOscillation.T_RAMP
-            env, denv = smooth_ramp(x), np.where(x < 1.0, 6.0 * x * (1.0 - x), 0.0) / ForcedOscillation.T_RAMP
-            a = np.where(on, amp * (2.0 * denv * om * cs - env * om**2 * sn), 0.0)
+            T = ForcedOscillation.T_RAMP
+            env, denv = smooth_ramp(x), np.where(x < 1.0, 6.0 * x * (1.0 - x), 0.0) / T
+            ddenv = np.where(x < 1.0, 6.0 * (1.0 - 2.0 * x), 0.0) / T**2
+            a = np.where(on, amp * ((ddenv - env * om**2) * sn + 2.0 * denv * om * cs), 0.0)
             self.clock = np.where(on, self.clock + self.dt, 0.0)
         else:
             V = np.maximum(obs[:, self._air] * AIRSPEED_SCALE, 5.0)
