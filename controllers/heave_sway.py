@@ -22,8 +22,16 @@ control power.
 
 | class | kind | law |
 |---|---|---|
-| :class:`HeaveSwayPID` | pid | outer P on ``e`` plus ``w_ref`` -> rate demand (limit :data:`RATE_DEMAND_MAX`); inner PI on the measured rate with ``u_ff`` (:class:`controllers.pid_element.PID`: back-calculation anti-windup, output +-1, the servo's rate limit, bumpless engagement); gains from :func:`controllers.axis_design.tune_driven` at the middle airspeed, scaled by ``(V_design / V)^2`` |
+| :class:`HeaveSwayPID` | pid | outer P on ``e`` plus ``w_ref`` -> rate demand (limit :data:`RATE_DEMAND_MAX`); inner PI on the measured rate with ``u_ff`` and the decoupling ``u_dc`` (below) (:class:`controllers.pid_element.PID`: back-calculation anti-windup, output +-1, the servo's rate limit, bumpless engagement); gains from :func:`controllers.axis_design.tune_driven` at the middle airspeed, scaled by ``(V_design / V)^2`` |
 | :class:`HeaveSwayLQR` | lqr | ``v = u_ff - K(V) [q - q_ref, w - w_ref, z]``, ``K`` from :func:`controllers.axis_design.lqr_point` with the integral ``z`` of the driven joint's error (clamping anti-windup), ``(q, w)`` from :class:`controllers.estimator.DelayedKalman`; passive joints referenced to their quasi-static angle, or left free (zero gain) in free-flight emulation |
+
+Decoupling (PID): the passive model joints pull on the driven joint (the model's lift and side force
+on the arm; a gust shows first as a model-joint deflection).  ``u_dc = -(A_jp (q_p - q_p,ref) + A'_jp w_p) / b_j``
+on the measured passive angles and rates cancels that pull on the linear model (``q_p,ref``: their
+static angles for theta_ref); it halves the RMS error under gusts (pull-up 4.3 -> 2.4 deg, 16 episodes).
+The LQR has these terms in ``K`` already.  Free-flight emulation instead inverts the whole driven-joint
+row, ``u_ff = (a_ref - A_j x) / b_j`` on the measured state, so that the gimbal follows the free
+Hawk's heave acceleration whatever the model does.
 
 ``law.describe()`` gives gains and margins (servo, delay and rate sensor in the loop) for the report.
 """
@@ -109,6 +117,16 @@ class _AxisModel:
         x = np.concatenate([q - self.at(self.qop, V), w], axis=1)
         return (a_ref - np.einsum("nj,nj->n", self.at(self.Arow, V), x)) / self.at(self.b, V)
 
+    def decouple(self, V: np.ndarray, q: np.ndarray, w: np.ndarray, th_ref: np.ndarray) -> np.ndarray:
+        """(n,) input cancelling the passive joints' pull on the driven joint, A_jp (q_p - q_p,ref) + A'_jp w_p, on the linear model."""
+        if not self.passive:
+            return np.zeros(q.shape[0])
+        row, qop = self.at(self.Arow, V), self.at(self.qop, V)
+        q_ref = qop[:, self.passive] + self.at(self.S, V) * (th_ref - qop[:, self.k])[:, None]
+        acc = np.einsum("nj,nj->n", row[:, self.passive], q[:, self.passive] - q_ref)
+        acc += np.einsum("nj,nj->n", row[:, [self.nq + i for i in self.passive]], w[:, self.passive])
+        return -acc / self.at(self.b, V)
+
     def feedforward(self, V: np.ndarray, th_ref: np.ndarray, w_ref: np.ndarray, a_ref: np.ndarray) -> np.ndarray:
         """(n,) u_ff, normalised virtual input."""
         return self.static_input(V, th_ref) + (a_ref - self.at(self.cw, V) * w_ref) / self.at(self.b, V)
@@ -160,7 +178,7 @@ class HeaveSwayPID(_HeaveSwayBase):
     """
 
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
-                 rate_filter_hz: float = 10.0, feedforward: bool = True, targets: dict[str, float] | None = None) -> None:
+                 rate_filter_hz: float = 10.0, feedforward: bool = True, decouple: bool = True, targets: dict[str, float] | None = None) -> None:
         super().__init__(spec, num_envs, params, link_delay_steps)
         m = self.model
         i_mid = int(np.argmin(np.abs(m.V - 0.5 * (m.V[0] + m.V[-1]))))
@@ -172,6 +190,7 @@ class HeaveSwayPID(_HeaveSwayBase):
         self.outer = PID(n, kp=t.k_angle, dt=spec.dt, u_min=-RATE_DEMAND_MAX, u_max=RATE_DEMAND_MAX)
         self.inner = PID(n, kp=t.kp, ki=t.ki, dt=spec.dt, rate=rate_lim)
         self.use_ff = bool(feedforward)
+        self.decouple = bool(decouple)
         self._pending = np.ones(n, dtype=bool)
 
     def reset(self, mask: np.ndarray | None = None) -> None:
@@ -193,6 +212,8 @@ class HeaveSwayPID(_HeaveSwayBase):
             ff = self.model.inverse(V, *self._joints(o), a_ref)
         else:
             ff = self.model.feedforward(V, th + e, w_ref, a_ref)
+            if self.decouple:
+                ff = ff + self.model.decouple(V, *self._joints(o), th + e)
         demand = self.outer.update(e, 0.0) + w_ref
         if np.any(self._pending):
             self.inner.engage(self._pending, demand, rate, self._surface_now(o), ff=ff, gain_scale=g)
@@ -268,5 +289,5 @@ class HeaveSwayLQR(_HeaveSwayBase):
         out = []
         for d in self.designs:
             gm, pm, wc = lqr_margins(d, self.joint, self.params, self.spec.dt, self.link_delay_steps, self.hold_passive)
-            out.append({"airspeed": d.airspeed, "poles": d.poles.tolist(), self.joint: {"gm_db": gm, "pm_deg": pm, "wc": wc}})
+            out.append({"airspeed": d.airspeed, "phi_deg": 0.0, "poles": d.poles.tolist(), self.joint: {"gm_db": gm, "pm_deg": pm, "wc": wc}})
         return {"points": out}

@@ -143,11 +143,12 @@ def test_laws_refuse_a_locked_driven_joint():
 
 # --------------------------------------------------------------------------------------------- closed loop
 GUSTS_OFF = replace(NOMINAL, airspeed=(20.0, 20.0), turbulence=0.0)
-# Thresholds: measured rate on 32 seeded episodes (seed 0) minus about 10 points (see the report in
-# the commit); nominal parameter spread and sensor noise, gusts off (see test docstring).
+# Thresholds: the rate measured on these 32 seeded episodes (seed 0) minus 10-15 points, so that a
+# change of law or model that loses a few episodes is caught but float-level noise is not:
+# pull-up PID 27/32, LQR 27/32; heave oscillation PID 25/32, LQR 32/32; sway PID 32/32, LQR 32/32.
 THRESHOLDS = {
-    ("pull_up_push_over", ""): {"pid": 0.70, "lqr": 0.60},
-    ("forced_oscillation", "heave_pitch"): {"pid": 0.70, "lqr": 0.70},
+    ("pull_up_push_over", ""): {"pid": 0.70, "lqr": 0.70},
+    ("forced_oscillation", "heave_pitch"): {"pid": 0.65, "lqr": 0.85},
     ("forced_oscillation", "sway_yaw"): {"pid": 0.85, "lqr": 0.85},
 }
 
