@@ -44,7 +44,7 @@ def test_pid_loops_meet_the_stated_margins_with_servo_and_delay(params, fd, join
     """Rebuild both loops from the tuned gains and the linear model (servo, Pade delay and rate sensor
     in the loop, as tuning.py) and read python-control's margins directly: inner PI PM >= 50 deg,
     GM >= 8 dB; outer P PM >= 60 deg, GM >= 10 dB."""
-    q, sys = axis_point(params, fd, 20.0)
+    _, sys = axis_point(params, fd, 20.0)
     t = tune_driven(params, sys, joint, 20.0, DT)
     k_in, k_out = {"rig_pitch": 1, "rig_yaw": 2}[joint], sys.output_labels.index(f"{joint}_rate")
     P = control.ss2tf(control.ss(sys.A, sys.B[:, [k_in]], sys.C[[k_out], :], 0.0))
@@ -79,7 +79,7 @@ def test_lqr_poles_and_margins(params, fd, joint, hold):
 def test_static_curve_slope_equals_the_linear_quasi_static_stiffness(params, fd, joint, k_in):
     """Trim (nonlinear, every joint settled) against linearisation: at the zero-input trim the static
     gain of the linear model, dq = -A_q^-1 B du, gives du/dtheta = 1 / (-A_q^-1 B)_j."""
-    q, sys = axis_point(params, fd, 20.0)
+    _, sys = axis_point(params, fd, 20.0)
     th, u = static_table(params, fd, joint, 20.0)
     i0 = int(np.argmin(np.abs(u)))
     slope = (u[i0 + 1] - u[i0 - 1]) / (th[i0 + 1] - th[i0 - 1])
