@@ -177,3 +177,34 @@ def static_table(params: RigParams, free_dofs: tuple[str, ...], joint: str, airs
     if th_a.size < 3 or np.any(np.diff(th_a) <= 0):
         raise ValueError(f"{joint} at {airspeed} m/s: the static input curve is not monotonic ({np.degrees(th_a)} deg)")
     return th_a, u_a
+
+
+def pid_margins_as_flown(params: RigParams, sys: control.StateSpace, joint: str, t: AxisTuning, dt: float, *,
+                         decouple: str | None = "passive", link_delay_steps: int = 1, rate_filter_hz: float = 10.0) -> tuple[float, float, float]:
+    """(GM dB, PM deg, crossover rad/s) of the heave/sway PID broken at the surface command, servo and delay in.
+
+    The cascade feeds back ``u = -C(s) (k_angle theta + H(s) theta')`` (``C = kp + ki / s``, ``H`` the rate
+    sensor) and, with ``decouple="passive"``, ``-(A_jp theta_p + A'_jp H(s) theta_p') / b_j`` on the passive
+    joints, so ``L(s) = [C (k_angle + H s) P_j + (A_jp + A'_jp H s) P_p / b_j] S D`` with ``P_j``, ``P_p`` the
+    angles per unit input of the model of :func:`axis_point`; ``decouple="all"`` adds the driven joint's own
+    row too (the inverse dynamics of free-flight emulation); None: the cascade alone."""
+    if decouple not in (None, "passive", "all"):
+        raise ValueError(f"decouple = {decouple!r}: allowed None, 'passive', 'all'")
+    el = loop_elements(params, dt, link_delay_steps, rate_filter_hz)
+    s = control.tf("s")
+    nq = len(sys.state_labels) // 2
+    k_in = AXIS_OF[joint]
+    k = sys.state_labels.index(joint)
+    A = np.asarray(sys.A)
+
+    def angle(i: int) -> control.TransferFunction:
+        return control.ss2tf(control.ss(sys.A, sys.B[:, [k_in]], np.eye(2 * nq)[[i]], 0.0))
+
+    H = el["rate_sensor"]
+    L = (t.kp + t.ki / s) * (t.k_angle + H * s) * angle(k)
+    if decouple:
+        b = float(sys.B[nq + k, k_in])
+        for i in range(nq):
+            if i != k or decouple == "all":
+                L = L + (A[nq + k, i] + A[nq + k, nq + i] * H * s) * angle(i) / b
+    return margins(L * el["servo"] * el["delay"])

@@ -48,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-from controllers.axis_design import axis_point, lqr_margins, lqr_point, static_table, tune_driven
+from controllers.axis_design import axis_point, lqr_margins, lqr_point, pid_margins_as_flown, static_table, tune_driven
 from controllers.base import Controller, LoopSpec, register
 from controllers.estimator import DelayedKalman, kalman_gain
 from controllers.lqr import SIGMA_A, SIGMA_Z
@@ -225,7 +225,13 @@ class HeaveSwayPID(_HeaveSwayBase):
         return self._action(self.inner.update(demand, rate, ff=ff, gain_scale=g))
 
     def describe(self) -> dict[str, Any]:
-        return {self.joint: self.tuning.as_dict()}
+        """Tuning (gains, inner and outer loop margins) and the margins of the whole law broken at the
+        surface command (``*_input``: cascade and decoupling together, :func:`controllers.axis_design.pid_margins_as_flown`)."""
+        i_mid = int(np.argmin(np.abs(self.model.V - self.v_design)))
+        gm, pm, wc = pid_margins_as_flown(self.params, self.model.points[i_mid][1], self.joint, self.tuning, self.spec.dt,
+                                          decouple="all" if self.emulate else ("passive" if self.decouple else None),
+                                          link_delay_steps=self.link_delay_steps)
+        return {self.joint: {**self.tuning.as_dict(), "gm_input": gm, "pm_input": pm, "wc_input": wc}}
 
 
 @register("lqr")

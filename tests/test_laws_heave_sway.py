@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from controllers import LoopSpec, make_controller
-from controllers.axis_design import axis_point, lqr_margins, lqr_point, static_table, tune_driven
+from controllers.axis_design import axis_point, lqr_margins, lqr_point, pid_margins_as_flown, static_table, tune_driven
 from controllers.evaluate import NOMINAL, evaluate
 from controllers.heave_sway import HeaveSwayLQR, HeaveSwayPID
 from controllers.lqr import LQRLaw, augmented
@@ -60,6 +60,18 @@ def test_pid_loops_meet_the_stated_margins_with_servo_and_delay(params, fd, join
     gm_o, pm_o = control.stability_margins(L_out)[:2]
     assert np.all(np.real(control.feedback(L_out, 1).poles()) < 1e-8)
     assert 20 * math.log10(gm_o) >= 10.0 - 1e-6 and pm_o >= 60.0 - 1e-6
+
+
+@pytest.mark.parametrize("fd, joint", [(PITCH, "rig_pitch"), (YAW, "rig_yaw")])
+def test_pid_law_broken_at_the_surface_command_keeps_margins(params, fd, joint):
+    """The whole PID law (cascade and decoupling) broken at the actuator: the closed loop is stable and
+    PM >= 30 deg, GM >= 6 dB (servo and delay in).  Decoupling adds phase: PM with it >= PM without."""
+    _, sys = axis_point(params, fd, 20.0)
+    t = tune_driven(params, sys, joint, 20.0, DT)
+    gm, pm, wc = pid_margins_as_flown(params, sys, joint, t, DT)
+    _, pm0, _ = pid_margins_as_flown(params, sys, joint, t, DT, decouple=None)
+    assert gm >= 6.0 and pm >= 30.0 and np.isfinite(wc)
+    assert pm >= pm0
 
 
 @pytest.mark.parametrize("fd, joint, hold", [(PITCH, "rig_pitch", True), (YAW, "rig_yaw", True), (PITCH, "rig_pitch", False)])
