@@ -138,8 +138,9 @@ def test_make_controller_builds_the_heave_sway_laws(task, opts):
     assert type(make_controller("lqr", spec, 2)) is HeaveSwayLQR
 
 
-@pytest.mark.parametrize("task", ["velocity_vector_roll", "bank_to_bank"])
+@pytest.mark.parametrize("task", ["velocity_vector_roll", "bank_to_bank", "departure_recovery"])
 def test_make_controller_keeps_the_roll_laws_for_roll_tasks(task):
+    """rig_roll free: the roll laws, registered first, fly it (departure recovery included)."""
     _, spec = _spec(task, {})
     assert type(make_controller("pid", spec, 2)) is PIDLaw
     assert type(make_controller("lqr", spec, 2)) is LQRLaw
