@@ -23,7 +23,7 @@ control power.
 | class | kind | law |
 |---|---|---|
 | :class:`HeaveSwayPID` | pid | outer P on ``e`` plus ``w_ref`` -> rate demand (limit :data:`RATE_DEMAND_MAX`); inner PI on the measured rate with ``u_ff`` and the decoupling ``u_dc`` (below) (:class:`controllers.pid_element.PID`: back-calculation anti-windup, output +-1, the servo's rate limit, bumpless engagement); gains from :func:`controllers.axis_design.tune_driven` at the middle airspeed, scaled by ``(V_design / V)^2`` |
-| :class:`HeaveSwayLQR` | lqr | ``v = u_ff - K(V) [q - q_ref, w - w_ref, z]``, ``K`` from :func:`controllers.axis_design.lqr_point` with the integral ``z`` of the driven joint's error (clamping anti-windup), ``(q, w)`` from :class:`controllers.estimator.DelayedKalman`; passive joints referenced to their quasi-static angle, or left free (zero gain) in free-flight emulation |
+| :class:`HeaveSwayLQR` | lqr | ``v = u_ff - K(V) [q - q_ref, w - w_ref, z]``, ``K`` from :func:`controllers.axis_design.lqr_point` (Bryson weights: the tightest of :data:`ANGLE_MAX_DEG` meeting :data:`LQR_TARGETS`) with the integral ``z`` of the driven joint's error (clamping anti-windup), ``(q, w)`` from :class:`controllers.estimator.DelayedKalman`; passive joints referenced to their quasi-static angle, or left free (zero gain) in free-flight emulation |
 
 Decoupling (PID): the passive model joints pull on the driven joint (the model's lift and side force
 on the arm; a gust shows first as a model-joint deflection).  ``u_dc = -(A_jp (q_p - q_p,ref) + A'_jp w_p) / b_j``
@@ -60,11 +60,12 @@ from rig_env.params import JOINTS, RigParams
 from rig_env.physics import layout as L
 from rig_env.physics.aero import MIX_ELEVATOR, MIX_RUDDER
 
-MAX_DEVIATION = {
-    "rig_pitch": math.radians(4.0), "rig_pitch_rate": math.radians(30.0), "int_rig_pitch": math.radians(4.0),
-    "rig_yaw": math.radians(4.0), "rig_yaw_rate": math.radians(30.0), "int_rig_yaw": math.radians(4.0),
-}
-"""Bryson maxima of the heave/sway LQR (rad, rad/s, rad s); the others are :data:`controllers.lqr.MAX_DEVIATION`'s."""
+ANGLE_MAX_DEG = (4.0, 3.5, 3.0, 2.5, 2.0)
+"""Candidate Bryson maxima of the driven joint's angle and its integral (deg, deg s), loosest first; the
+rate's is 30 deg/s (as :data:`controllers.lqr.MAX_DEVIATION`).  :class:`HeaveSwayLQR` takes the tightest
+whose loop (broken at the driven input, servo and Pade delay in, :func:`controllers.axis_design.lqr_margins`)
+keeps :data:`LQR_TARGETS` at every design airspeed."""
+LQR_TARGETS = {"gm_db": 6.0, "pm_deg": 45.0}
 RATE_DEMAND_MAX = math.radians(90.0)
 """Limit of the outer loop's rate demand, rad/s (the tasks' reference rates stay below 40 deg/s)."""
 V_STEP = 2.5  # m/s between design airspeeds
@@ -247,9 +248,17 @@ class HeaveSwayLQR(_HeaveSwayBase):
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
                  max_deviation: dict[str, float] | None = None) -> None:
         super().__init__(spec, num_envs, params, link_delay_steps)
-        fd, m = spec.free_dofs, self.model
-        self.max_deviation = {**MAX_DEVIATION, **(max_deviation or {})}
-        self.designs = [lqr_point(q, sys, fd, float(v), self.max_deviation) for v, (q, sys) in zip(m.V, m.points)]
+        fd, m, j = spec.free_dofs, self.model, self.joint
+        candidates = [max_deviation] if max_deviation is not None else [
+            {j: math.radians(a), f"{j}_rate": math.radians(30.0), f"int_{j}": math.radians(a)} for a in ANGLE_MAX_DEG]
+        for md in candidates:  # loosest first: keep the tightest that meets the targets
+            designs = [lqr_point(q, sys, fd, float(v), md) for v, (q, sys) in zip(m.V, m.points)]
+            ok = all(gm >= LQR_TARGETS["gm_db"] and pm >= LQR_TARGETS["pm_deg"]
+                     for gm, pm, _ in (lqr_margins(d, j, self.params, spec.dt, self.link_delay_steps, not self.emulate) for d in designs))
+            if ok or not hasattr(self, "designs"):
+                self.designs, self.max_deviation = designs, md
+            if not ok:
+                break
         self._K = np.array([d.K[self.axis] for d in self.designs])  # (n_V, 2 nq + 1): this axis' row
         self.hold_passive = not self.emulate  # emulation: the model is free
         nq = len(fd)

@@ -87,6 +87,24 @@ def test_lqr_poles_and_margins(params, fd, joint, hold):
     assert gm >= 6.0 and pm >= 45.0 and np.isfinite(wc)
 
 
+@pytest.mark.parametrize("task, opts", CASES)
+def test_lqr_law_as_built_meets_its_margin_targets(task, opts):
+    """The law's weight search keeps GM >= 6 dB and PM >= 45 deg at every design airspeed, and the
+    next tighter candidate would not (so the search did tighten as far as the targets allow)."""
+    from controllers.heave_sway import ANGLE_MAX_DEG, LQR_TARGETS
+    _, spec = _spec(task, opts)
+    law = HeaveSwayLQR(spec, 1)
+    j = law.joint
+    for point in law.describe()["points"]:
+        assert point[j]["gm_db"] >= LQR_TARGETS["gm_db"] and point[j]["pm_deg"] >= LQR_TARGETS["pm_deg"]
+    chosen = math.degrees(law.max_deviation[j])
+    tighter = [a for a in ANGLE_MAX_DEG if a < chosen - 1e-9]
+    if tighter:
+        md = {j: math.radians(tighter[0]), f"{j}_rate": math.radians(30.0), f"int_{j}": math.radians(tighter[0])}
+        worst = [(p[j]["gm_db"], p[j]["pm_deg"]) for p in HeaveSwayLQR(spec, 1, max_deviation=md).describe()["points"]]
+        assert any(gm < LQR_TARGETS["gm_db"] or pm < LQR_TARGETS["pm_deg"] for gm, pm in worst)
+
+
 @pytest.mark.parametrize("fd, joint, k_in", [(PITCH, "rig_pitch", 1), (YAW, "rig_yaw", 2)])
 def test_static_curve_slope_equals_the_linear_quasi_static_stiffness(params, fd, joint, k_in):
     """Trim (nonlinear, every joint settled) against linearisation: at the zero-input trim the static
@@ -159,7 +177,7 @@ GUSTS_OFF = replace(NOMINAL, airspeed=(20.0, 20.0), turbulence=0.0)
 # Thresholds: the rate measured on these 32 seeded episodes (seed 0) minus 10-15 points, so that a
 # change of law or model that loses a few episodes is caught but float-level noise is not:
 # pull-up PID 27/32, LQR 27/32; heave oscillation PID 32/32, LQR 32/32; sway PID 32/32, LQR 32/32.
-# (With 1 % gusts, a wind tunnel's turbulence level: 23/32, 29/32; 31/32, 32/32; 32/32, 32/32.)
+# (With 1 % gusts, a wind tunnel's turbulence level: 23/32, 28/32; 31/32, 32/32; 32/32, 32/32.)
 # Free-flight emulation is not reached by these laws (median emulation error 0.82 PID, 1.20 LQR > 0.5)
 # and has no threshold here.
 THRESHOLDS = {
@@ -181,3 +199,11 @@ def test_success_rates_at_20_m_s_without_gusts(task, axis):
     for kind, thr in THRESHOLDS[(task, axis)].items():
         rate = float(np.mean(res.metrics[kind]["success"]))
         assert rate >= thr, f"{kind} on {task} {axis}: success {rate:.2f} < {thr}"
+
+
+@pytest.mark.slow
+def test_lqr_flies_the_heave_oscillation_through_nominal_gusts():
+    """NOMINAL conditions with its 5 % gusts at 20 m/s: the heave LQR (estimator, model-joint feedback)
+    keeps the oscillation within 0.3 A in 27 of 32 episodes (threshold 0.70); the PID, 4 of 32, is not held to it."""
+    res = evaluate({"lqr": "lqr"}, "forced_oscillation", n_episodes=32, seed=0, conditions=replace(NOMINAL, airspeed=(20.0, 20.0)))
+    assert float(np.mean(res.metrics["lqr"]["success"])) >= 0.70
