@@ -187,7 +187,6 @@ THRESHOLDS = {
 }
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("task, axis", list(THRESHOLDS))
 def test_success_rates_at_20_m_s_without_gusts(task, axis):
     """Success at 20 m/s, NOMINAL parameter spread and sensors, gusts off.  With NOMINAL's 5 % gusts the
@@ -201,7 +200,6 @@ def test_success_rates_at_20_m_s_without_gusts(task, axis):
         assert rate >= thr, f"{kind} on {task} {axis}: success {rate:.2f} < {thr}"
 
 
-@pytest.mark.slow
 def test_lqr_flies_the_heave_oscillation_through_nominal_gusts():
     """NOMINAL conditions with its 5 % gusts at 20 m/s: the heave LQR (estimator, model-joint feedback)
     keeps the oscillation within 0.3 A in 27 of 32 episodes (threshold 0.70); the PID, 4 of 32, is not held to it."""
