@@ -180,6 +180,8 @@ class HeaveSwayPID(_HeaveSwayBase):
     | link_delay_steps | 1 | telemetry delay the tuning accounts for, control steps |
     | rate_filter_hz | 10.0 | the rate sensor's filter the tuning accounts for, Hz |
     | feedforward | True | reference feedforward ``u_ff`` |
+    | decouple | True | decoupling ``u_dc`` of the passive joints |
+    | targets | None | margin targets for :func:`controllers.axis_design.tune_driven` (``pm_inner``, ``gm_inner``, ``pm_outer``, ``gm_outer``) |
     """
 
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
@@ -243,6 +245,7 @@ class HeaveSwayLQR(_HeaveSwayBase):
     |---|---|---|
     | params | default rig | rig parameters of the design model |
     | link_delay_steps | 1 | measurement delay the estimator predicts over, control steps |
+    | max_deviation | None | Bryson maxima (rad, rad/s, rad s) by state label, overriding the weight search |
     """
 
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
