@@ -1,0 +1,210 @@
+"""Design of the heave and sway laws at the rig's own equilibrium: trim, linear model, PID tuning, LQR.
+
+The roll laws (:mod:`controllers.model`) trim with rig_pitch and rig_yaw held at 0 deg.  The heave
+and sway tasks fly around the rig's zero-input equilibrium instead (rig pitch about 7 deg at 20 m/s:
+the model's lift balances the arm's weight; rig yaw at 0), where holding 0 deg would cost some 27 deg
+of elevator.  So these designs trim there:
+
+1. :func:`axis_point`: ``rig_env.trim`` with the compensator surfaces at zero (all the task's free
+   joints settle), then ``rig_env.linearize`` (viscous friction kept) with the compensator elevator
+   and rudder in normalised units (1 = ``scale_deg``); at rig roll 0 the virtual heave and sway inputs
+   (:func:`controllers.model.resolve`) are the elevator and rudder themselves.
+2. :func:`tune_driven`: the loop-shaping procedure of :func:`controllers.tuning.tune_axis` (same loop
+   elements, grids and margin targets: inner PI PM >= 50 deg, GM >= 8 dB; outer P PM >= 60 deg,
+   GM >= 10 dB; :func:`controllers.tuning.margins`) applied to the driven joint's rate plant of step 1.
+3. :func:`lqr_point`: ``control.lqr`` on the model of step 1 augmented with the integral of the driven
+   joint's angle error (:func:`controllers.lqr.augmented`), Bryson weights of :mod:`controllers.lqr`
+   (:data:`controllers.lqr.MAX_DEVIATION`, :data:`controllers.lqr.MAX_INPUT` scaled with airspeed).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import control
+import numpy as np
+
+from controllers.lqr import MAX_DEVIATION, MAX_INPUT, V_REF, Design, augmented, loop_margins
+from controllers.model import AXIS_OF, INPUTS, loop_elements
+from controllers.tuning import AxisTuning, margins
+from rig_env import linearize, trim
+from rig_env.params import JOINTS, RigParams
+
+DRIVEN = ("rig_pitch", "rig_yaw")
+"""Rig joints a heave/sway law drives (virtual input :data:`controllers.model.AXIS_OF`)."""
+Q_GUESS_DEG = {"rig_pitch": 7.0}  # where the trim search starts (the rig's zero-input trim, task docstrings)
+
+
+def axis_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: float, scale_deg: float = 40.0) -> tuple[np.ndarray, control.StateSpace]:
+    """Zero-input equilibrium (5,) joint angles, rad, and the linear model there.
+
+    Model states ``<joint>``, ``<joint>_rate`` of ``free_dofs``; inputs the virtual (roll, heave,
+    sway) in normalised units (roll column zero: the aileron is not used by these laws).
+    """
+    q0 = np.zeros(5)
+    for j, deg in Q_GUESS_DEG.items():
+        if j in free_dofs:  # a locked joint stays at its guess
+            q0[JOINTS.index(j)] = math.radians(deg)
+    op = trim(params, free_dofs=free_dofs, airspeed=float(airspeed), controls={}, q_guess=q0)
+    sys = linearize(params, op, inputs=INPUTS, friction="viscous")
+    B = np.asarray(sys.B) * math.radians(scale_deg)
+    B[:, 0] = 0.0
+    out = control.ss(sys.A, B, sys.C, np.zeros_like(B), states=sys.state_labels, inputs=["roll", "heave", "sway"],
+                     outputs=sys.output_labels)
+    return op.q.copy(), out
+
+
+def rate_plant(sys: control.StateSpace, joint: str) -> control.TransferFunction:
+    """Joint rate (rad/s) per normalised virtual input of its axis, from the model of :func:`axis_point`."""
+    k_in, k_out = AXIS_OF[joint], sys.output_labels.index(f"{joint}_rate")
+    tf = control.minreal(control.ss2tf(control.ss(sys.A, sys.B[:, [k_in]], sys.C[[k_out], :], 0.0)), tol=1e-6, verbose=False)
+    num, den = (np.asarray(c[0][0], dtype=float) for c in (tf.num, tf.den))
+    num = np.where(np.abs(num) < 1e-9 * np.abs(num).max(), 0.0, num)
+    return control.tf(num, den)
+
+
+def tune_driven(params: RigParams, sys: control.StateSpace, joint: str, airspeed: float, dt: float, *,
+                link_delay_steps: int = 1, rate_filter_hz: float = 10.0, pm_inner: float = 50.0, gm_inner: float = 8.0,
+                pm_outer: float = 60.0, gm_outer: float = 10.0) -> AxisTuning:
+    """Step 2 of the module docstring (``tuning.tune_axis``'s procedure on this plant); ValueError if infeasible."""
+    if joint not in DRIVEN:
+        raise ValueError(f"joint = {joint!r}: driven joints are {list(DRIVEN)}")
+    el = loop_elements(params, dt, link_delay_steps, rate_filter_hz)
+    s = control.tf("s")
+    P = rate_plant(sys, joint)
+    b = float(np.real(control.evalfr(P * s, 1j * 1e4)))
+    sign = 1.0 if b > 0 else -1.0
+    G = el["servo"] * el["delay"] * (sign * P)
+    best = None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for wc in np.geomspace(0.5, 60.0, 80):
+            C0 = 1 + (wc / 4) / s
+            kp = 1.0 / abs(control.evalfr(C0 * G * el["rate_sensor"], 1j * wc))
+            gm, pm, wx = margins(kp * C0 * G * el["rate_sensor"])
+            if pm >= pm_inner and gm >= gm_inner and np.isfinite(wx):
+                best = (wc, kp, gm, pm, wx)
+        if best is None:
+            raise ValueError(f"{joint}: no rate-loop crossover in 0.5-60 rad/s meets PM {pm_inner} deg, GM {gm_inner} dB")
+        wc, kp, gm_i, pm_i, wx_i = best
+        T_r = control.feedback(kp * (1 + (wc / 4) / s) * G, el["rate_sensor"])
+        outer = None
+        for k in np.geomspace(0.1, 50.0, 120):
+            gm, pm, wx = margins(k * T_r / s)
+            if pm >= pm_outer and gm >= gm_outer:
+                outer = (k, gm, pm, wx)
+    if outer is None:
+        raise ValueError(f"{joint}: no angle-loop gain meets PM {pm_outer} deg, GM {gm_outer} dB")
+    k, gm_o, pm_o, wx_o = outer
+    return AxisTuning(joint, float(airspeed), sign * float(kp), sign * float(kp * wc / 4), float(k), float(wx_i), pm_i, gm_i,
+                      float(wx_o), pm_o, gm_o, b)
+
+
+def lqr_point(q_op: np.ndarray, sys: control.StateSpace, free_dofs: tuple[str, ...], airspeed: float,
+              max_deviation: dict[str, float] | None = None, max_input: dict[str, float] | None = None) -> Design:
+    """Step 3 of the module docstring at one airspeed; a :class:`controllers.lqr.Design` (phi = 0).
+
+    ``max_deviation``, ``max_input``: Bryson maxima overriding :data:`controllers.lqr.MAX_DEVIATION`
+    and :data:`controllers.lqr.MAX_INPUT` entry by entry."""
+    md = {**MAX_DEVIATION, **(max_deviation or {})}
+    mi = {**MAX_INPUT, **(max_input or {})}
+    A, B = np.asarray(sys.A), np.asarray(sys.B)
+    Aa, Ba, ilabels = augmented(A, B, free_dofs)
+    labels = list(sys.state_labels) + ilabels
+    Q = np.diag([1.0 / md[s] ** 2 for s in labels])
+    used = [AXIS_OF[j] for j in DRIVEN if j in free_dofs]
+    axis_name = {1: "heave", 2: "sway"}
+    R = np.diag([1.0 / (mi[axis_name[k]] * V_REF / airspeed) ** 2 for k in used])
+    Kr, P, poles = control.lqr(Aa, Ba[:, used], Q, R)
+    K = np.zeros((3, Aa.shape[0]))
+    K[used] = Kr
+    q_free = q_op[[JOINTS.index(j) for j in free_dofs]]
+    return Design(tuple(free_dofs), float(airspeed), 0.0, K, np.zeros(3), q_free, A, B, Q, R, np.asarray(P), np.asarray(poles))
+
+
+def lqr_margins(d: Design, joint: str, params: RigParams, dt: float, link_delay_steps: int = 1,
+                hold_passive: bool = True) -> tuple[float, float, float]:
+    """(GM dB, PM deg, crossover rad/s) of the LQR loop broken at the driven joint's input, servo and delay in.
+
+    ``hold_passive=False``: the gains on the passive model joints are zeroed first (the law as flown
+    when it leaves the model free, free-flight emulation)."""
+    K = d.K.copy()
+    if not hold_passive:
+        nq = len(d.free_dofs)
+        for k, j in enumerate(d.free_dofs):
+            if j not in DRIVEN:
+                K[:, k] = 0.0
+                K[:, nq + k] = 0.0
+    dd = Design(d.free_dofs, d.airspeed, d.phi, K, d.u_trim, d.q_op, d.A, d.B, d.Q, d.R, d.P, d.poles)
+    return loop_margins(dd, AXIS_OF[joint], loop_elements(params, dt, link_delay_steps))
+
+
+U_TABLE = np.linspace(-0.9, 0.9, 19)
+"""Normalised driven-axis inputs of the static trim table (:func:`static_table`)."""
+
+
+def static_table(params: RigParams, free_dofs: tuple[str, ...], joint: str, airspeed: float,
+                 scale_deg: float = 40.0) -> tuple[np.ndarray, np.ndarray]:
+    """The rig's static input curve: (theta (m,) rad ascending, u (m,) normalised) with ``rig_env.trim``.
+
+    For each steady elevator (rig_pitch) or rudder (rig_yaw) input of :data:`U_TABLE` every free joint
+    settles (passive model joints included); ``u(theta)`` interpolated in this table is the input
+    that holds the driven joint at theta, the nonlinear (large-angle) form of the linear stiffness.
+    Inputs whose equilibrium lies beyond the joint's stops or is not found are left out.
+    """
+    surface = {"rig_pitch": "comp_elevator", "rig_yaw": "comp_rudder"}[joint]
+    jq = JOINTS.index(joint)
+    q0 = np.zeros(5)
+    for j, deg in Q_GUESS_DEG.items():
+        if j in free_dofs:  # a locked joint stays at its guess
+            q0[JOINTS.index(j)] = math.radians(deg)
+    th, us = [], []
+    for branch in (U_TABLE[U_TABLE >= 0], U_TABLE[U_TABLE < 0][::-1]):  # outward from 0, each trim from the last
+        guess = q0.copy()
+        for u in branch:
+            try:
+                op = trim(params, free_dofs=free_dofs, airspeed=float(airspeed), controls={surface: float(u) * scale_deg}, q_guess=guess)
+            except RuntimeError:
+                break
+            if abs(op.q[jq]) >= math.radians(30.0):
+                break
+            th.append(op.q[jq])
+            us.append(float(u))
+            guess = op.q.copy()
+    order = np.argsort(th)
+    th_a, u_a = np.asarray(th)[order], np.asarray(us)[order]
+    if th_a.size < 3 or np.any(np.diff(th_a) <= 0):
+        raise ValueError(f"{joint} at {airspeed} m/s: the static input curve is not monotonic ({np.degrees(th_a)} deg)")
+    return th_a, u_a
+
+
+def pid_margins_as_flown(params: RigParams, sys: control.StateSpace, joint: str, t: AxisTuning, dt: float, *,
+                         decouple: str | None = "passive", link_delay_steps: int = 1, rate_filter_hz: float = 10.0) -> tuple[float, float, float]:
+    """(GM dB, PM deg, crossover rad/s) of the heave/sway PID broken at the surface command, servo and delay in.
+
+    The cascade feeds back ``u = -C(s) (k_angle theta + H(s) theta')`` (``C = kp + ki / s``, ``H`` the rate
+    sensor) and, with ``decouple="passive"``, ``-(A_jp theta_p + A'_jp H(s) theta_p') / b_j`` on the passive
+    joints, so ``L(s) = [C (k_angle + H s) P_j + (A_jp + A'_jp H s) P_p / b_j] S D`` with ``P_j``, ``P_p`` the
+    angles per unit input of the model of :func:`axis_point`; ``decouple="all"`` adds the driven joint's own
+    row too (the inverse dynamics of free-flight emulation); None: the cascade alone."""
+    if decouple not in (None, "passive", "all"):
+        raise ValueError(f"decouple = {decouple!r}: allowed None, 'passive', 'all'")
+    el = loop_elements(params, dt, link_delay_steps, rate_filter_hz)
+    s = control.tf("s")
+    nq = len(sys.state_labels) // 2
+    k_in = AXIS_OF[joint]
+    k = sys.state_labels.index(joint)
+    A = np.asarray(sys.A)
+
+    def angle(i: int) -> control.TransferFunction:
+        return control.ss2tf(control.ss(sys.A, sys.B[:, [k_in]], np.eye(2 * nq)[[i]], 0.0))
+
+    H = el["rate_sensor"]
+    L = (t.kp + t.ki / s) * (t.k_angle + H * s) * angle(k)
+    if decouple:
+        b = float(sys.B[nq + k, k_in])
+        for i in range(nq):
+            if i != k or decouple == "all":
+                L = L + (A[nq + k, i] + A[nq + k, nq + i] * H * s) * angle(i) / b
+    return margins(L * el["servo"] * el["delay"])
