@@ -35,7 +35,7 @@ Hawk's heave acceleration whatever the model does.
 
 Departure recovery keeps rig_roll free, so the roll laws (:mod:`controllers.pid`, :mod:`controllers.lqr`)
 fly it (they come first in the registry); with wind-tunnel turbulence (1 %) they recover 28/32 and 27/32
-episodes at 20 m/s.  With the comparison's 5 % gusts no law does: the passive model joints' rates stay
+episodes at 20 m/s.  With 5 % gusts (the "gusty" stress mode) no law does: the passive model joints' rates stay
 above the task's 20 deg/s recovery limit (peaks 60-85 deg/s), which no compensator input can damp.
 
 ``law.describe()`` gives gains and margins (servo, delay and rate sensor in the loop) for the report.

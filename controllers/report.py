@@ -175,9 +175,10 @@ def write(cmp: "Comparison", out: Path) -> list[Path]:
         "",
         (f"Command: `{s['command']}` "
          f"({s['episodes']} episodes per law, task and mode; {cmp.seconds:.0f} s on {s['machine']}).  Every law runs on the same "
-        "episodes (paired conditions): airspeed U(15, 25) m/s, gusts 5 % of airspeed, sensor noise, quantisation and one period "
-        "of telemetry delay, Hawk mass +-10 %, servo delay 10-20 ms and bandwidth 5-8 Hz.  Robust mode adds +-20 % on every "
-         "aerodynamic derivative and on friction.  Metrics: `rig_env.envs.metrics`; success: the task's criterion."),
+        "episodes (paired conditions): airspeed U(15, 25) m/s, gusts 1 % of airspeed (a tunnel's turbulence), sensor noise, "
+        "quantisation and one period of telemetry delay, Hawk mass +-10 %, servo delay 10-20 ms and bandwidth 5-8 Hz.  Robust "
+         "mode adds +-20 % on every aerodynamic derivative and on friction; gusty mode (on request) 5 % gusts.  Metrics: "
+         "`rig_env.envs.metrics`; success: the task's criterion."),
         "",
     ]
     parts += ["## Which law", "", "Highest success rate, then lowest RMS tracking error:", "", *verdict(cmp.rows), ""]
