@@ -358,3 +358,6 @@ def test_cli_refuses_tampered_policy_artefact_and_wrong_task_policy(exported, tm
                         "--policy", str(policy_path("bank_to_bank", "ppo"))], check=False, env=ENV, capture_output=True, text=True, timeout=300)
     assert r.returncode == 2 and "trained for task = 'bank_to_bank'" in r.stderr, (r.returncode, r.stderr)
     assert not (tmp_path / "x.json").exists()
+    r = subprocess.run([sys.executable, SCRIPT, "export", "--controller", "sac", "--task", "velocity_vector_roll", "--out", str(tmp_path / "x.json")],
+                       check=False, env=ENV, capture_output=True, text=True, timeout=300)  # no shipped SAC policy
+    assert r.returncode == 2 and "sac policy for task 'velocity_vector_roll': no file" in r.stderr, (r.returncode, r.stderr)

@@ -185,8 +185,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as e:
         print(f"rig-deploy: {e}", file=sys.stderr)
         return EXIT_REFUSED
-    except OSError as e:
-        print(f"rig-deploy: {e.filename or ''}: {e.strerror}", file=sys.stderr)
+    except OSError as e:  # a raised FileNotFoundError(message) has no strerror: print the message
+        print(f"rig-deploy: {e.filename or ''}: {e.strerror}" if e.strerror else f"rig-deploy: {e}", file=sys.stderr)
         return EXIT_REFUSED
 
 
