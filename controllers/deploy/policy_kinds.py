@@ -19,11 +19,15 @@ SHA-256 it claims, so the weights that fly are provably the ones training shippe
 |---|---|
 | ``policy`` | the policy file without the arrays above: ``format``, ``format_version``, ``kind``, ``loop_spec``, ``env_overrides``, ``network.activation``, ``obs_norm.clip_obs`` / ``epsilon`` (or null), ``action.postprocess``, ``provenance``, ``sha256`` |
 | ``policy_file`` | name of the file it was exported from (informative) |
+
+A law built from an artefact keeps the reassembled policy file as ``law.policy_source`` (payload,
+file name), so it exports again to the same content without the file.
 """
 
 from __future__ import annotations
 
 import copy
+import json
 import re
 from collections.abc import Mapping
 from typing import Any
@@ -32,7 +36,7 @@ import numpy as np
 
 from controllers.base import Controller, LoopSpec
 from controllers.deploy.artefact import register_kind
-from controllers.rl import MLPPolicy, PPOPolicy, SACPolicy, checksum, parse_policy
+from controllers.rl import MLPPolicy, PPOPolicy, SACPolicy, checksum, load_policy, parse_policy
 
 RUNTIMES: dict[str, type[MLPPolicy]] = {"ppo": PPOPolicy, "sac": SACPolicy}
 _PARAMS = {"policy", "policy_file"}
@@ -80,10 +84,6 @@ def to_arrays(law: Controller) -> dict[str, Any]:
         raise TypeError(f"kinds {sorted(RUNTIMES)} export a controllers.rl policy law; got {type(law).__name__}")
     source = getattr(law, "policy_source", None)
     if source is None:
-        import json
-
-        from controllers.rl import load_policy
-
         if law.path is None:
             raise ValueError(f"{law.kind}: the law has neither a policy file nor an artefact it came from")
         payload = json.loads(law.path.read_text(encoding="utf-8"))
