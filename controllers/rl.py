@@ -245,6 +245,8 @@ class MLPPolicy(Controller):
     ``MLPPolicy(spec, num_envs=1, *, path=None)``: ``path`` None loads the shipped policy
     ``controllers/policies/<spec.task>_<kind>.json`` (FileNotFoundError naming it when none exists).
     The file must be of this kind and trained for ``spec``'s loop (PolicyFileError otherwise).
+    ``MLPPolicy.from_data(data, spec, num_envs)`` builds the same law from validated
+    :class:`PolicyData` held elsewhere (a deploy artefact); ``path`` is then None.
     """
 
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, path: str | Path | None = None) -> None:
@@ -252,11 +254,23 @@ class MLPPolicy(Controller):
         p = Path(path) if path is not None else policy_path(spec.task, self.kind)
         if not p.is_file():
             raise FileNotFoundError(f"{self.kind} policy for task {spec.task!r}: no file {p} (train one with scripts/train.py)")
-        self.path = p
-        self.data = load_policy(p)
-        if self.data.kind != self.kind:
-            raise PolicyFileError(f"{p}: holds a {self.data.kind} policy, not {self.kind}")
-        check_spec(self.data, spec, str(p))
+        self.path: Path | None = p
+        self._adopt(load_policy(p), str(p))
+
+    @classmethod
+    def from_data(cls, data: PolicyData, spec: LoopSpec, num_envs: int = 1, where: str = "<policy data>") -> MLPPolicy:
+        """The law running ``data`` (already validated by :func:`parse_policy`) for ``spec``'s loop."""
+        law = cls.__new__(cls)
+        Controller.__init__(law, spec, num_envs)
+        law.path = None
+        law._adopt(data, where)
+        return law
+
+    def _adopt(self, data: PolicyData, where: str) -> None:
+        if data.kind != self.kind:
+            raise PolicyFileError(f"{where}: holds a {data.kind} policy, not {self.kind}")
+        check_spec(data, self.spec, where)
+        self.data = data
 
     def reset(self, mask: np.ndarray | None = None) -> None:
         self._mask(mask)  # validates the mask; a feed-forward policy has no state

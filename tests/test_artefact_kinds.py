@@ -1,10 +1,12 @@
-"""Artefact kinds "pid" and "lqr" (issue 5): the model-based laws as plain data, run by their numpy runtime.
+"""Artefact kinds "pid", "lqr" and "ppo"/"sac" (issue 5): the laws as plain data, run by their numpy runtime.
 
 The runtime is the law's own class built from the designed tables (``PIDLaw.from_data``,
 ``LQRLaw.from_data``), so the round trip must reproduce the in-memory law (the issue's bound 1e-5;
 identical here) over a closed-loop episode in ``RigVectorEnv``, internal states included; the
 tables must be what the design tools give (python-control's LQR, the loop-shaping tuner), and
-loading must refuse a table of the wrong shape and import none of the design's heavy modules.
+loading must refuse a table of the wrong shape and import none of the design's heavy modules.  For the
+learned laws the independent reference is stable-baselines3 itself: a model trained in the test,
+exported, wrapped as an artefact and loaded must act as ``model.predict(obs, deterministic=True)``.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ SCRIPT = str(ROOT / "scripts" / "deploy.py")
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
 TASKS = ("velocity_vector_roll", "bank_to_bank")
 KINDS = ("pid", "lqr")
+RL_KINDS = ("ppo",)  # the kinds with a shipped policy (sac: trained in test_sb3_predict_through_the_artefact)
 HEAVY = {"control", "scipy", "numba", "torch", "gymnasium", "stable_baselines3", "rig_env"}
 
 
@@ -45,7 +48,7 @@ def exported(tmp_path_factory) -> dict:
     for task in TASKS:
         env = RigVectorEnv(1, task=task)
         spec = LoopSpec.from_env(env)
-        for kind in KINDS:
+        for kind in KINDS + RL_KINDS:
             law = make_controller(kind, spec, 1)
             path = tmp / f"{kind}_{task}.json"
             A.save(A.from_controller(law, _sensors(env), source="test"), path)
@@ -55,6 +58,8 @@ def exported(tmp_path_factory) -> dict:
 
 def _state(law) -> dict[str, np.ndarray]:
     """Every internal state of a law: integrators, filters, last outputs, estimator, schedule interpolation."""
+    if law.kind in ("ppo", "sac"):
+        return {}  # a feed-forward policy has no state
     if law.kind == "pid":
         st = {"p_ref_prev": law._p_ref_prev, "pending": law._pending}
         for j in law.tables.axes:
@@ -173,7 +178,7 @@ def test_tampered_and_truncated_refused(exported, tmp_path, kind):
         A.load(tmp_path / "c.json")
 
 
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("kind", KINDS + RL_KINDS)
 def test_runtime_imports_only_numpy(exported, tmp_path, kind):
     """Loading and flying the law in a fresh interpreter imports none of the design's modules and reproduces the actions."""
     law, path = exported[kind, "bank_to_bank"]
@@ -194,7 +199,7 @@ def test_runtime_imports_only_numpy(exported, tmp_path, kind):
     assert res["err"] <= 1e-5, res
 
 
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("kind", KINDS + RL_KINDS)
 def test_cli_export_and_verify(tmp_path, kind):
     out = tmp_path / f"{kind}.json"
     r = subprocess.run([sys.executable, SCRIPT, "export", "--controller", kind, "--task", "velocity_vector_roll", "--out", str(out)],
@@ -248,3 +253,111 @@ def test_round_trip_on_every_other_task_the_law_flies(tmp_path, kind, task):
     run = A.load(tmp_path / "law.json").controller()
     _, U, worst = _episode(law, run, task, steps=300, reset_at=150)
     assert worst <= 1e-5 and np.all(np.isfinite(U))
+
+
+# ---------------------------------------------------------------------- the learned laws (ppo, sac)
+@pytest.mark.parametrize("task", TASKS)
+@pytest.mark.parametrize("kind", RL_KINDS)
+def test_policy_round_trip_reproduces_the_shipped_policy(exported, kind, task):
+    """The artefact holds the shipped file's numbers (read here straight from its JSON) and its provenance, and
+    flies the same episode as the law built from the file."""
+    from controllers.rl import policy_path
+
+    law, path = exported[kind, task]
+    art = A.load(path)
+    run = art.controller()
+    assert art.kind == kind and art.spec == law.spec and type(run) is type(law)
+    shipped = json.loads(policy_path(task, kind).read_text())
+    for i, layer in enumerate(shipped["network"]["layers"]):
+        assert np.array_equal(art.data[f"weight_{i}"], np.array(layer["weight"])) and np.array_equal(art.data[f"bias_{i}"], np.array(layer["bias"]))
+    assert np.array_equal(art.data["obs_mean"], np.array(shipped["obs_norm"]["mean"])) and np.array_equal(art.data["obs_var"], np.array(shipped["obs_norm"]["var"]))
+    assert np.array_equal(art.data["action_low"], np.array(shipped["action"]["low"])) and np.array_equal(art.data["action_high"], np.array(shipped["action"]["high"]))
+    header = art.data["policy"]
+    assert header["sha256"] == shipped["sha256"] and header["provenance"] == shipped["provenance"]
+    assert header["obs_norm"]["clip_obs"] == shipped["obs_norm"]["clip_obs"] and header["network"]["activation"] == shipped["network"]["activation"]
+    _, U, _ = _episode(law, run, task)
+    assert np.abs(U).max() > 0.05 and np.ptp(U, axis=0).max() > 0.05  # the policy moved the flaps
+    # re-exporting the loaded law (no policy file at hand) gives the same content
+    again = A.from_controller(run, art.sensors, art.limits, source="test")
+    assert A.canonical({**A._body(again), "provenance": {}}) == A.canonical({**A._body(art), "provenance": {}})
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_sb3_predict_through_the_artefact(tmp_path, algo):
+    """SB3 -> policy file -> artefact -> numpy runtime equals SB3's deterministic predict to 1e-5 (the issue's bound);
+    a non-shipped policy file exports through the CLI's --policy."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    from test_rl import _random_obs, _tiny_model
+
+    from controllers.rl import save_policy
+    from controllers.rl_export import export_sb3
+
+    model, vn, spec = _tiny_model(algo, normalize=True)  # a few hundred steps, VecNormalize on
+    policy = save_policy(export_sb3(model, spec, vn), tmp_path / "policy.json")
+    law = make_controller(algo, spec, 1, path=policy)
+    env = RigVectorEnv(1, task=spec.task)
+    A.save(A.from_controller(law, _sensors(env), source="test"), tmp_path / "law.json")
+    run = A.load(tmp_path / "law.json").controller()
+    obs = _random_obs(spec, 256, seed=5)
+    want, _ = model.predict(vn.normalize_obs(obs), deterministic=True)
+    got = np.concatenate([run.act(o[None]) for o in obs])
+    err = float(np.abs(got - want).max())
+    print(f"{algo}: artefact runtime vs SB3 predict over {len(obs)} observations: max |diff| {err:.2e}")
+    assert err <= 1e-5 and np.ptp(want, axis=0).max() > 1e-3
+
+    out = tmp_path / "cli.json"
+    r = subprocess.run([sys.executable, SCRIPT, "export", "--controller", algo, "--task", spec.task, "--policy", str(policy), "--out", str(out)],
+                       check=False, env=ENV, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert A.load(out).data["policy"]["sha256"] == json.loads(policy.read_text())["sha256"]
+
+
+def _rewrite(path: Path, out: Path, edit) -> Path:
+    doc = json.loads(path.read_text())
+    edit(doc)
+    out.write_text(json.dumps(_rechecksum(doc)))
+    return out
+
+
+def test_policy_weights_tampered_or_misshapen_refused(exported, tmp_path):
+    """Consistently re-checksummed artefacts whose weights were edited, reshaped or dropped are refused, naming why."""
+    _, path = exported["ppo", "velocity_vector_roll"]
+    doc = json.loads(path.read_text())
+    w1 = A.load(path).data["weight_1"]
+
+    def nudge(d):  # one weight changed by 1e-3: the arrays no longer hash to the policy file's sha256
+        w = w1.copy()
+        w[3, 5] += 1e-3
+        d["arrays"]["weight_1"] = A._encode_array("weight_1", w)
+
+    with pytest.raises(A.ArtefactError, match=r"kind 'ppo' refused its data: ppo: the weights are not those of the policy file"):
+        A.load(_rewrite(path, tmp_path / "nudged.json", nudge))
+    bad = lambda d: d["arrays"].__setitem__("weight_1", A._encode_array("weight_1", w1[:, :-1]))  # noqa: E731
+    with pytest.raises(A.ArtefactError, match=r"ppo: network.layers\[1\].weight has shape \(64, 63\), expected \(None, 64\)"):
+        A.load(_rewrite(path, tmp_path / "shape.json", bad))
+    with pytest.raises(A.ArtefactError, match=r"ppo: arrays .* expected .*bias_2"):
+        A.load(_rewrite(path, tmp_path / "missing.json", lambda d: d["arrays"].pop("bias_2")))
+    with pytest.raises(A.ArtefactError, match=r"ppo: network.activation = 'sigmoid'"):
+        A.load(_rewrite(path, tmp_path / "act.json", lambda d: d["params"]["policy"]["network"].__setitem__("activation", "sigmoid")))
+    doc["arrays"]["bias_0"] = A._encode_array("bias_0", np.zeros(64))  # not re-checksummed
+    (tmp_path / "t.json").write_text(json.dumps(doc))
+    with pytest.raises(A.ArtefactError, match="checksum mismatch"):
+        A.load(tmp_path / "t.json")
+
+
+def test_cli_refuses_tampered_policy_artefact_and_wrong_task_policy(exported, tmp_path):
+    """Exit status 2 and a message naming what failed: a tampered file on verify, another task's policy on export."""
+    from controllers.rl import policy_path
+
+    _, path = exported["ppo", "velocity_vector_roll"]
+    raw = path.read_text()
+    (tmp_path / "t.json").write_text(raw.replace('"activation": "tanh"', '"activation": "relu"', 1))
+    r = subprocess.run([sys.executable, SCRIPT, "verify", "--law", str(tmp_path / "t.json")], check=False, env=ENV, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "checksum mismatch" in r.stderr, (r.returncode, r.stderr)
+    r = subprocess.run([sys.executable, SCRIPT, "export", "--controller", "ppo", "--task", "velocity_vector_roll", "--out", str(tmp_path / "x.json"),
+                        "--policy", str(policy_path("bank_to_bank", "ppo"))], check=False, env=ENV, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2 and "trained for task = 'bank_to_bank'" in r.stderr, (r.returncode, r.stderr)
+    assert not (tmp_path / "x.json").exists()
+    r = subprocess.run([sys.executable, SCRIPT, "export", "--controller", "sac", "--task", "velocity_vector_roll", "--out", str(tmp_path / "x.json")],
+                       check=False, env=ENV, capture_output=True, text=True, timeout=300)  # no shipped SAC policy
+    assert r.returncode == 2 and "sac policy for task 'velocity_vector_roll': no file" in r.stderr, (r.returncode, r.stderr)

@@ -1,6 +1,6 @@
 """``rig-deploy`` (= ``python scripts/deploy.py``): export a law, fly it on a rig, or serve a simulated rig.
 
-    rig-deploy export --controller KIND --task NAME --out PATH [--rate 80] [--key-file F] [--gains KP KD KFF]
+    rig-deploy export --controller KIND --task NAME --out PATH [--rate 80] [--key-file F] [--gains KP KD KFF] [--policy FILE]
     rig-deploy run --law FILE --rig udp://HOST:PORT [--rate 80] [--arm] [--duration S] [--log PATH] [--key-file F]
     rig-deploy sim-rig --port PORT [--task NAME] [--rate 80] [--duration S] [--loss P] [--blackout T0 DUR] ...
     rig-deploy verify --law FILE [--key-file F]
@@ -55,7 +55,9 @@ def cmd_export(a: argparse.Namespace) -> int:
     if a.controller == "linear":
         ctrl = roll_tracking(spec, *a.gains)
     elif a.controller in CONTROLLERS:
-        kwargs: dict[str, Any] = {"policy": a.policy} if a.policy else {}
+        if a.policy and a.controller not in ("ppo", "sac"):
+            raise ValueError(f"--policy: only for the RL kinds ppo, sac; not {a.controller!r}")
+        kwargs: dict[str, Any] = {"path": a.policy} if a.policy else {}  # controllers.rl.MLPPolicy(path=...)
         ctrl = make_controller(a.controller, spec, 1, **kwargs)
     else:
         raise ValueError(f"--controller {a.controller!r}: not available in this installation; available: {kinds}")
@@ -124,7 +126,7 @@ def parser() -> argparse.ArgumentParser:
     e.add_argument("--task", required=True)
     e.add_argument("--out", required=True)
     e.add_argument("--rate", type=float, default=80.0, help="control rate, Hz")
-    e.add_argument("--policy", help="trained policy file (RL kinds)")
+    e.add_argument("--policy", help="ppo, sac: a policy file from scripts/train.py (default: the shipped controllers/policies/<task>_<kind>.json)")
     e.add_argument("--gains", type=float, nargs=3, default=(2.0, 1.0, 1.0), metavar=("KP", "KD", "KFF"), help="linear: roll-tracking gains")
     e.add_argument("--key-file", help="sign with the HMAC key in this file")
     e.add_argument("--notes", default="")
@@ -183,8 +185,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as e:
         print(f"rig-deploy: {e}", file=sys.stderr)
         return EXIT_REFUSED
-    except OSError as e:
-        print(f"rig-deploy: {e.filename or ''}: {e.strerror}", file=sys.stderr)
+    except OSError as e:  # a raised FileNotFoundError(message) has no strerror: print the message
+        print(f"rig-deploy: {e.filename or ''}: {e.strerror}" if e.strerror else f"rig-deploy: {e}", file=sys.stderr)
         return EXIT_REFUSED
 
 

@@ -10,7 +10,8 @@ class that flies in simulation, from numpy alone (no python-control, scipy, numb
 | lqr | ``airspeeds``, ``phis``; ``K``, ``u_trim``, ``q_op``, ``A_q``, ``A_w``, ``B`` over (V, phi); ``kalman_gain``; ``sig_*`` | ``phi_step``, ``link_delay_steps``, ``estimator``, ``sig_*``, ``design`` |
 
 ``design`` is the law's provenance: tuning targets and achieved margins (pid), weights, grid, noise
-model and loop margins (lqr), the airspeed range and the sensor layout assumed.
+model and loop margins (lqr), the airspeed range and the sensor layout assumed.  Importing this module
+also registers the learned laws' kinds "ppo" and "sac" (:mod:`controllers.deploy.policy_kinds`).
 """
 
 from __future__ import annotations
@@ -43,3 +44,5 @@ def _lqr(data: Mapping[str, Any], spec: LoopSpec) -> LQRLaw:
 
 register_kind("pid", _exporter(PIDLaw), _pid)
 register_kind("lqr", _exporter(LQRLaw), _lqr)
+
+from controllers.deploy import policy_kinds  # noqa: E402, F401  (registers "ppo" and "sac": the learned laws)
