@@ -27,6 +27,7 @@ import numpy as np
 import controllers
 from controllers.base import CONTROLLERS, Controller, LoopSpec, UnsupportedTask, make_controller
 from controllers.evaluate import MODES, EvalResult, evaluate
+from controllers.tuning import plain
 from rig_env.envs import TASKS, RigVectorEnv
 
 COLUMNS = (  # (key, header, unit, format)
@@ -150,7 +151,7 @@ def compare(
             continue
         for law_name, law in laws.items():
             if hasattr(law, "describe"):
-                cmp.margins.setdefault(task, {})[law_name] = _jsonable(law.describe())
+                cmp.margins.setdefault(task, {})[law_name] = plain(law.describe())
         for mode in modes:
             res = evaluate(laws, task, n_episodes=n, seed=seed, conditions=MODES[mode], record=record, progress=prog)
             cmp.results.append(res)
@@ -167,22 +168,9 @@ def compare(
 
 
 def _mode_note(mode: str) -> str:
-    return {"nominal": "airspeed 15-25 m/s, gusts, sensor noise, parameter spread",
-            "robust": "as nominal plus +-20 % on aerodynamic derivatives and friction"}.get(mode, mode)
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple, np.ndarray)):
-        return [_jsonable(v) for v in list(x)]
-    if isinstance(x, (complex, np.complexfloating)):
-        return [float(x.real), float(x.imag)]
-    if isinstance(x, (float, np.floating)):
-        return float(x) if math.isfinite(x) else str(float(x))
-    if isinstance(x, (np.integer, np.bool_)):
-        return x.item()
-    return x
+    return {"nominal": "airspeed 15-25 m/s, 1 % gusts, sensor noise, parameter spread",
+            "robust": "as nominal plus +-20 % on aerodynamic derivatives and friction",
+            "gusty": "as nominal with 5 % gusts (atmospheric, a stress case)"}.get(mode, mode)
 
 
 def write_files(cmp: Comparison, out: Path, stream: TextIO) -> None:
@@ -193,7 +181,7 @@ def write_files(cmp: Comparison, out: Path, stream: TextIO) -> None:
     summary = {"settings": cmp.settings, "rows": cmp.rows, "margins": cmp.margins, "skipped": cmp.skipped,
                "seconds": cmp.seconds, "timing": [{"task": r.task, "mode": r.conditions, "seconds": r.seconds, "paired": r.paired,
                                                     "build_seconds": r.build_seconds} for r in cmp.results]}
-    (out / "summary.json").write_text(json.dumps(_jsonable(summary), indent=1))
+    (out / "summary.json").write_text(json.dumps(plain(summary), indent=1))
     keys = ["mode", "task", "controller", "episodes"] + [k for k, *_ in COLUMNS]
     with open(out / "summary.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=keys)
