@@ -3,7 +3,7 @@
     python benchmarks/bench_env.py [--sizes 1 64 1024] [--seconds 2]
 
 All three in the same run (the machines are shared and noisy: compare ratios).  Compile and cache
-load happen in a warm-up before timing.  Steps/s counts environment control steps (80 Hz, 4 physics
+load happen before timing (their time is printed apart).  Steps/s counts environment control steps (80 Hz, 5 physics
 substeps each) per wall-clock second.  The raw batch is ``integrator.step_batch``/``step_serial`` on the
 environment's own arrays: the cost of the physics alone.
 """
@@ -56,22 +56,47 @@ def bench(n: int, seconds: float, sync_max: int) -> dict[str, float]:
     return out
 
 
+def first_step_seconds(n: int) -> float:
+    """Wall time of the first step of a fresh batch: numba compile, or cache load when the cache is warm."""
+    env = RigVectorEnv(n)
+    env.reset(seed=0)
+    t0 = time.perf_counter()
+    env.step(np.zeros((n, 3)))
+    return time.perf_counter() - t0
+
+
+def render_ms(frames: int = 40) -> float:
+    """Median wall time of one ``rgb_array`` frame of a RigEnv (after the first, which builds the figure)."""
+    env = RigEnv(render_mode="rgb_array")
+    env.reset(seed=0)
+    env.render()
+    times = []
+    for _ in range(frames):
+        env.step(np.full(3, 0.5))
+        t0 = time.perf_counter()
+        env.render()
+        times.append(time.perf_counter() - t0)
+    env.close()
+    return 1e3 * float(np.median(times))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[1, 64, 1024])
     ap.add_argument("--seconds", type=float, default=2.0)
-    ap.add_argument("--sync-max", type=int, default=256, help="largest batch for the SyncVectorEnv comparison")
+    ap.add_argument("--sync-max", type=int, default=1024, help="largest batch for the SyncVectorEnv comparison")
     args = ap.parse_args()
-    t0 = time.perf_counter()
-    RigVectorEnv(1).reset(seed=0)
-    RigVectorEnv(64).reset(seed=0)
-    print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, numpy {np.__version__}; setup {time.perf_counter() - t0:.2f} s")
+    load = open("/proc/loadavg").read().split()[0] if os.path.exists("/proc/loadavg") else "?"
+    print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, numpy {np.__version__}, load average {load}")
+    print(f"# first step (numba compile or cache load): serial kernel {first_step_seconds(1):.2f} s, "
+          f"parallel kernel {first_step_seconds(64):.2f} s; not included in the rates below")
     print("| n_envs | RigVectorEnv steps/s | SyncVectorEnv(RigEnv) steps/s | raw physics steps/s | vector / sync | vector / raw |")
     print("|---|---|---|---|---|---|")
     for n in args.sizes:
         r = bench(n, args.seconds, args.sync_max)
         s = r.get("SyncVectorEnv(RigEnv)", float("nan"))
         print(f"| {n} | {r['RigVectorEnv']:.0f} | {s:.0f} | {r['raw physics']:.0f} | {r['RigVectorEnv'] / s:.1f} | {r['RigVectorEnv'] / r['raw physics']:.2f} |")
+    print(f"# rendering: {render_ms():.1f} ms per rgb_array frame (median of 40, 448 x 1024)")
 
 
 if __name__ == "__main__":
