@@ -212,17 +212,18 @@ def test_runtime_imports_only_numpy(exported, tmp_path, kind, task, opts):
     assert res["err"] <= 1e-5, res
 
 
-@pytest.mark.parametrize("kind", KINDS)
-def test_cli_export_and_verify(tmp_path, kind):
+@pytest.mark.parametrize("kind, task, art_kind", [("pid", "velocity_vector_roll", "pid"), ("lqr", "velocity_vector_roll", "lqr"),
+                                                  ("lqr", "pull_up_push_over", "lqr_heave_sway")])
+def test_cli_export_and_verify(tmp_path, kind, task, art_kind):
     out = tmp_path / f"{kind}.json"
-    r = subprocess.run([sys.executable, SCRIPT, "export", "--controller", kind, "--task", "velocity_vector_roll", "--out", str(out)],
+    r = subprocess.run([sys.executable, SCRIPT, "export", "--controller", kind, "--task", task, "--out", str(out)],
                        check=False, env=ENV, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
-    assert f"kind {kind}" in r.stdout
+    assert f"kind {art_kind}," in r.stdout
     r = subprocess.run([sys.executable, SCRIPT, "verify", "--law", str(out)], check=False, env=ENV, capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     v = json.loads(r.stdout)
-    assert v["ok"] and v["kind"] == kind and v["task"] == "velocity_vector_roll" and v["rate_hz"] == 80.0
+    assert v["ok"] and v["kind"] == art_kind and v["task"] == task and v["rate_hz"] == 80.0
 
 
 @pytest.mark.slow
