@@ -143,9 +143,9 @@ class HeaveSwayTables:
             raise ValueError(f"{name}: static_n must be ({nv},) integers in [2, {th.shape[1]}]")
         if any(np.any(np.diff(th[i, :c]) <= 0) for i, c in enumerate(cnt)):
             raise ValueError(f"{name}: static_theta must increase over its first static_n points")
-        m = dict(airspeeds=V, cw=_arr(name, d, "cw", (nv,)), b=_arr(name, d, "b", (nv,)), A_row=_arr(name, d, "A_row", (nv, 2 * nq)),
-                 q_op=_arr(name, d, "q_op", (nv, nq)), S=_arr(name, d, "S", (nv, nq - 1)), static_theta=th,
-                 static_u=_arr(name, d, "static_u", th.shape), static_n=cnt.astype(np.int64))
+        m = {"airspeeds": V, "cw": _arr(name, d, "cw", (nv,)), "b": _arr(name, d, "b", (nv,)), "A_row": _arr(name, d, "A_row", (nv, 2 * nq)),
+             "q_op": _arr(name, d, "q_op", (nv, nq)), "S": _arr(name, d, "S", (nv, nq - 1)), "static_theta": th,
+             "static_u": _arr(name, d, "static_u", th.shape), "static_n": cnt.astype(np.int64)}
         if np.any(m["b"] == 0):
             raise ValueError(f"{name}: b (control power) must not be 0")
         if kind == "pid":
@@ -155,17 +155,18 @@ class HeaveSwayTables:
                 if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or (k in ("v_design", "rate_limit") and v <= 0):
                     raise ValueError(f"{name}: {k} = {v!r}: must be a finite number{' > 0' if k in ('v_design', 'rate_limit') else ''}")
                 law[k] = float(v)
-            for k in ("feedforward", "decouple"):
-                if not isinstance(d[k], bool):
-                    raise ValueError(f"{name}: {k} must be a bool")
-                law[k] = d[k]
+            flags = {k: d[k] for k in ("feedforward", "decouple")}
+            bad = [k for k, v in flags.items() if not isinstance(v, bool)]
+            if bad:
+                raise ValueError(f"{name}: {bad} must be bools (true / false)")
+            law.update(flags)
         else:
             lds = d["link_delay_steps"]
             if isinstance(lds, bool) or not isinstance(lds, int) or not 0 <= lds <= 100:
                 raise ValueError(f"{name}: link_delay_steps = {lds!r}: an integer in [0, 100]")
             law = {"K": _arr(name, d, "K", (nv, 2 * nq + 1)), "A_q": _arr(name, d, "A_q", (nv, nq, nq)), "A_w": _arr(name, d, "A_w", (nv, nq, nq)),
                    "B": _arr(name, d, "B", (nv, nq, 3)), "kalman_gain": _arr(name, d, "kalman_gain", (nq, 2)), "link_delay_steps": lds}
-        if not isinstance(d["design"], dict):
+        if type(d["design"]) is not dict:
             raise ValueError(f"{name}: design must be an object")
         return cls(kind, **m, reference=ref, scales=SignalScales.from_data(d, spec), law=law, design=dict(d["design"]))
 

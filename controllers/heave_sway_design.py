@@ -26,7 +26,14 @@ from typing import Any
 import numpy as np
 
 from controllers.axes import AXIS_OF
-from controllers.axis_design import axis_point, lqr_margins, lqr_point, pid_margins_as_flown, static_table, tune_driven
+from controllers.axis_design import (
+    axis_point,
+    lqr_margins,
+    lqr_point,
+    pid_margins_as_flown,
+    static_table,
+    tune_driven,
+)
 from controllers.base import LoopSpec
 from controllers.estimator import kalman_gain
 from controllers.heave_sway import ANGLE_MAX_DEG, LQR_TARGETS, V_STEP, HeaveSwayTables

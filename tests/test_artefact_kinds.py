@@ -272,7 +272,7 @@ def test_round_trip_on_every_other_task_the_law_flies(tmp_path, kind, task, opts
     assert art.kind == law.artefact_kind and art.spec == law.spec
     run = art.controller()
     assert type(run) is type(law)
-    O, U, worst = _episode(law, run, task, steps=300, reset_at=150, opts=opts)
+    _, U, worst = _episode(law, run, task, steps=300, reset_at=150, opts=opts)
     print(f"{kind} {task} {opts}: artefact kind {art.kind}, max state difference {worst:.2e}, mean |u| {np.abs(U).mean():.3f}")
     assert worst <= 1e-5 and np.all(np.isfinite(U))
     assert np.abs(U).max() > 0.01  # the episode exercised the law
