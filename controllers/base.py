@@ -151,9 +151,7 @@ def make_controller(kind: str, spec: LoopSpec, num_envs: int = 1, **kwargs: Any)
     Raises :class:`UnsupportedTask` (naming every candidate's reason) when no class of the kind can
     fly the spec's task and joints.
     """
-    import controllers  # registers the built-in laws
-
-    controllers.load_all_laws()
+    import controllers  # noqa: F401  (registers the built-in laws)
 
     if kind not in CONTROLLERS:
         raise ValueError(f"controller kind {kind!r}: unknown; known kinds: {sorted(CONTROLLERS)}")

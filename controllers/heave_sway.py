@@ -39,26 +39,32 @@ episodes at 20 m/s.  With 5 % gusts (the "gusty" stress mode) no law does: the p
 above the task's 20 deg/s recovery limit (peaks 60-85 deg/s), which no compensator input can damp.
 
 ``law.describe()`` gives gains and margins (servo, delay and rate sensor in the loop) for the report.
+
+Design and runtime are apart (as :mod:`controllers.pid`, :mod:`controllers.lqr`):
+:mod:`controllers.heave_sway_design` (python-control, scipy, the numba model, ``rig_env``; imported
+only when a law is designed) produces :class:`HeaveSwayTables`, plain data; this module runs them
+with numpy alone, in simulation and from a deployed artefact (kinds ``"pid_heave_sway"`` and
+``"lqr_heave_sway"``: ``law.to_data()`` / ``HeaveSwayPID.from_data(data, spec)``), one implementation.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from controllers.axis_design import axis_point, lqr_margins, lqr_point, pid_margins_as_flown, static_table, tune_driven
+from controllers.axes import AXIS_OF
 from controllers.base import Controller, LoopSpec, register
-from controllers.estimator import DelayedKalman, kalman_gain
-from controllers.lqr import SIGMA_A, SIGMA_Z
-from controllers.model import AXIS_OF
+from controllers.estimator import DelayedKalman
 from controllers.pid_element import PID
-from controllers.references import DrivenReference
-from rig_env.envs.sensors import AIRSPEED_SCALE, ANGLE_SCALE, FLAP_SCALE, RATE_SCALE, UNLIMITED
-from rig_env.params import JOINTS, RigParams
-from rig_env.physics import layout as L
-from rig_env.physics.aero import MIX_ELEVATOR, MIX_RUDDER
+from controllers.references import DrivenReference, ReferenceConstants
+from controllers.signals import SignalScales
+
+if TYPE_CHECKING:  # the design's types only; the runtime never imports rig_env
+    from rig_env.params import RigParams
 
 ANGLE_MAX_DEG = (4.0, 3.5, 3.0, 2.5, 2.0)
 """Candidate Bryson maxima of the driven joint's angle and its integral (deg, deg s), loosest first; the
@@ -69,39 +75,120 @@ LQR_TARGETS = {"gm_db": 6.0, "pm_deg": 45.0}
 RATE_DEMAND_MAX = math.radians(90.0)
 """Limit of the outer loop's rate demand, rad/s (the tasks' reference rates stay below 40 deg/s)."""
 V_STEP = 2.5  # m/s between design airspeeds
-_UNMIX = np.array([[0.25] * 4, [0.25 * m for m in MIX_ELEVATOR], [0.25 * m for m in MIX_RUDDER]])
+_MODEL = ("airspeeds", "cw", "b", "A_row", "q_op", "S", "static_theta", "static_u", "static_n")
+_LAW = {"pid": ("kp", "ki", "k_angle", "v_design", "rate_limit", "feedforward", "decouple"),
+        "lqr": ("K", "A_q", "A_w", "B", "kalman_gain", "link_delay_steps")}
+
+
+@dataclass(frozen=True)
+class HeaveSwayTables:
+    """Everything :class:`HeaveSwayPID` / :class:`HeaveSwayLQR` execute, checked against a :class:`LoopSpec`.
+
+    ``nv`` design airspeeds, ``nq`` free joints, ``npas = nq - 1`` passive joints, ``m`` static-curve points.
+
+    | field | shape | unit |
+    |---|---|---|
+    | airspeeds | (nv,) | m/s, increasing (> 1) |
+    | cw | (nv,) | 1/s: the driven joint's damping ``A'_jj`` |
+    | b | (nv,) | rad/s^2 per normalised input: the driven joint's control power ``b_j`` |
+    | A_row | (nv, 2 nq) | the driven joint's acceleration row (per rad, per rad/s) |
+    | q_op | (nv, nq) | rad, zero-input trim angles of the free joints |
+    | S | (nv, npas) | passive joint angle per rad of the driven joint held by a steady input |
+    | static_theta, static_u, static_n | (nv, m), (nv, m), (nv,) | the static input curve per airspeed: the first ``static_n`` points, rad ascending / normalised |
+    | reference | :class:`controllers.references.ReferenceConstants` | the reference parser's numbers |
+    | scales | :class:`controllers.signals.SignalScales` | the observation's normalisation |
+    | law | dict | pid: ``kp``, ``ki`` (per rad/s, per rad s), ``k_angle`` (1/s), ``v_design`` (m/s), ``rate_limit`` (units/s), ``feedforward``, ``decouple``; lqr: ``K`` (nv, 2 nq + 1), ``A_q``, ``A_w`` (nv, nq, nq), ``B`` (nv, nq, 3), ``kalman_gain`` (nq, 2), ``link_delay_steps`` |
+    | design | dict | provenance: targets, margins, weights, airspeed range, sensor layout assumed |
+    """
+
+    kind: str
+    airspeeds: np.ndarray
+    cw: np.ndarray
+    b: np.ndarray
+    A_row: np.ndarray
+    q_op: np.ndarray
+    S: np.ndarray
+    static_theta: np.ndarray
+    static_u: np.ndarray
+    static_n: np.ndarray
+    reference: ReferenceConstants
+    scales: SignalScales
+    law: dict[str, Any]
+    design: dict[str, Any]
+
+    def to_data(self) -> dict[str, Any]:
+        """Artefact entries: numpy arrays and JSON values."""
+        arrays = {k: np.array(getattr(self, k)) for k in _MODEL}
+        law = {k: (np.array(v) if isinstance(v, np.ndarray) else v) for k, v in self.law.items()}
+        return {**arrays, **law, **self.reference.to_data(), **self.scales.to_data(), "design": dict(self.design)}
+
+    @classmethod
+    def from_data(cls, kind: str, d: Mapping[str, Any], spec: LoopSpec) -> HeaveSwayTables:
+        """Check ``d`` (from the design or an artefact) for law ``kind`` ("pid" or "lqr"); a ValueError names the entry."""
+        name = f"{kind}_heave_sway"
+        missing = [k for k in (*_MODEL, *_LAW[kind], "design") if k not in d]
+        if missing:
+            raise ValueError(f"{name}: missing entries {missing}")
+        ref = ReferenceConstants.from_data(d, spec)
+        nq = len(spec.free_dofs)
+        V = _arr(name, d, "airspeeds", None)
+        if V.ndim != 1 or V.size < 1 or V[0] <= 1.0 or np.any(np.diff(V) <= 0):
+            raise ValueError(f"{name}: airspeeds must be increasing and > 1 m/s, got {V.tolist() if V.ndim == 1 else V.shape}")
+        nv = V.size
+        th = _arr(name, d, "static_theta", None)
+        if th.ndim != 2 or th.shape[0] != nv:
+            raise ValueError(f"{name}: static_theta: expected shape ({nv}, m), got {th.shape}")
+        cnt = np.asarray(d["static_n"])
+        if cnt.shape != (nv,) or not np.issubdtype(cnt.dtype, np.integer) or np.any(cnt < 2) or np.any(cnt > th.shape[1]):
+            raise ValueError(f"{name}: static_n must be ({nv},) integers in [2, {th.shape[1]}]")
+        if any(np.any(np.diff(th[i, :c]) <= 0) for i, c in enumerate(cnt)):
+            raise ValueError(f"{name}: static_theta must increase over its first static_n points")
+        m = {"airspeeds": V, "cw": _arr(name, d, "cw", (nv,)), "b": _arr(name, d, "b", (nv,)), "A_row": _arr(name, d, "A_row", (nv, 2 * nq)),
+             "q_op": _arr(name, d, "q_op", (nv, nq)), "S": _arr(name, d, "S", (nv, nq - 1)), "static_theta": th,
+             "static_u": _arr(name, d, "static_u", th.shape), "static_n": cnt.astype(np.int64)}
+        if np.any(m["b"] == 0):
+            raise ValueError(f"{name}: b (control power) must not be 0")
+        if kind == "pid":
+            law = {}
+            for k in ("kp", "ki", "k_angle", "v_design", "rate_limit"):
+                v = d[k]
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or (k in ("v_design", "rate_limit") and v <= 0):
+                    raise ValueError(f"{name}: {k} = {v!r}: must be a finite number{' > 0' if k in ('v_design', 'rate_limit') else ''}")
+                law[k] = float(v)
+            flags = {k: d[k] for k in ("feedforward", "decouple")}
+            bad = [k for k, v in flags.items() if not isinstance(v, bool)]
+            if bad:
+                raise ValueError(f"{name}: {bad} must be bools (true / false)")
+            law.update(flags)
+        else:
+            lds = d["link_delay_steps"]
+            if isinstance(lds, bool) or not isinstance(lds, int) or not 0 <= lds <= 100:
+                raise ValueError(f"{name}: link_delay_steps = {lds!r}: an integer in [0, 100]")
+            law = {"K": _arr(name, d, "K", (nv, 2 * nq + 1)), "A_q": _arr(name, d, "A_q", (nv, nq, nq)), "A_w": _arr(name, d, "A_w", (nv, nq, nq)),
+                   "B": _arr(name, d, "B", (nv, nq, 3)), "kalman_gain": _arr(name, d, "kalman_gain", (nq, 2)), "link_delay_steps": lds}
+        if type(d["design"]) is not dict:
+            raise ValueError(f"{name}: design must be an object")
+        return cls(kind, **m, reference=ref, scales=SignalScales.from_data(d, spec), law=law, design=dict(d["design"]))
+
+
+def _arr(name: str, d: Mapping[str, Any], k: str, shape: tuple[int, ...] | None) -> np.ndarray:
+    a = np.asarray(d[k], dtype=np.float64)
+    if shape is not None and a.shape != shape:
+        raise ValueError(f"{name}: {k}: expected shape {shape}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: {k}: non-finite value(s)")
+    return a
 
 
 class _AxisModel:
-    """Design models over the airspeed grid and the reference feedforward (module docstring)."""
+    """The design model's tables over the airspeed grid and the reference feedforward (module docstring)."""
 
-    def __init__(self, spec: LoopSpec, params: RigParams) -> None:
-        lo, hi = spec.airspeed_range
-        if lo <= 1.0:
-            raise ValueError(f"airspeed_range = {spec.airspeed_range}: the heave/sway design needs airspeed > 1 m/s")
-        self.V = np.linspace(lo, hi, max(2, math.ceil((hi - lo) / V_STEP) + 1)) if hi > lo else np.array([lo])
-        fd = spec.free_dofs
-        self.points = [axis_point(params, fd, float(v), spec.action_scale_deg) for v in self.V]
-        self.nq = len(fd)
-        self.params, self.fd, self.scale_deg = params, fd, spec.action_scale_deg
-
-    def setup(self, joint: str, fd: tuple[str, ...]) -> None:
-        nq, k = self.nq, fd.index(joint)
-        p = [i for i in range(nq) if i != k]
-        self.k, self.passive = k, p
-        cw, b, S = [], [], []
-        for q_op, sys in self.points:
-            A, B = np.asarray(sys.A), np.asarray(sys.B)
-            Aq, Aw = A[nq:, :nq], A[nq:, nq:]
-            G = -np.linalg.solve(Aq, B[nq:, AXIS_OF[joint]])  # static gain: joint angles per unit input
-            cw.append(Aw[k, k])
-            b.append(B[nq + k, AXIS_OF[joint]])
-            S.append(G[p] / G[k])
-        self.cw, self.b = np.array(cw), np.array(b)
-        self.Arow = np.array([np.asarray(sys.A)[nq + k] for _, sys in self.points])  # (n_V, 2 nq): driven joint's acceleration row
-        self.qop = np.array([q[[JOINTS.index(j) for j in self.fd]] for q, _ in self.points])  # (n_V, nq)
-        self.S = np.array(S)  # (n_V, n_passive): passive joint angles per rad of the driven joint held by a steady input
-        self.tables = [static_table(self.params, self.fd, joint, float(v), self.scale_deg) for v in self.V]
+    def __init__(self, t: HeaveSwayTables, free_dofs: tuple[str, ...]) -> None:
+        self.V, self.cw, self.b, self.Arow, self.qop, self.S = t.airspeeds, t.cw, t.b, t.A_row, t.q_op, t.S
+        self.tables = [(t.static_theta[i, :n], t.static_u[i, :n]) for i, n in enumerate(t.static_n)]
+        self.nq = len(free_dofs)
+        self.k = free_dofs.index(t.reference.joint)
+        self.passive = [i for i in range(self.nq) if i != self.k]
 
     def at(self, table: np.ndarray, V: np.ndarray) -> np.ndarray:
         """Linear interpolation in airspeed of a table (n_V, ...) at V (n,), clamped to the grid."""
@@ -138,31 +225,47 @@ class _AxisModel:
 
 
 class _HeaveSwayBase(Controller):
-    def __init__(self, spec: LoopSpec, num_envs: int, params: RigParams | None, link_delay_steps: int) -> None:
+    _law = ""
+
+    def __init__(self, spec: LoopSpec, num_envs: int, tables: HeaveSwayTables | Mapping[str, Any]) -> None:
         super().__init__(spec, num_envs)
-        self.ref = DrivenReference(spec, self.num_envs, params or RigParams.default())  # UnsupportedTask first: cheap
-        self.params = params or RigParams.default()
+        t = self.tables = tables if isinstance(tables, HeaveSwayTables) else HeaveSwayTables.from_data(self._law, tables, spec)
+        if t.kind != self._law:
+            raise ValueError(f"tables of a {t.kind!r} heave/sway law given to {type(self).__name__}")
+        self.ref = DrivenReference(spec, self.num_envs, constants=t.reference)
         self.joint = self.ref.joint
         self.axis = AXIS_OF[self.joint]
-        self.link_delay_steps = int(link_delay_steps)
-        self.model = _AxisModel(spec, self.params)
-        self.model.setup(self.joint, spec.free_dofs)
+        self.model = _AxisModel(t, spec.free_dofs)
+        sc = self.sc = t.scales
         ix = spec.index
         self._flaps = [ix(f"flap{k}") for k in range(1, 5)]
         self._air = ix("airspeed")
-        self._cols = [(ix(f"sin_{j}"), ix(f"cos_{j}")) if j in UNLIMITED else (ix(f"{j}_angle"),) for j in spec.free_dofs]
+        self._cols = [(ix(f"sin_{j}"), ix(f"cos_{j}")) if j in sc.unlimited else (ix(f"{j}_angle"),) for j in spec.free_dofs]
         self._rcols = [ix(f"{j}_rate") for j in spec.free_dofs]
+        self._rscale = [float(x) for x in sc.rate_scale]
         self.emulate = spec.task == "free_flight_emulation"
+
+    @classmethod
+    def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> _HeaveSwayBase:
+        """The runtime of a deployed artefact (numpy only)."""
+        return cls(spec, num_envs, tables=HeaveSwayTables.from_data(cls._law, data, spec))
+
+    def to_data(self) -> dict[str, Any]:
+        return self.tables.to_data()
 
     def _joints(self, o: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(n, nq) measured angles and (n, nq) filtered rates of the free joints, rad and rad/s."""
-        q = np.stack([np.arctan2(o[:, c[0]], o[:, c[1]]) if len(c) == 2 else o[:, c[0]] * ANGLE_SCALE for c in self._cols], axis=1)
-        return q, np.stack([o[:, c] * RATE_SCALE[j] for c, j in zip(self._rcols, self.spec.free_dofs)], axis=1)
+        a = self.sc.angle_scale
+        q = np.stack([np.arctan2(o[:, c[0]], o[:, c[1]]) if len(c) == 2 else o[:, c[0]] * a for c in self._cols], axis=1)
+        return q, np.stack([o[:, c] * r for c, r in zip(self._rcols, self._rscale)], axis=1)
 
     def _surface_now(self, obs: np.ndarray) -> np.ndarray:
         """(n,) measured virtual input of the driven axis (elevator or rudder, normalised)."""
-        s = (obs[:, self._flaps] * FLAP_SCALE / math.radians(self.spec.action_scale_deg)) @ _UNMIX.T
+        s = (obs[:, self._flaps] * self.sc.flap_scale / math.radians(self.spec.action_scale_deg)) @ self.sc.unmix.T
         return s[:, self.axis]
+
+    def _airspeed(self, o: np.ndarray) -> np.ndarray:
+        return np.maximum(o[:, self._air] * self.sc.airspeed_scale, 5.0)
 
     def _action(self, v: np.ndarray) -> np.ndarray:
         a = np.zeros((self.num_envs, self.spec.n_actions))
@@ -182,22 +285,28 @@ class HeaveSwayPID(_HeaveSwayBase):
     | feedforward | True | reference feedforward ``u_ff`` |
     | decouple | True | decoupling ``u_dc`` of the passive joints |
     | targets | None | margin targets for :func:`controllers.axis_design.tune_driven` (``pm_inner``, ``gm_inner``, ``pm_outer``, ``gm_outer``) |
+    | tables | None | a finished design (:class:`HeaveSwayTables` or its data); the arguments above must then be left at their defaults |
     """
 
+    artefact_kind = "pid_heave_sway"
+    _law = "pid"
+
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
-                 rate_filter_hz: float = 10.0, feedforward: bool = True, decouple: bool = True, targets: dict[str, float] | None = None) -> None:
-        super().__init__(spec, num_envs, params, link_delay_steps)
-        m = self.model
-        i_mid = int(np.argmin(np.abs(m.V - 0.5 * (m.V[0] + m.V[-1]))))
-        self.v_design = float(m.V[i_mid])
-        self.tuning = tune_driven(self.params, m.points[i_mid][1], self.joint, self.v_design, spec.dt,
-                                  link_delay_steps=link_delay_steps, rate_filter_hz=rate_filter_hz, **(targets or {}))
-        t, n = self.tuning, self.num_envs
-        rate_lim = math.degrees(self.params.to_vector()[L.P_SERVOS_COMPENSATOR_RATE_LIMIT_DEG_S]) / spec.action_scale_deg
-        self.outer = PID(n, kp=t.k_angle, dt=spec.dt, u_min=-RATE_DEMAND_MAX, u_max=RATE_DEMAND_MAX)
-        self.inner = PID(n, kp=t.kp, ki=t.ki, dt=spec.dt, rate=rate_lim)
-        self.use_ff = bool(feedforward)
-        self.decouple = bool(decouple)
+                 rate_filter_hz: float = 10.0, feedforward: bool = True, decouple: bool = True, targets: dict[str, float] | None = None,
+                 tables: HeaveSwayTables | Mapping[str, Any] | None = None) -> None:
+        if tables is None:
+            # design time only: python-control, scipy, the numba model and rig_env
+            from controllers.heave_sway_design import design_heave_sway_pid
+
+            tables = design_heave_sway_pid(spec, params, link_delay_steps=link_delay_steps, rate_filter_hz=rate_filter_hz,
+                                           feedforward=feedforward, decouple=decouple, targets=targets)
+        elif params is not None or link_delay_steps != 1 or rate_filter_hz != 10.0 or feedforward is not True or decouple is not True or targets is not None:
+            raise ValueError("tables given: params, link_delay_steps, rate_filter_hz, feedforward, decouple and targets belong to the design and must not be passed too")
+        super().__init__(spec, num_envs, tables)
+        g, n = self.tables.law, self.num_envs
+        self.v_design, self.use_ff, self.decouple = g["v_design"], g["feedforward"], g["decouple"]
+        self.outer = PID(n, kp=g["k_angle"], dt=spec.dt, u_min=-RATE_DEMAND_MAX, u_max=RATE_DEMAND_MAX)
+        self.inner = PID(n, kp=g["kp"], ki=g["ki"], dt=spec.dt, rate=g["rate_limit"])
         self._pending = np.ones(n, dtype=bool)
 
     def reset(self, mask: np.ndarray | None = None) -> None:
@@ -211,7 +320,7 @@ class HeaveSwayPID(_HeaveSwayBase):
         o = self._check_obs(obs)
         e, w_ref, a_ref = self.ref(o)
         th, rate = self.ref.theta(o)
-        V = np.maximum(o[:, self._air] * AIRSPEED_SCALE, 5.0)
+        V = self._airspeed(o)
         g = (self.v_design / V) ** 2
         if not self.use_ff:
             ff = np.zeros(self.num_envs)
@@ -229,12 +338,9 @@ class HeaveSwayPID(_HeaveSwayBase):
 
     def describe(self) -> dict[str, Any]:
         """Tuning (gains, inner and outer loop margins) and the margins of the whole law broken at the
-        surface command (``*_input``: cascade and decoupling together, :func:`controllers.axis_design.pid_margins_as_flown`)."""
-        i_mid = int(np.argmin(np.abs(self.model.V - self.v_design)))
-        gm, pm, wc = pid_margins_as_flown(self.params, self.model.points[i_mid][1], self.joint, self.tuning, self.spec.dt,
-                                          decouple="all" if self.emulate else ("passive" if self.decouple else None),
-                                          link_delay_steps=self.link_delay_steps)
-        return {self.joint: {**self.tuning.as_dict(), "gm_input": gm, "pm_input": pm, "wc_input": wc}}
+        surface command (``*_input``: cascade and decoupling together, :func:`controllers.axis_design.pid_margins_as_flown`),
+        as computed by the design."""
+        return {self.joint: dict(self.tables.design["tuning"])}
 
 
 @register("lqr")
@@ -246,34 +352,29 @@ class HeaveSwayLQR(_HeaveSwayBase):
     | params | default rig | rig parameters of the design model |
     | link_delay_steps | 1 | measurement delay the estimator predicts over, control steps |
     | max_deviation | None | Bryson maxima (rad, rad/s, rad s) by state label, overriding the weight search |
+    | tables | None | a finished design (:class:`HeaveSwayTables` or its data); the arguments above must then be left at their defaults |
     """
 
+    artefact_kind = "lqr_heave_sway"
+    _law = "lqr"
+
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
-                 max_deviation: dict[str, float] | None = None) -> None:
-        super().__init__(spec, num_envs, params, link_delay_steps)
-        fd, m, j = spec.free_dofs, self.model, self.joint
-        candidates = [max_deviation] if max_deviation is not None else [
-            {j: math.radians(a), f"{j}_rate": math.radians(30.0), f"int_{j}": math.radians(a)} for a in ANGLE_MAX_DEG]
-        for md in candidates:  # loosest first: keep the tightest that meets the targets
-            designs = [lqr_point(q, sys, fd, float(v), md) for v, (q, sys) in zip(m.V, m.points)]
-            ok = all(gm >= LQR_TARGETS["gm_db"] and pm >= LQR_TARGETS["pm_deg"]
-                     for gm, pm, _ in (lqr_margins(d, j, self.params, spec.dt, self.link_delay_steps, not self.emulate) for d in designs))
-            if ok or not hasattr(self, "designs"):
-                self.designs, self.max_deviation = designs, md
-            if not ok:
-                break
-        self._K = np.array([d.K[self.axis] for d in self.designs])  # (n_V, 2 nq + 1): this axis' row
-        self.hold_passive = not self.emulate  # emulation: the model is free
-        nq = len(fd)
-        if not self.hold_passive:
-            self._K[:, [i for i in range(2 * nq) if i % nq != m.k]] = 0.0
-        self._qop = np.array([d.q_op for d in self.designs])
-        self._Aq = np.array([d.A[nq:, :nq] for d in self.designs])
-        self._Aw = np.array([d.A[nq:, nq:] for d in self.designs])
-        self._B = np.array([d.B[nq:] for d in self.designs])
-        wrap = np.array([j in UNLIMITED for j in fd])
-        gains = np.array([kalman_gain(spec.dt, SIGMA_A[j], SIGMA_Z) for j in fd])
-        self.kf = DelayedKalman(self.num_envs, spec.dt, wrap, gains, self.link_delay_steps)
+                 max_deviation: dict[str, float] | None = None, tables: HeaveSwayTables | Mapping[str, Any] | None = None) -> None:
+        if tables is None:
+            # design time only: python-control, scipy, the numba model and rig_env
+            from controllers.heave_sway_design import design_heave_sway_lqr
+
+            tables = design_heave_sway_lqr(spec, params, link_delay_steps=link_delay_steps, max_deviation=max_deviation)
+        elif params is not None or link_delay_steps != 1 or max_deviation is not None:
+            raise ValueError("tables given: params, link_delay_steps and max_deviation belong to the design and must not be passed too")
+        super().__init__(spec, num_envs, tables)
+        g = self.tables.law
+        self.max_deviation = dict(self.tables.design["max_deviation"])
+        self.link_delay_steps = g["link_delay_steps"]
+        self.hold_passive = not self.emulate  # emulation: the model is free (its gains are zero in K)
+        self._K, self._Aq, self._Aw, self._B = g["K"], g["A_q"], g["A_w"], g["B"]
+        wrap = np.array([j in self.sc.unlimited for j in spec.free_dofs])
+        self.kf = DelayedKalman(self.num_envs, spec.dt, wrap, g["kalman_gain"], self.link_delay_steps)
         self.z = np.zeros(self.num_envs)
 
     def reset(self, mask: np.ndarray | None = None) -> None:
@@ -287,8 +388,8 @@ class HeaveSwayLQR(_HeaveSwayBase):
         m, k = self.model, self.model.k
         e, w_ref, a_ref = self.ref(o)
         z_meas, w_meas = self._joints(o)
-        V = np.maximum(o[:, self._air] * AIRSPEED_SCALE, 5.0)
-        q_op = m.at(self._qop, V)
+        V = self._airspeed(o)
+        q_op = m.at(m.qop, V)
         virt = np.zeros((self.num_envs, 3))
         virt[:, self.axis] = self._surface_now(o)
         q, w = self.kf.step(z_meas, w_meas, virt, (q_op, m.at(self._Aq, V), m.at(self._Aw, V), m.at(self._B, V), np.zeros((self.num_envs, 3))))
@@ -307,9 +408,5 @@ class HeaveSwayLQR(_HeaveSwayBase):
         return self._action(sat)
 
     def describe(self) -> dict[str, Any]:
-        """Closed-loop poles and margins (servo and delay in the loop) at every design airspeed."""
-        out = []
-        for d in self.designs:
-            gm, pm, wc = lqr_margins(d, self.joint, self.params, self.spec.dt, self.link_delay_steps, self.hold_passive)
-            out.append({"airspeed": d.airspeed, "phi_deg": 0.0, "poles": d.poles.tolist(), self.joint: {"gm_db": gm, "pm_deg": pm, "wc": wc}})
-        return {"points": out}
+        """Closed-loop poles (as [re, im]) and margins (servo and delay in the loop) at every design airspeed, as computed by the design."""
+        return {"points": [dict(p) for p in self.tables.design["points"]]}

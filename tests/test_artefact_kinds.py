@@ -1,7 +1,8 @@
-"""Artefact kinds "pid", "lqr" and "ppo"/"sac" (issue 5): the laws as plain data, run by their numpy runtime.
+"""Artefact kinds "pid", "lqr", "pid_heave_sway", "lqr_heave_sway" and "ppo"/"sac" (issue 5): the laws as
+plain data, run by their numpy runtime.
 
 The runtime is the law's own class built from the designed tables (``PIDLaw.from_data``,
-``LQRLaw.from_data``), so the round trip must reproduce the in-memory law (the issue's bound 1e-5;
+``LQRLaw.from_data``, ``HeaveSwayPID.from_data``, ``HeaveSwayLQR.from_data``), so the round trip must reproduce the in-memory law (the issue's bound 1e-5;
 identical here) over a closed-loop episode in ``RigVectorEnv``, internal states included; the
 tables must be what the design tools give (python-control's LQR, the loop-shaping tuner), and
 loading must refuse a table of the wrong shape and import none of the design's heavy modules.  For the
@@ -60,6 +61,16 @@ def _state(law) -> dict[str, np.ndarray]:
     """Every internal state of a law: integrators, filters, last outputs, estimator, schedule interpolation."""
     if law.kind in ("ppo", "sac"):
         return {}  # a feed-forward policy has no state
+    if getattr(law, "artefact_kind", "").endswith("_heave_sway"):
+        r = law.ref
+        st = {"ref.clock": r.clock, "ref.w_ref": r.w_ref, "ref.th_ref": r.th_ref, "ref.th_base": r.th_base, "ref.fresh": r.fresh}
+        if law.kind == "pid":
+            st["pending"] = law._pending
+            for name, el in (("outer", law.outer), ("inner", law.inner)):
+                for f in ("i", "d", "u", "y_prev"):
+                    st[f"{name}.{f}"] = getattr(el, f)
+            return st
+        return {**st, "z": law.z, "kf.q": law.kf.q, "kf.w": law.kf.w, "kf.q_m": law.kf.q_m, "kf.w_m": law.kf.w_m, "kf.s_prev": law.kf.s_prev}
     if law.kind == "pid":
         st = {"p_ref_prev": law._p_ref_prev, "pending": law._pending}
         for j in law.tables.axes:
@@ -72,10 +83,10 @@ def _state(law) -> dict[str, np.ndarray]:
             "kf.s_prev": law.kf.s_prev, "K(V, phi)": law._interp(law.tables.K, w), "u_trim(V, phi)": law._interp(law.tables.u_trim, w)}
 
 
-def _episode(law, run, task: str, steps: int = 700, reset_at: int = 350) -> tuple[np.ndarray, np.ndarray, float]:
+def _episode(law, run, task: str, steps: int = 700, reset_at: int = 350, opts: dict | None = None) -> tuple[np.ndarray, np.ndarray, float]:
     """Fly ``law`` in RigVectorEnv with ``run`` fed the same observations; returns the observations, the law's actions
     and the largest state difference seen.  Both laws are restarted mid-episode (as after an autoreset)."""
-    env = RigVectorEnv(1, task=task)
+    env = RigVectorEnv(1, task=task, task_options=opts or {})
     obs, _ = env.reset(seed=7)
     law.reset(), run.reset()
     worst, O, U = 0.0, [], []
@@ -178,11 +189,18 @@ def test_tampered_and_truncated_refused(exported, tmp_path, kind):
         A.load(tmp_path / "c.json")
 
 
-@pytest.mark.parametrize("kind", KINDS + RL_KINDS)
-def test_runtime_imports_only_numpy(exported, tmp_path, kind):
+@pytest.mark.parametrize("kind, task, opts", [("pid", "bank_to_bank", {}), ("lqr", "bank_to_bank", {}), ("pid", "pull_up_push_over", {}),
+                                             ("lqr", "forced_oscillation", {"axis": "sway_yaw"}), ("lqr", "free_flight_emulation", {}),
+                                             ("ppo", "bank_to_bank", {})])
+def test_runtime_imports_only_numpy(exported, tmp_path, kind, task, opts):
     """Loading and flying the law in a fresh interpreter imports none of the design's modules and reproduces the actions."""
-    law, path = exported[kind, "bank_to_bank"]
-    O, U, _ = _episode(law, make_controller(kind, law.spec, 1), "bank_to_bank", steps=200, reset_at=100)
+    if task == "bank_to_bank":
+        law, path = exported[kind, task]
+    else:  # a heave/sway law: artefact kinds pid_heave_sway, lqr_heave_sway
+        env = RigVectorEnv(1, task=task, task_options=opts)
+        law, path = make_controller(kind, LoopSpec.from_env(env), 1), tmp_path / "law.json"
+        A.save(A.from_controller(law, _sensors(env), source="test"), path)
+    O, U, _ = _episode(law, make_controller(kind, law.spec, 1), task, steps=200, reset_at=100, opts=opts)
     np.save(tmp_path / "obs.npy", O), np.save(tmp_path / "act.npy", U)
     code = (f"import sys, json, numpy as np; from controllers.deploy.artefact import load\n"
             f"law = load({str(path)!r}).controller(); law.reset()\n"
@@ -191,25 +209,27 @@ def test_runtime_imports_only_numpy(exported, tmp_path, kind):
             "for k in range(len(O)):\n"
             "    err = max(err, float(np.abs(law.act(O[k]) - U[k]).max()))\n"
             "    if k == 99: law.reset(np.array([True]))\n"
-            f"print(json.dumps({{'err': err, 'heavy': sorted({{m.split('.')[0] for m in sys.modules}} & set({sorted(HEAVY)!r}))}}))")
+            f"print(json.dumps({{'err': err, 'kind': type(law).__name__, 'heavy': sorted({{m.split('.')[0] for m in sys.modules}} & set({sorted(HEAVY)!r}))}}))")
     r = subprocess.run([sys.executable, "-c", code], check=False, env=ENV, capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     res = json.loads(r.stdout)
     assert res["heavy"] == [], res
+    assert res["kind"] == type(law).__name__
     assert res["err"] <= 1e-5, res
 
 
-@pytest.mark.parametrize("kind", KINDS + RL_KINDS)
-def test_cli_export_and_verify(tmp_path, kind):
+@pytest.mark.parametrize("kind, task, art_kind", [("pid", "velocity_vector_roll", "pid"), ("lqr", "velocity_vector_roll", "lqr"),
+                                                  ("lqr", "pull_up_push_over", "lqr_heave_sway"), ("ppo", "velocity_vector_roll", "ppo")])
+def test_cli_export_and_verify(tmp_path, kind, task, art_kind):
     out = tmp_path / f"{kind}.json"
-    r = subprocess.run([sys.executable, SCRIPT, "export", "--controller", kind, "--task", "velocity_vector_roll", "--out", str(out)],
+    r = subprocess.run([sys.executable, SCRIPT, "export", "--controller", kind, "--task", task, "--out", str(out)],
                        check=False, env=ENV, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
-    assert f"kind {kind}" in r.stdout
+    assert f"kind {art_kind}," in r.stdout
     r = subprocess.run([sys.executable, SCRIPT, "verify", "--law", str(out)], check=False, env=ENV, capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     v = json.loads(r.stdout)
-    assert v["ok"] and v["kind"] == kind and v["task"] == "velocity_vector_roll" and v["rate_hz"] == 80.0
+    assert v["ok"] and v["kind"] == art_kind and v["task"] == task and v["rate_hz"] == 80.0
 
 
 @pytest.mark.slow
@@ -237,22 +257,90 @@ def test_hil_flight_with_a_designed_law(tmp_path, kind):
     assert math.isfinite(worst)
 
 
-@pytest.mark.parametrize("task", ["pull_up_push_over", "forced_oscillation", "free_flight_emulation", "departure_recovery"])
+HEAVE_SWAY = [("pull_up_push_over", {}), ("forced_oscillation", {"axis": "heave_pitch"}), ("forced_oscillation", {"axis": "sway_yaw"}),
+              ("free_flight_emulation", {})]
+
+
+@pytest.mark.parametrize("task, opts", [*HEAVE_SWAY, ("departure_recovery", {})])
 @pytest.mark.parametrize("kind", KINDS)
-def test_round_trip_on_every_other_task_the_law_flies(tmp_path, kind, task):
+def test_round_trip_on_every_other_task_the_law_flies(tmp_path, kind, task, opts):
     """The remaining tasks: where the law can be built (else UnsupportedTask, skipped), the file reproduces it."""
     from controllers import UnsupportedTask
 
-    env = RigVectorEnv(1, task=task)
+    env = RigVectorEnv(1, task=task, task_options=opts)
     spec = LoopSpec.from_env(env)
     try:
         law = make_controller(kind, spec, 1)
     except UnsupportedTask as e:
         pytest.skip(f"{kind} cannot fly {task}: {e}")
     A.save(A.from_controller(law, _sensors(env), source="test"), tmp_path / "law.json")
-    run = A.load(tmp_path / "law.json").controller()
-    _, U, worst = _episode(law, run, task, steps=300, reset_at=150)
+    art = A.load(tmp_path / "law.json")
+    assert art.kind == law.artefact_kind and art.spec == law.spec
+    run = art.controller()
+    assert type(run) is type(law)
+    _, U, worst = _episode(law, run, task, steps=300, reset_at=150, opts=opts)
+    print(f"{kind} {task} {opts}: artefact kind {art.kind}, max state difference {worst:.2e}, mean |u| {np.abs(U).mean():.3f}")
     assert worst <= 1e-5 and np.all(np.isfinite(U))
+    assert np.abs(U).max() > 0.01  # the episode exercised the law
+
+
+@pytest.mark.parametrize("task, opts", HEAVE_SWAY)
+@pytest.mark.parametrize("kind", KINDS)
+def test_heave_sway_tables_are_the_design_tools(kind, task, opts):
+    """Independent of the runtime: the stored model rows are rig_env.linearize's at the zero-input trim
+    (axis_point), the static curve is rig_env.trim's (static_table), the reference constants are the task's
+    and the arm's; PID gains are tune_driven's, LQR gains control.lqr's (lqr_point with the chosen weights)."""
+    from controllers.axis_design import axis_point, lqr_point, static_table, tune_driven
+    from rig_env.envs.sensors import RATE_SCALE
+    from rig_env.envs.tasks.base import G0
+    from rig_env.envs.tasks.oscillation import ForcedOscillation
+    from rig_env.params import RigParams
+
+    spec = LoopSpec.from_env(RigVectorEnv(1, task=task, task_options=opts))
+    law = make_controller(kind, spec, 1)
+    t, p = law.tables, RigParams.default()
+    j, fd = t.reference.joint, spec.free_dofs
+    assert (t.reference.arm_length, t.reference.g0, t.reference.t_ramp) == (p.geometry.arm_length, G0, ForcedOscillation.T_RAMP)
+    assert t.reference.rate_scale == RATE_SCALE[j]
+    i = t.airspeeds.size - 1
+    q, sys = axis_point(p, fd, float(t.airspeeds[i]))
+    nq, k = len(fd), fd.index(j)
+    np.testing.assert_allclose(t.A_row[i], np.asarray(sys.A)[nq + k], rtol=1e-12)
+    th, u = static_table(p, fd, j, float(t.airspeeds[i]))
+    n = int(t.static_n[i])
+    np.testing.assert_allclose(t.static_theta[i, :n], th, rtol=1e-12), np.testing.assert_allclose(t.static_u[i, :n], u, rtol=1e-12)
+    if kind == "pid":
+        i_mid = int(np.argmin(np.abs(t.airspeeds - law.v_design)))
+        ref = tune_driven(p, axis_point(p, fd, float(t.airspeeds[i_mid]))[1], j, law.v_design, spec.dt)
+        assert (t.law["kp"], t.law["ki"], t.law["k_angle"]) == pytest.approx((ref.kp, ref.ki, ref.k_angle), rel=1e-12)
+    else:
+        d = lqr_point(q, sys, fd, float(t.airspeeds[i]), law.max_deviation)
+        K = d.K[{"rig_pitch": 1, "rig_yaw": 2}[j]].copy()
+        if task == "free_flight_emulation":  # the model is left free: only the driven joint's gains
+            K[[c for c in range(2 * nq) if c % nq != k]] = 0.0
+        np.testing.assert_allclose(t.law["K"][i], K, rtol=1e-9, atol=1e-12)
+
+
+def test_smooth_ramp_copy_is_the_tasks():
+    """The reference parser's numpy copy of the tasks' ramp (its runtime cannot import rig_env) is the same function."""
+    from controllers.references import smooth_ramp
+    from rig_env.envs.tasks.base import smooth_ramp as task_ramp
+
+    x = np.linspace(-0.5, 1.5, 201)
+    np.testing.assert_array_equal(smooth_ramp(x), task_ramp(x))
+
+
+def test_heave_sway_wrong_shape_refused(tmp_path):
+    spec = LoopSpec.from_env(RigVectorEnv(1, task="pull_up_push_over"))
+    path = tmp_path / "hs.json"
+    A.save(A.from_controller(make_controller("lqr", spec, 1), _sensors(RigVectorEnv(1, task="pull_up_push_over")), source="test"), path)
+    doc = json.loads(path.read_text())
+    shp = doc["arrays"]["K"]["shape"]
+    doc["arrays"]["K"] = A._encode_array("K", np.zeros([shp[0], shp[1] - 1]))
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(_rechecksum(doc)))
+    with pytest.raises(A.ArtefactError, match=r"kind 'lqr_heave_sway' refused its data: lqr_heave_sway: K: expected shape"):
+        A.load(bad)
 
 
 # ---------------------------------------------------------------------- the learned laws (ppo, sac)

@@ -1,17 +1,21 @@
-"""Artefact kinds ``"pid"`` and ``"lqr"``: the designed tables of the model-based laws as plain data.
+"""Artefact kinds ``"pid"``, ``"lqr"``, ``"pid_heave_sway"``, ``"lqr_heave_sway"``: the designed tables of the model-based laws as plain data.
 
-Both laws keep their design apart from their runtime (:class:`controllers.pid.PIDTables`,
-:class:`controllers.lqr.LQRTables`), so the artefact stores the tables and loading builds the very
+The laws keep their design apart from their runtime (:class:`controllers.pid.PIDTables`,
+:class:`controllers.lqr.LQRTables`, :class:`controllers.heave_sway.HeaveSwayTables`), so the artefact stores the tables and loading builds the very
 class that flies in simulation, from numpy alone (no python-control, scipy, numba or rig_env):
 
 | kind | arrays | params |
 |---|---|---|
 | pid | ``kp``, ``ki``, ``k_angle``, ``rate_demand_max`` (n_axes,); ``phi_grid``, ``trim_roll`` (37,); ``sig_*`` | ``axes``, ``v_design``, ``rate_limit``, ``feedforward``, ``b_roll``, ``damp_roll``, ``sig_*``, ``design`` |
 | lqr | ``airspeeds``, ``phis``; ``K``, ``u_trim``, ``q_op``, ``A_q``, ``A_w``, ``B`` over (V, phi); ``kalman_gain``; ``sig_*`` | ``phi_step``, ``link_delay_steps``, ``estimator``, ``sig_*``, ``design`` |
+| pid_heave_sway | model over V: ``airspeeds``, ``cw``, ``b``, ``A_row``, ``q_op``, ``S``, ``static_theta``, ``static_u``, ``static_n``; ``sig_*`` | ``kp``, ``ki``, ``k_angle``, ``v_design``, ``rate_limit``, ``feedforward``, ``decouple``, ``ref_*``, ``sig_*``, ``design`` |
+| lqr_heave_sway | the same model; ``K`` (V, 2 nq + 1), ``A_q``, ``A_w``, ``B`` over V; ``kalman_gain``; ``sig_*`` | ``link_delay_steps``, ``ref_*``, ``sig_*``, ``design`` |
 
 ``design`` is the law's provenance: tuning targets and achieved margins (pid), weights, grid, noise
-model and loop margins (lqr), the airspeed range and the sensor layout assumed.  Importing this module
-also registers the learned laws' kinds "ppo" and "sac" (:mod:`controllers.deploy.policy_kinds`).
+model and loop margins (lqr), the airspeed range and the sensor layout assumed.  ``ref_*``: the
+heave/sway reference parser's numbers (:class:`controllers.references.ReferenceConstants`: driven
+joint, sensor scales, g, the oscillation ramp time, arm length).  Importing this module also
+registers the learned laws' kinds "ppo" and "sac" (:mod:`controllers.deploy.policy_kinds`).
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from typing import Any
 
 from controllers.base import Controller, LoopSpec
 from controllers.deploy.artefact import register_kind
+from controllers.heave_sway import HeaveSwayLQR, HeaveSwayPID
 from controllers.lqr import LQRLaw
 from controllers.pid import PIDLaw
 
@@ -28,7 +33,7 @@ from controllers.pid import PIDLaw
 def _exporter(cls: type[Controller]) -> Any:
     def to_arrays(law: Controller) -> dict[str, Any]:
         if not isinstance(law, cls):
-            raise TypeError(f"kind {cls.kind!r} exports a {cls.__name__}; got {type(law).__name__}")
+            raise TypeError(f"kind {cls.artefact_kind!r} exports a {cls.__name__}; got {type(law).__name__}")
         return law.to_data()
 
     return to_arrays
@@ -44,5 +49,7 @@ def _lqr(data: Mapping[str, Any], spec: LoopSpec) -> LQRLaw:
 
 register_kind("pid", _exporter(PIDLaw), _pid)
 register_kind("lqr", _exporter(LQRLaw), _lqr)
+register_kind("pid_heave_sway", _exporter(HeaveSwayPID), HeaveSwayPID.from_data)
+register_kind("lqr_heave_sway", _exporter(HeaveSwayLQR), HeaveSwayLQR.from_data)
 
 from controllers.deploy import policy_kinds  # noqa: E402, F401  (registers "ppo" and "sac": the learned laws)
