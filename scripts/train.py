@@ -72,7 +72,7 @@ _B2B = dict(env_overrides={}, shaping={"roll_error": 1.0}, error_reset=None, hol
 # reset only ends tracking tasks once the error passes 10 deg (entry normalised by 10 deg).
 _PUPO = dict(env_overrides={}, shaping={"heave_error": 1.0, "heave_rate_error": 0.5}, error_reset=("heave_error", 1.0), hold_rate=0.0)
 _OSC = dict(env_overrides={}, shaping={"osc_error": 1.0, "osc_rate_error": 0.5}, error_reset=("osc_error", 1.0), hold_rate=0.0)
-_FFE = dict(env_overrides={}, shaping={"alpha_error": 1.0, "q_error": 0.5}, error_reset=None, hold_rate=0.0)
+_FFE = dict(env_overrides={}, shaping={}, error_reset=None, hold_rate=0.0)
 _DEP = dict(env_overrides={}, shaping={"level_error": 1.0, "alpha_excess": 1.0}, error_reset=None, hold_rate=0.0)
 _PPO_RUN = dict(num_envs=64, timesteps=3_000_000, eval_every=200_000, normalize=True, clip_obs=10.0, algo_kwargs=_PPO)
 _SAC_RUN = dict(num_envs=8, timesteps=600_000, eval_every=40_000, normalize=True, clip_obs=10.0, algo_kwargs=_SAC)
