@@ -133,9 +133,26 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parse_args(argv)
-    os.environ["NUMBA_NUM_THREADS"] = str(args.threads)  # must precede the first numba import
-    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):  # numpy's BLAS, before numpy loads
-        os.environ.setdefault(var, str(args.threads))
+    if "numba" not in sys.modules:  # a fresh process: size the thread pools before they start
+        os.environ["NUMBA_NUM_THREADS"] = str(args.threads)
+        for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):  # numpy's BLAS, before numpy loads
+            os.environ.setdefault(var, str(args.threads))
+    # called in-process (tests, notebooks): never change the environment numba reads its config from
+    # (a later compile would find NUMBA_NUM_THREADS changed and refuse); set the running pools and restore them
+    import numba
+    import torch
+
+    saved = (numba.get_num_threads(), torch.get_num_threads())
+    numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
+    torch.set_num_threads(args.threads)
+    try:
+        return _train(args, argv)
+    finally:
+        numba.set_num_threads(saved[0])
+        torch.set_num_threads(saved[1])
+
+
+def _train(args: argparse.Namespace, argv: list[str]) -> int:
     sys.path.insert(0, str(ROOT))
     from rig_env.envs.tasks import TASKS
 
@@ -158,7 +175,6 @@ def main(argv: list[str] | None = None) -> int:
         plot_curve,
     )
 
-    torch.set_num_threads(args.threads)
     hp = hyperparams(args.algo, args.task)
     timesteps = args.timesteps or hp["timesteps"]
     num_envs = args.num_envs or hp["num_envs"]

@@ -62,7 +62,7 @@ from controllers.deploy.artefact import Artefact
 from controllers.deploy.framelog import FrameLog
 from rig_env.envs.observation import labels, observe, task_for_seed
 from rig_env.envs.sensors import UNLIMITED, Sensors
-from rig_env.params import JOINTS
+from rig_env.params import JOINTS, RigParams, param_batch
 
 DISARMED, ACTIVE, FAULT = 0, 1, 2
 STATES = ("DISARMED", "ACTIVE", "FAULT")
@@ -159,7 +159,9 @@ class RigLoop:
         self.law = artefact.controller()
         self.sensors = Sensors(1, spec.free_dofs, spec.dt, rate_filter_hz=float(artefact.sensors["rate_filter_hz"]), delay_steps=0, quantise=False)
         ep = self._ep = cfg.episode_seconds or 600.0
-        self.task = task_for_seed(spec.task, spec.free_dofs, spec.dt, ep, cfg.seed, airspeed=float(np.mean(spec.airspeed_range)), options=dict(spec.task_options))
+        self._params_row = param_batch(RigParams.default(), 1)  # loaded once: arming must not wait 13 ms for it
+        self.task = task_for_seed(spec.task, spec.free_dofs, spec.dt, ep, cfg.seed, airspeed=float(np.mean(spec.airspeed_range)),
+                                  options=dict(spec.task_options), params_row=self._params_row)
         built = labels(self.sensors, self.task)
         if built != spec.obs_labels:
             raise ValueError(f"observation layout: the law expects {list(spec.obs_labels)}, this loop builds {list(built)}")
@@ -374,7 +376,8 @@ class RigLoop:
                 self.state, self.fault, self.t_origin = ACTIVE, 0, self.rig_time
                 self.law.reset()
                 # the task's reference restarts at arming, for the measured airspeed (as an env reset draws it)
-                self.task = task_for_seed(self.spec.task, self.spec.free_dofs, self.spec.dt, self._ep, self.cfg.seed, airspeed=self.airspeed, options=dict(self.spec.task_options))
+                self.task = task_for_seed(self.spec.task, self.spec.free_dofs, self.spec.dt, self._ep, self.cfg.seed, airspeed=self.airspeed, options=dict(self.spec.task_options),
+                                         params_row=self._params_row)
                 self.events.append({"tick": k, "t": wake - self.t0, "event": "arm", "seq": self.seq})
             else:
                 self.counts["arm_refused"] += 1

@@ -44,18 +44,21 @@ def task_for_seed(
     airspeed: float = 20.0,
     arm_length: float | None = None,
     options: dict | None = None,
+    params_row: np.ndarray | None = None,
 ) -> Task:
     """A batch-of-one task whose reference is the one ``RigVectorEnv.reset(seed=seed)`` draws (episode 0).
 
     name: key of ``TASKS``; free_dofs: JOINTS order; dt: control step, s; airspeed: the episode's
     tunnel speed, m/s (on the rig: the measured one at arming); arm_length: m (None: the default
-    rig's); options: the task's ``task_options``.  Returns the task after ``conditions`` and ``reset``
+    rig's); options: the task's ``task_options``; params_row: (1, N_PARAMS) kernel parameters (None: the
+    default rig's, about 13 ms to load and validate: a real-time caller passes a row built once).
+    Returns the task after ``conditions`` and ``reset``
     (the initial state ``reset`` also returns belongs to the rig, not to the loop, and is dropped).
     """
     if name not in TASKS:
         raise ValueError(f"task = {name!r}: unknown; valid names: {sorted(TASKS)}")
     task = TASKS[name](1, tuple(free_dofs), float(dt), float(episode_seconds), **(options or {}))
-    P = param_batch(RigParams.default(), 1)
+    P = param_batch(RigParams.default(), 1) if params_row is None else np.array(params_row, dtype=np.float64).reshape(1, -1)
     if arm_length is not None:
         P[:, L.P_GEOMETRY_ARM_LENGTH] = float(arm_length)
     idx = np.zeros(1, dtype=np.int64)
