@@ -20,14 +20,13 @@ of elevator.  So these designs trim there:
 from __future__ import annotations
 
 import math
-import warnings
 
 import control
 import numpy as np
 
 from controllers.lqr import MAX_DEVIATION, MAX_INPUT, V_REF, Design, augmented, loop_margins
 from controllers.model import AXIS_OF, INPUTS, loop_elements
-from controllers.tuning import AxisTuning, margins
+from controllers.tuning import AxisTuning, margins, rate_tf, shape_loops
 from rig_env import linearize, trim
 from rig_env.params import JOINTS, RigParams
 
@@ -57,11 +56,7 @@ def axis_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: float, s
 
 def rate_plant(sys: control.StateSpace, joint: str) -> control.TransferFunction:
     """Joint rate (rad/s) per normalised virtual input of its axis, from the model of :func:`axis_point`."""
-    k_in, k_out = AXIS_OF[joint], sys.output_labels.index(f"{joint}_rate")
-    tf = control.minreal(control.ss2tf(control.ss(sys.A, sys.B[:, [k_in]], sys.C[[k_out], :], 0.0)), tol=1e-6, verbose=False)
-    num, den = (np.asarray(c[0][0], dtype=float) for c in (tf.num, tf.den))
-    num = np.where(np.abs(num) < 1e-9 * np.abs(num).max(), 0.0, num)
-    return control.tf(num, den)
+    return rate_tf(sys, joint)
 
 
 def tune_driven(params: RigParams, sys: control.StateSpace, joint: str, airspeed: float, dt: float, *,
@@ -71,34 +66,8 @@ def tune_driven(params: RigParams, sys: control.StateSpace, joint: str, airspeed
     if joint not in DRIVEN:
         raise ValueError(f"joint = {joint!r}: driven joints are {list(DRIVEN)}")
     el = loop_elements(params, dt, link_delay_steps, rate_filter_hz)
-    s = control.tf("s")
-    P = rate_plant(sys, joint)
-    b = float(np.real(control.evalfr(P * s, 1j * 1e4)))
-    sign = 1.0 if b > 0 else -1.0
-    G = el["servo"] * el["delay"] * (sign * P)
-    best = None
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        for wc in np.geomspace(0.5, 60.0, 80):
-            C0 = 1 + (wc / 4) / s
-            kp = 1.0 / abs(control.evalfr(C0 * G * el["rate_sensor"], 1j * wc))
-            gm, pm, wx = margins(kp * C0 * G * el["rate_sensor"])
-            if pm >= pm_inner and gm >= gm_inner and np.isfinite(wx):
-                best = (wc, kp, gm, pm, wx)
-        if best is None:
-            raise ValueError(f"{joint}: no rate-loop crossover in 0.5-60 rad/s meets PM {pm_inner} deg, GM {gm_inner} dB")
-        wc, kp, gm_i, pm_i, wx_i = best
-        T_r = control.feedback(kp * (1 + (wc / 4) / s) * G, el["rate_sensor"])
-        outer = None
-        for k in np.geomspace(0.1, 50.0, 120):
-            gm, pm, wx = margins(k * T_r / s)
-            if pm >= pm_outer and gm >= gm_outer:
-                outer = (k, gm, pm, wx)
-    if outer is None:
-        raise ValueError(f"{joint}: no angle-loop gain meets PM {pm_outer} deg, GM {gm_outer} dB")
-    k, gm_o, pm_o, wx_o = outer
-    return AxisTuning(joint, float(airspeed), sign * float(kp), sign * float(kp * wc / 4), float(k), float(wx_i), pm_i, gm_i,
-                      float(wx_o), pm_o, gm_o, b)
+    return shape_loops(rate_plant(sys, joint), el, joint, airspeed,
+                       pm_inner=pm_inner, gm_inner=gm_inner, pm_outer=pm_outer, gm_outer=gm_outer)
 
 
 def lqr_point(q_op: np.ndarray, sys: control.StateSpace, free_dofs: tuple[str, ...], airspeed: float,

@@ -85,11 +85,8 @@ def margins(L: control.TransferFunction | control.StateSpace) -> tuple[float, fl
     return gm_db, pm_min, wc
 
 
-def rate_plant(params: RigParams, free_dofs: tuple[str, ...], joint: str, airspeed: float,
-               scale_deg: float = 40.0) -> control.TransferFunction:
-    """Joint rate (rad/s) per normalised virtual input of the joint's axis, at phi = 0."""
-    dp = design_model(params, free_dofs, airspeed, 0.0, scale_deg)
-    sys = dp.sys
+def rate_tf(sys: control.StateSpace, joint: str) -> control.TransferFunction:
+    """Joint rate (rad/s) per normalised virtual input of the joint's axis, from a linear rig model."""
     k_in = AXIS_OF[joint]
     k_out = sys.output_labels.index(f"{joint}_rate")
     siso = control.ss(sys.A, sys.B[:, [k_in]], sys.C[[k_out], :], 0.0)
@@ -99,6 +96,12 @@ def rate_plant(params: RigParams, free_dofs: tuple[str, ...], joint: str, airspe
     return control.tf(num, den)
 
 
+def rate_plant(params: RigParams, free_dofs: tuple[str, ...], joint: str, airspeed: float,
+               scale_deg: float = 40.0) -> control.TransferFunction:
+    """Joint rate (rad/s) per normalised virtual input of the joint's axis, at phi = 0."""
+    return rate_tf(design_model(params, free_dofs, airspeed, 0.0, scale_deg).sys, joint)
+
+
 def tune_axis(params: RigParams, free_dofs: tuple[str, ...], joint: str, airspeed: float, dt: float, *,
               link_delay_steps: int = 1, rate_filter_hz: float = 10.0, pm_inner: float = 50.0,
               gm_inner: float = 8.0, pm_outer: float = 60.0, gm_outer: float = 10.0) -> AxisTuning:
@@ -106,31 +109,39 @@ def tune_axis(params: RigParams, free_dofs: tuple[str, ...], joint: str, airspee
     if joint not in AXIS_OF:
         raise ValueError(f"joint = {joint!r}: tunable joints are {list(AXIS_OF)}")
     el = loop_elements(params, dt, link_delay_steps, rate_filter_hz)
+    return shape_loops(rate_plant(params, free_dofs, joint, airspeed), el, joint, airspeed,
+                       pm_inner=pm_inner, gm_inner=gm_inner, pm_outer=pm_outer, gm_outer=gm_outer)
+
+
+def shape_loops(P: control.TransferFunction, el: dict, joint: str, airspeed: float, *, pm_inner: float, gm_inner: float,
+                pm_outer: float, gm_outer: float) -> AxisTuning:
+    """Loop shaping of the cascade on the rate plant P with the loop elements el (servo, delay, rate sensor).
+
+    Inner PI rate loop: the largest crossover in 0.5-60 rad/s (integral corner at a quarter of it) that
+    meets (pm_inner, gm_inner); outer P angle loop: the largest gain that meets (pm_outer, gm_outer).
+    """
     s = control.tf("s")
-    P = rate_plant(params, free_dofs, joint, airspeed)
     b = float(np.real(control.evalfr(P * s, 1j * 1e4)))  # high-frequency gain: rad/s^2 per unit command
     sign = 1.0 if b > 0 else -1.0  # rig_yaw accelerates negatively for positive sway
     G = el["servo"] * el["delay"] * (sign * P)
     best = None
-    for wc in np.geomspace(0.5, 60.0, 80):
-        C0 = 1 + (wc / 4) / s
-        mag = abs(control.evalfr(C0 * G * el["rate_sensor"], 1j * wc))
-        kp = 1.0 / mag
-        L = kp * C0 * G * el["rate_sensor"]
-        gm, pm, wx = margins(L)
-        if pm >= pm_inner and gm >= gm_inner and np.isfinite(wx):
-            best = (wc, kp, gm, pm, wx)  # keeps the largest feasible crossover
-    if best is None:
-        raise ValueError(f"{joint}: no rate-loop crossover in 0.5-60 rad/s meets PM {pm_inner} deg, GM {gm_inner} dB")
-    wc, kp, gm_i, pm_i, wx_i = best
-    C = kp * (1 + (wc / 4) / s)
-    T_r = control.feedback(C * G, el["rate_sensor"])
-    outer = None
-    for k in np.geomspace(0.1, 50.0, 120):
-        La = k * T_r / s
-        gm, pm, wx = margins(La)
-        if pm >= pm_outer and gm >= gm_outer:
-            outer = (k, gm, pm, wx)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for wc in np.geomspace(0.5, 60.0, 80):
+            C0 = 1 + (wc / 4) / s
+            kp = 1.0 / abs(control.evalfr(C0 * G * el["rate_sensor"], 1j * wc))
+            gm, pm, wx = margins(kp * C0 * G * el["rate_sensor"])
+            if pm >= pm_inner and gm >= gm_inner and np.isfinite(wx):
+                best = (wc, kp, gm, pm, wx)  # keeps the largest feasible crossover
+        if best is None:
+            raise ValueError(f"{joint}: no rate-loop crossover in 0.5-60 rad/s meets PM {pm_inner} deg, GM {gm_inner} dB")
+        wc, kp, gm_i, pm_i, wx_i = best
+        T_r = control.feedback(kp * (1 + (wc / 4) / s) * G, el["rate_sensor"])
+        outer = None
+        for k in np.geomspace(0.1, 50.0, 120):
+            gm, pm, wx = margins(k * T_r / s)
+            if pm >= pm_outer and gm >= gm_outer:
+                outer = (k, gm, pm, wx)
     if outer is None:
         raise ValueError(f"{joint}: no angle-loop gain meets PM {pm_outer} deg, GM {gm_outer} dB")
     k, gm_o, pm_o, wx_o = outer
