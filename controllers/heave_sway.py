@@ -61,7 +61,7 @@ from controllers.base import Controller, LoopSpec, register
 from controllers.estimator import DelayedKalman
 from controllers.pid_element import PID
 from controllers.references import DrivenReference, ReferenceConstants
-from controllers.signals import SignalScales
+from controllers.signals import SignalScales, table_array
 
 if TYPE_CHECKING:  # the design's types only; the runtime never imports rig_env
     from rig_env.params import RigParams
@@ -131,11 +131,11 @@ class HeaveSwayTables:
             raise ValueError(f"{name}: missing entries {missing}")
         ref = ReferenceConstants.from_data(d, spec)
         nq = len(spec.free_dofs)
-        V = _arr(name, d, "airspeeds", None)
+        V = table_array(d, "airspeeds", owner=name, shape=None)
         if V.ndim != 1 or V.size < 1 or V[0] <= 1.0 or np.any(np.diff(V) <= 0):
             raise ValueError(f"{name}: airspeeds must be increasing and > 1 m/s, got {V.tolist() if V.ndim == 1 else V.shape}")
         nv = V.size
-        th = _arr(name, d, "static_theta", None)
+        th = table_array(d, "static_theta", owner=name, shape=None)
         if th.ndim != 2 or th.shape[0] != nv:
             raise ValueError(f"{name}: static_theta: expected shape ({nv}, m), got {th.shape}")
         cnt = np.asarray(d["static_n"])
@@ -143,9 +143,9 @@ class HeaveSwayTables:
             raise ValueError(f"{name}: static_n must be ({nv},) integers in [2, {th.shape[1]}]")
         if any(np.any(np.diff(th[i, :c]) <= 0) for i, c in enumerate(cnt)):
             raise ValueError(f"{name}: static_theta must increase over its first static_n points")
-        m = {"airspeeds": V, "cw": _arr(name, d, "cw", (nv,)), "b": _arr(name, d, "b", (nv,)), "A_row": _arr(name, d, "A_row", (nv, 2 * nq)),
-             "q_op": _arr(name, d, "q_op", (nv, nq)), "S": _arr(name, d, "S", (nv, nq - 1)), "static_theta": th,
-             "static_u": _arr(name, d, "static_u", th.shape), "static_n": cnt.astype(np.int64)}
+        m = {"airspeeds": V, "cw": table_array(d, "cw", owner=name, shape=(nv,)), "b": table_array(d, "b", owner=name, shape=(nv,)), "A_row": table_array(d, "A_row", owner=name, shape=(nv, 2 * nq)),
+             "q_op": table_array(d, "q_op", owner=name, shape=(nv, nq)), "S": table_array(d, "S", owner=name, shape=(nv, nq - 1)), "static_theta": th,
+             "static_u": table_array(d, "static_u", owner=name, shape=th.shape), "static_n": cnt.astype(np.int64)}
         if np.any(m["b"] == 0):
             raise ValueError(f"{name}: b (control power) must not be 0")
         if kind == "pid":
@@ -164,20 +164,11 @@ class HeaveSwayTables:
             lds = d["link_delay_steps"]
             if isinstance(lds, bool) or not isinstance(lds, int) or not 0 <= lds <= 100:
                 raise ValueError(f"{name}: link_delay_steps = {lds!r}: an integer in [0, 100]")
-            law = {"K": _arr(name, d, "K", (nv, 2 * nq + 1)), "A_q": _arr(name, d, "A_q", (nv, nq, nq)), "A_w": _arr(name, d, "A_w", (nv, nq, nq)),
-                   "B": _arr(name, d, "B", (nv, nq, 3)), "kalman_gain": _arr(name, d, "kalman_gain", (nq, 2)), "link_delay_steps": lds}
+            law = {"K": table_array(d, "K", owner=name, shape=(nv, 2 * nq + 1)), "A_q": table_array(d, "A_q", owner=name, shape=(nv, nq, nq)), "A_w": table_array(d, "A_w", owner=name, shape=(nv, nq, nq)),
+                   "B": table_array(d, "B", owner=name, shape=(nv, nq, 3)), "kalman_gain": table_array(d, "kalman_gain", owner=name, shape=(nq, 2)), "link_delay_steps": lds}
         if type(d["design"]) is not dict:
             raise ValueError(f"{name}: design must be an object")
         return cls(kind, **m, reference=ref, scales=SignalScales.from_data(d, spec), law=law, design=dict(d["design"]))
-
-
-def _arr(name: str, d: Mapping[str, Any], k: str, shape: tuple[int, ...] | None) -> np.ndarray:
-    a = np.asarray(d[k], dtype=np.float64)
-    if shape is not None and a.shape != shape:
-        raise ValueError(f"{name}: {k}: expected shape {shape}, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name}: {k}: non-finite value(s)")
-    return a
 
 
 class _AxisModel:

@@ -40,7 +40,7 @@ import numpy as np
 from controllers.axes import AXIS_OF, axes_of, resolve, unresolve
 from controllers.base import Controller, LoopSpec, register
 from controllers.estimator import DelayedKalman
-from controllers.signals import Signals, SignalScales, require_roll
+from controllers.signals import Signals, SignalScales, require_roll, table_array
 
 if TYPE_CHECKING:  # the design's types only; the runtime never imports rig_env
     from rig_env.params import RigParams
@@ -98,8 +98,8 @@ class LQRTables:
         missing = [k for k in ("airspeeds", "phis", "phi_step", "kalman_gain", "link_delay_steps", "estimator", "design", *_TABLES) if k not in d]
         if missing:
             raise ValueError(f"lqr: missing entries {missing}")
-        v = _arr(d, "airspeeds", None)
-        ph = _arr(d, "phis", None)
+        v = table_array(d, "airspeeds", owner="lqr", shape=None)
+        ph = table_array(d, "phis", owner="lqr", shape=None)
         if v.ndim != 1 or v.size < 1 or v[0] <= 1.0 or np.any(np.diff(v) <= 0):
             raise ValueError(f"lqr: airspeeds must be increasing and > 1 m/s, got {v.tolist() if v.ndim == 1 else v.shape}")
         step = d["phi_step"]
@@ -115,18 +115,9 @@ class LQRTables:
         nv, nphi, nq, ni = v.size, ph.size, len(spec.free_dofs), len(axes_of(spec.free_dofs))
         want = {"K": (nv, nphi, 3, 2 * nq + ni), "u_trim": (nv, nphi, 3), "q_op": (nv, nphi, nq), "A_q": (nv, nphi, nq, nq),
                 "A_w": (nv, nphi, nq, nq), "B": (nv, nphi, nq, 3)}
-        t = {k: _arr(d, k, shape) for k, shape in want.items()}
-        return cls(v, ph, float(step), **t, kalman_gain=_arr(d, "kalman_gain", (nq, 2)), link_delay_steps=lds,
+        t = {k: table_array(d, k, shape, "lqr") for k, shape in want.items()}
+        return cls(v, ph, float(step), **t, kalman_gain=table_array(d, "kalman_gain", owner="lqr", shape=(nq, 2)), link_delay_steps=lds,
                    estimator=d["estimator"], scales=SignalScales.from_data(d, spec), design=dict(d["design"]))
-
-
-def _arr(d: Mapping[str, Any], k: str, shape: tuple[int, ...] | None) -> np.ndarray:
-    a = np.asarray(d[k], dtype=np.float64)
-    if shape is not None and a.shape != shape:
-        raise ValueError(f"lqr: {k}: expected shape {shape}, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"lqr: {k}: non-finite value(s)")
-    return a
 
 
 @register("lqr")

@@ -38,7 +38,7 @@ import numpy as np
 from controllers.axes import AXIS_OF, axes_of, resolve, unresolve
 from controllers.base import Controller, LoopSpec, register
 from controllers.pid_element import PID
-from controllers.signals import Signals, SignalScales, require_roll
+from controllers.signals import Signals, SignalScales, require_roll, table_array
 
 if TYPE_CHECKING:  # the design's types only; the runtime never imports rig_env
     from rig_env.params import RigParams
@@ -96,7 +96,7 @@ class PIDTables:
         if list(axes) != axes_of(spec.free_dofs):
             raise ValueError(f"pid: axes = {d['axes']!r}; the spec's free joints need {axes_of(spec.free_dofs)}")
         n = len(axes)
-        grid = _vec(d, "phi_grid", None)
+        grid = table_array(d, "phi_grid", (None,), "pid")
         if grid.size < 2 or np.any(np.diff(grid) <= 0):
             raise ValueError("pid: phi_grid must increase, with at least 2 points")
         for k in ("v_design", "rate_limit", "b_roll", "damp_roll"):
@@ -105,21 +105,12 @@ class PIDTables:
                 raise ValueError(f"pid: {k} = {v!r}: must be a finite number{' > 0' if k != 'b_roll' else ', not 0'}")
         if not isinstance(d["feedforward"], bool) or not isinstance(d["design"], dict):
             raise ValueError("pid: feedforward must be a bool and design an object")
-        rdm = _vec(d, "rate_demand_max", n)
+        rdm = table_array(d, "rate_demand_max", (n,), "pid")
         if np.any(rdm <= 0):
             raise ValueError(f"pid: rate_demand_max = {rdm.tolist()}: each must be > 0 rad/s")
-        return cls(axes, _vec(d, "kp", n), _vec(d, "ki", n), _vec(d, "k_angle", n), rdm, float(d["v_design"]), float(d["rate_limit"]),
-                   d["feedforward"], grid, _vec(d, "trim_roll", grid.size), float(d["b_roll"]), float(d["damp_roll"]),
+        return cls(axes, table_array(d, "kp", (n,), "pid"), table_array(d, "ki", (n,), "pid"), table_array(d, "k_angle", (n,), "pid"), rdm, float(d["v_design"]), float(d["rate_limit"]),
+                   d["feedforward"], grid, table_array(d, "trim_roll", (grid.size,), "pid"), float(d["b_roll"]), float(d["damp_roll"]),
                    SignalScales.from_data(d, spec), dict(d["design"]))
-
-
-def _vec(d: Mapping[str, Any], k: str, n: int | None) -> np.ndarray:
-    a = np.asarray(d[k], dtype=np.float64)
-    if a.ndim != 1 or (n is not None and a.shape != (n,)):
-        raise ValueError(f"pid: {k}: expected shape {(n,) if n is not None else '(m,)'}, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"pid: {k}: non-finite value(s)")
-    return a
 
 
 @register("pid")

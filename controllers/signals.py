@@ -94,9 +94,9 @@ class SignalScales:
             if not isinstance(v, (list, tuple)) or not all(isinstance(x, str) for x in v):
                 raise ValueError(f"{k}: must be a list of names")
         k = len(names["sig_ref_labels"])
-        sc = cls(_scalar(d, "sig_angle_scale"), _array(d, "sig_rate_scale", (len(spec.free_dofs),)), _scalar(d, "sig_airspeed_scale"),
-                 _scalar(d, "sig_flap_scale"), _array(d, "sig_unmix", (3, 4)), tuple(names["sig_unlimited"]),
-                 tuple(names["sig_ref_labels"]), _array(d, "sig_ref_scales", (k,)))
+        sc = cls(_scalar(d, "sig_angle_scale"), table_array(d, "sig_rate_scale", (len(spec.free_dofs),)), _scalar(d, "sig_airspeed_scale"),
+                 _scalar(d, "sig_flap_scale"), table_array(d, "sig_unmix", (3, 4)), tuple(names["sig_unlimited"]),
+                 tuple(names["sig_ref_labels"]), table_array(d, "sig_ref_scales", (k,)))
         unknown = [x for x in sc.ref_labels if x not in spec.obs_labels]
         if unknown or any(j not in spec.free_dofs for j in sc.unlimited):
             raise ValueError(f"signal scales: entries {unknown or list(sc.unlimited)} do not match the spec's observation / free joints")
@@ -110,12 +110,15 @@ def _scalar(d: Mapping[str, Any], k: str) -> float:
     return float(v)
 
 
-def _array(d: Mapping[str, Any], k: str, shape: tuple[int, ...]) -> np.ndarray:
+def table_array(d: Mapping[str, Any], k: str, shape: tuple[int | None, ...] | None = None, owner: str = "") -> np.ndarray:
+    """Entry ``k`` of a law's plain-data tables as a finite float64 array of ``shape`` (None: any shape; a
+    None entry: any length along that axis); ValueError naming ``owner: k`` otherwise."""
+    where = f"{owner}: {k}" if owner else k
     a = np.asarray(d[k], dtype=np.float64)
-    if a.shape != shape:
-        raise ValueError(f"{k}: expected shape {shape}, got {a.shape}")
+    if shape is not None and (a.ndim != len(shape) or any(n is not None and m != n for m, n in zip(a.shape, shape))):
+        raise ValueError(f"{where}: expected shape {tuple('m' if n is None else n for n in shape)}, got {a.shape}")
     if not np.all(np.isfinite(a)):
-        raise ValueError(f"{k}: non-finite value(s)")
+        raise ValueError(f"{where}: non-finite value(s)")
     return a
 
 
