@@ -54,6 +54,14 @@ def hat(v: np.ndarray) -> np.ndarray:
 HAT_X, HAT_Y, HAT_Z = hat(E_X), hat(E_Y), hat(E_Z)
 
 
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b over the last axis, broadcast ((..., 3) arrays; np.cross without its axis bookkeeping,
+    which costs several times the arithmetic on 3-vectors)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def rot_x(a: float) -> np.ndarray:
     c, s = math.cos(a), math.sin(a)
     return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
@@ -102,29 +110,25 @@ def kinematics(q: np.ndarray, qd: np.ndarray, p: np.ndarray) -> dict:
     return dict(As=As, dAs=dAs, Aa=Aa, dAa=dAa, axes=axes, daxes=daxes, centres=centres, dcentres=dcentres)
 
 
-def point_jacobian(kin: dict, r: np.ndarray, dr: np.ndarray, joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(J_v, dJ_v) (3, 5) of a point at r (m, world, from the pivot) with velocity dr, moved by ``joints``."""
+def point_jacobian(kin: dict, r: np.ndarray, dr: np.ndarray, moved: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(J_v, dJ_v) (3, 5) of a point at r (m, world, from the pivot) with velocity dr (m/s).
+
+    moved (5,): 1.0 for the joints that move the point, 0.0 for the others.
+    """
     lever = r - kin["centres"]
     dlever = dr - kin["dcentres"]
-    Jv = np.cross(kin["axes"], lever).T
-    dJv = (np.cross(kin["daxes"], lever) + np.cross(kin["axes"], dlever)).T
-    off = np.setdiff1d(np.arange(5), joints)
-    Jv[:, off] = 0.0
-    dJv[:, off] = 0.0
+    Jv = cross(kin["axes"], lever).T * moved
+    dJv = (cross(kin["daxes"], lever) + cross(kin["axes"], dlever)).T * moved
     return Jv, dJv
 
 
-def rotation_jacobian(kin: dict, joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(J_w, dJ_w) (3, 5) of a body turned by ``joints``."""
-    Jw = np.zeros((3, 5))
-    dJw = np.zeros((3, 5))
-    Jw[:, joints] = kin["axes"][joints].T
-    dJw[:, joints] = kin["daxes"][joints].T
-    return Jw, dJw
+def rotation_jacobian(kin: dict, moved: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(J_w, dJ_w) (3, 5) of a body turned by the joints flagged in moved (5,)."""
+    return kin["axes"].T * moved, kin["daxes"].T * moved
 
 
-RIG_JOINTS = np.array([0, 1, 2])
-ALL_JOINTS = np.arange(5)
+RIG_JOINTS = np.array([1.0, 1.0, 1.0, 0.0, 0.0])  # arm and compensator: moved by the rig joints only
+ALL_JOINTS = np.ones(5)  # the Hawk: by all five
 
 
 def bodies(q: np.ndarray, qd: np.ndarray, p: np.ndarray) -> tuple[dict, list[dict]]:
@@ -162,8 +166,14 @@ def mass_matrix_and_bias(bs: list[dict], qd: np.ndarray) -> tuple[np.ndarray, np
     for b in bs:
         w = b["Jw"] @ qd
         M += b["m"] * b["Jv"].T @ b["Jv"] + b["Jw"].T @ b["I"] @ b["Jw"]
-        h += b["m"] * b["Jv"].T @ (b["dJv"] @ qd) + b["Jw"].T @ (b["I"] @ (b["dJw"] @ qd) + np.cross(w, b["I"] @ w))
+        h += b["m"] * b["Jv"].T @ (b["dJv"] @ qd) + b["Jw"].T @ (b["I"] @ (b["dJw"] @ qd) + cross(w, b["I"] @ w))
     return M, h
+
+
+def gravity_force(bs: list[dict], p: np.ndarray) -> np.ndarray:
+    """Generalised gravity force (5,) N m: every body's weight m g (world +z, down) at its c.g."""
+    g = p[L.P_ENVIRONMENT_GRAVITY]
+    return sum(b["Jv"].T @ (b["m"] * g * E_Z) for b in bs)
 
 
 def hawk_loads(p: np.ndarray, Aa: np.ndarray, v_rel: np.ndarray, w: np.ndarray, de: float, da: float, dr: float, nonlinear: bool, tabs: tuple) -> tuple[np.ndarray, np.ndarray]:
@@ -209,7 +219,7 @@ def compensator_strips(p: np.ndarray, As: np.ndarray, flaps: np.ndarray) -> tupl
     gamma = np.repeat(PANEL_GAMMA, 2)
     radius = np.tile(stations, 4)
     e_r_body = np.stack([np.zeros(8), np.cos(gamma), np.sin(gamma)], axis=1)
-    n_body = np.cross(E_X, e_r_body)
+    n_body = cross(E_X, e_r_body)
     return radius[:, None] * e_r_body, e_r_body @ As.T, n_body @ As.T, np.repeat(PANEL_ELEVATOR_SIGN, 2), np.repeat(flaps[:4], 2)
 
 
@@ -219,7 +229,7 @@ def compensator_generalized_force(p: np.ndarray, kin: dict, qd: np.ndarray, v_ai
     Per strip: in-plane incidence alpha = atan2(-v.n, v.x_s); CL = s_e (CL0 - CLa a0)/sqrt2 + CLa alpha +
     CLq q_p c/2V + CLde/sqrt2 flap; CM likewise; CD = CD0/2 + CL^2/(pi e AR); lift qS CL normal to the
     in-plane velocity, drag qS CD against the full velocity, section moment qS c CM about -e_r, with
-    V and qS = rho V^2 dS / 2 from the in-plane velocity and dS = S/4.
+    V and qS = rho V^2 dS / 2 from the in-plane velocity and dS = S/4.  The eight strips are arrays.
     """
     As = kin["As"]
     S, span = p[L.P_COMP_AERO_S], p[L.P_COMP_AERO_SPAN]
@@ -227,32 +237,31 @@ def compensator_generalized_force(p: np.ndarray, kin: dict, qd: np.ndarray, v_ai
     cla, cma, a0 = p[L.P_COMP_AERO_CLALPHA], p[L.P_COMP_AERO_CMALPHA], p[L.P_COMP_AERO_ALPHA0]
     offsets, e_r, n, s_e, flap = compensator_strips(p, As, flaps)
     x_s = As[:, 0]
-    w_s = kin["axes"][:3].T @ qd[:3]  # arm angular velocity (world)
-    Jw, _ = rotation_jacobian(kin, RIG_JOINTS)
-    ref = As @ np.array([p[L.P_GEOMETRY_COMP_AERO_X], 0.0, 0.0])
+    axes = kin["axes"][:3]  # the rig joints, all through the pivot
+    w_s = axes.T @ qd[:3]  # arm angular velocity (world)
+    r = As @ np.array([p[L.P_GEOMETRY_COMP_AERO_X], 0.0, 0.0]) + offsets @ As.T  # stations (8, 3), world
+    Jv = cross(axes[None, :, :], r[:, None, :])  # (8 strips, 3 joints, 3): a_k x r
+    v = np.einsum("sjc,j->sc", Jv, qd[:3]) - v_air  # strip velocity relative to the air
+    u, wn = v @ x_s, -np.einsum("sc,sc->s", v, n)
+    V = np.hypot(u, wn)
+    loaded = V >= MIN_AIRSPEED
+    V_safe = np.where(loaded, V, 1.0)
+    alpha = np.arctan2(wn, u)
+    q_hat = -(e_r @ w_s) * c / (2 * V_safe)
+    if nonlinear:
+        cl_a = np.interp(alpha, tabs[3], tabs[4])
+        cm_a = cl_a * cma / cla if cla != 0.0 else cma * alpha
+    else:
+        cl_a, cm_a = cla * alpha, cma * alpha
+    CL = s_e * (p[L.P_COMP_AERO_CL0] - cla * a0) / math.sqrt(2) + cl_a + p[L.P_COMP_AERO_CLQ] * q_hat + p[L.P_COMP_AERO_CLDE] / math.sqrt(2) * flap
+    CM = s_e * (p[L.P_COMP_AERO_CM0] - cma * a0) / math.sqrt(2) + cm_a + p[L.P_COMP_AERO_CMQ] * q_hat + p[L.P_COMP_AERO_CMDE] / math.sqrt(2) * flap
+    CD = 0.5 * p[L.P_COMP_AERO_CD0] + CL**2 / (math.pi * p[L.P_COMP_AERO_E_OSWALD] * AR)
+    qS = np.where(loaded, 0.5 * p[L.P_ENVIRONMENT_AIR_DENSITY] * V * V * dS, 0.0)
+    lift = (qS * CL / V_safe)[:, None] * (wn[:, None] * x_s + u[:, None] * n)
+    drag = -(qS * CD / np.where(loaded, np.linalg.norm(v, axis=1), 1.0))[:, None] * v
+    moment = -(qS * c * CM)[:, None] * e_r
     Q = np.zeros(5)
-    for i in range(8):
-        r = ref + As @ offsets[i]
-        Jv, _ = point_jacobian(kin, r, np.zeros(3), RIG_JOINTS)
-        v = Jv @ qd - v_air
-        u, wn = v @ x_s, -(v @ n[i])
-        V = math.hypot(u, wn)
-        if V < MIN_AIRSPEED:
-            continue
-        alpha = math.atan2(wn, u)
-        q_hat = -(w_s @ e_r[i]) * c / (2 * V)
-        if nonlinear:
-            cl_a = np.interp(alpha, tabs[3], tabs[4])
-            cm_a = cl_a * cma / cla if cla != 0.0 else cma * alpha
-        else:
-            cl_a, cm_a = cla * alpha, cma * alpha
-        CL = s_e[i] * (p[L.P_COMP_AERO_CL0] - cla * a0) / math.sqrt(2) + cl_a + p[L.P_COMP_AERO_CLQ] * q_hat + p[L.P_COMP_AERO_CLDE] / math.sqrt(2) * flap[i]
-        CM = s_e[i] * (p[L.P_COMP_AERO_CM0] - cma * a0) / math.sqrt(2) + cm_a + p[L.P_COMP_AERO_CMQ] * q_hat + p[L.P_COMP_AERO_CMDE] / math.sqrt(2) * flap[i]
-        CD = 0.5 * p[L.P_COMP_AERO_CD0] + CL**2 / (math.pi * p[L.P_COMP_AERO_E_OSWALD] * AR)
-        qS = 0.5 * p[L.P_ENVIRONMENT_AIR_DENSITY] * V * V * dS
-        lift = qS * CL * (wn * x_s + u * n[i]) / V
-        drag = -qS * CD * v / np.linalg.norm(v)
-        Q += Jv.T @ (lift + drag) + Jw.T @ (-qS * c * CM * e_r[i])
+    Q[:3] = np.einsum("sjc,sc->j", Jv, lift + drag) + axes @ moment.sum(axis=0)
     return Q
 
 
@@ -286,8 +295,7 @@ def rhs(t: float, y: np.ndarray, flaps: np.ndarray, u: np.ndarray, p: np.ndarray
     q, qd, z = y[0:5], y[5:10], y[10:15]
     kin, bs = bodies(q, qd, p)
     M, h = mass_matrix_and_bias(bs, qd)
-    g = p[L.P_ENVIRONMENT_GRAVITY]
-    Q = sum(b["Jv"].T @ (b["m"] * g * E_Z) for b in bs) - h  # weights at the c.g.s, minus the bias
+    Q = gravity_force(bs, p) - h
     if flags & L.F_AERO:
         nonlinear = bool(flags & L.F_NONLINEAR)
         v_air = np.array([-u[L.U_AIRSPEED], 0.0, 0.0]) + u[L.U_GUST : L.U_GUST + 3]
