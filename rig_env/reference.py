@@ -239,13 +239,19 @@ def _benchmark_state() -> np.ndarray:
     return y
 
 
-def _env_steps_per_s(fun, args: tuple, seconds: float, method: str, vectorized: bool, min_steps: int, who: str) -> float:
-    """Whole env-steps of ``solve_ivp(fun, (0, 12.5 ms), ...)`` per wall second, each from the previous
-    end state, after one warm-up env-step; at least ``min_steps`` env-steps and about ``seconds``."""
-    if not seconds > 0:
-        raise ValueError(f"seconds must be > 0, got {seconds}")
-    if min_steps < 1:
-        raise ValueError(f"min_steps must be >= 1, got {min_steps}")
+SEGMENT_ENV_STEPS = 80
+"""Env-steps (12.5 ms each, 1 s of simulated time) that the solve_ivp peers time from
+:func:`_benchmark_state`.  Their cost depends on the state (while the joints slide the LuGre bristles
+are stiff; once the rig has come to rest, after about 20 s, an env-step costs a fraction), so every
+peer integrates the same segment and the rate is whole env-steps over its wall time."""
+
+
+def _env_steps_per_s(fun, args: tuple, env_steps: int, method: str, vectorized: bool, who: str) -> float:
+    """Env-steps/s of ``solve_ivp(fun, (0, 12.5 ms), ...)`` calls, each from the previous end state,
+    over the first ``env_steps`` env-steps from :func:`_benchmark_state` (after one discarded warm-up
+    env-step: numba's cache load)."""
+    if isinstance(env_steps, bool) or not isinstance(env_steps, (int, np.integer)) or env_steps < 1:
+        raise ValueError(f"env_steps must be an integer >= 1, got {env_steps!r}")
     dt = 1.0 / 80.0
 
     def env_step(y: np.ndarray) -> np.ndarray:
@@ -254,40 +260,37 @@ def _env_steps_per_s(fun, args: tuple, seconds: float, method: str, vectorized: 
             raise RuntimeError(f"{who}: solve_ivp({method}) failed: {sol.message}")
         return sol.y[:, -1]
 
-    y = env_step(_benchmark_state())
-    count = 0
+    env_step(_benchmark_state())
+    y = _benchmark_state()
     t0 = time.perf_counter()
-    while True:
+    for _ in range(env_steps):
         y = env_step(y)
-        count += 1
-        elapsed = time.perf_counter() - t0
-        if elapsed >= seconds and count >= min_steps:
-            return count / elapsed
+    return env_steps / (time.perf_counter() - t0)
 
 
-def env_steps_per_s_scipy(params: RigParams, seconds: float = 2.0, method: str = "Radau", min_steps: int = 3) -> float:
+def env_steps_per_s_scipy(params: RigParams, env_steps: int = SEGMENT_ENV_STEPS, method: str = "Radau") -> float:
     """Env-steps/s of solve_ivp on rig_env's own compiled right-hand side (:func:`continuous_rhs`).
 
     One environment, all five joints free, aero at 20 m/s, friction, stops, ideal servos; each env-step
     (12.5 ms, inputs held) is one ``solve_ivp(continuous_rhs, ..., rtol=1e-6, atol=1e-8)`` call from
-    the previous end state (``vectorized`` for the implicit methods).  A researcher would not have
-    this right-hand side: :func:`env_steps_per_s_scipy_numpy` is the peer the issue asks for.  Runs for
-    about ``seconds`` of wall time (at least ``min_steps`` env-steps) after one warm-up env-step.
+    the previous end state (``vectorized`` for the implicit methods), over the first ``env_steps``
+    env-steps from the benchmark state (:data:`SEGMENT_ENV_STEPS`).  A researcher would not have this
+    right-hand side: :func:`env_steps_per_s_scipy_numpy` is the peer the issue asks for.
     """
     implicit = method in ("Radau", "BDF", "LSODA")
     args = problem(params, free_dofs=JOINTS)
-    return _env_steps_per_s(continuous_rhs, args, seconds, method, implicit, min_steps, "env_steps_per_s_scipy")
+    return _env_steps_per_s(continuous_rhs, args, env_steps, method, implicit, "env_steps_per_s_scipy")
 
 
-def env_steps_per_s_scipy_numpy(params: RigParams, seconds: float = 2.0, method: str = "Radau", min_steps: int = 3) -> float:
+def env_steps_per_s_scipy_numpy(params: RigParams, env_steps: int = SEGMENT_ENV_STEPS, method: str = "Radau") -> float:
     """Env-steps/s of solve_ivp on the plain-numpy right-hand side (:func:`rig_env.numpy_model.rhs`).
 
-    What a researcher would otherwise write: the same model and the same protocol as
-    :func:`env_steps_per_s_scipy` (initial state, rtol 1e-6, atol 1e-8, one call per 12.5 ms
-    env-step), with the ordinary 1-D right-hand side (not ``vectorized``; the implicit methods form
-    their Jacobian by finite differences).
+    What a researcher would otherwise write: the same model, segment and protocol as
+    :func:`env_steps_per_s_scipy` (rtol 1e-6, atol 1e-8, one call per 12.5 ms env-step) with the
+    ordinary 1-D right-hand side (not ``vectorized``; the implicit methods form their Jacobian by
+    finite differences).
     """
     from rig_env import numpy_model
 
     args = problem(params, free_dofs=JOINTS)[:6]  # flaps, u, p, flags, free_idx, tabs
-    return _env_steps_per_s(numpy_model.rhs, args, seconds, method, False, min_steps, "env_steps_per_s_scipy_numpy")
+    return _env_steps_per_s(numpy_model.rhs, args, env_steps, method, False, "env_steps_per_s_scipy_numpy")
