@@ -55,7 +55,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from rig_env import JOINTS, RigParams, param_batch  # noqa: E402
+from rig_env import RigParams, param_batch  # noqa: E402
 from rig_env.physics import integrator as integ  # noqa: E402
 from rig_env.physics import layout as L  # noqa: E402
 from rig_env.simulate import _initial_demand, delay_line, flags_of  # noqa: E402

@@ -25,6 +25,9 @@ Method (the textbook one, where the kernel uses condensed sums):
 * ``numpy.linalg.solve`` on the free rows and columns; locked joints have zero derivatives.
 
 Locked joints are expected to have zero rate in ``y`` (as :func:`rig_env.simulate` sets them).
+One evaluation costs about 0.35 ms (the kernel's, called from Python, about 0.015 ms).  Used by
+tests/test_numpy_model.py (the kernel equals it to about 1e-14 relative) and by the benchmark peer
+:func:`rig_env.reference.env_steps_per_s_scipy_numpy`.
 """
 
 from __future__ import annotations
