@@ -11,10 +11,29 @@ LuGre friction, stops, servos), all five joints free.  Measured:
   jobs on a shared machine do not inflate);
 * JIT compile time of the joint kernel in a fresh subprocess with an empty numba cache directory,
   and the load time from that cache in a second subprocess;
-* the peers: scipy ``solve_ivp`` on rig_env.reference's right-hand side (one env, rtol 1e-6, ideal
-  servos), and MuJoCo stepped from Python with aero applied each physics step (no friction, stops or
-  servos; benchmarks/mujoco_ref.py), 1 and a few envs; and ``speedup_vs_*`` = joint-kernel rate at
-  4096 envs over the best peer rate.
+* the peers, in the same run:
+
+  - **scipy solve_ivp + numpy RHS** (what a researcher would otherwise write; the issue's reference):
+    ``rig_env.numpy_model.rhs``, the same continuous model written in plain numpy (explicit body
+    Jacobians, ``numpy.linalg.solve``; checked against the kernel to 1e-14 by
+    tests/test_numpy_model.py), under ``solve_ivp`` Radau, RK45 and BDF as an ordinary 1-D function
+    (the implicit methods form their Jacobian by finite differences);
+  - **scipy solve_ivp + rig_env's compiled RHS**: the same calls on ``rig_env.reference.continuous_rhs``,
+    which evaluates the numba kernel's accelerations (``vectorized`` for the implicit methods): a
+    right-hand side no researcher would have, shown to separate the integrator's cost from the
+    right-hand side's;
+  - MuJoCo stepped from Python with aero applied each physics step (no friction, stops or servos;
+    benchmarks/mujoco_ref.py), 1 and a few envs.
+
+  Every solve_ivp peer: one env, all five joints free, aero at 20 m/s, friction, stops, ideal servos
+  (surfaces at the command, here zero), rtol 1e-6, atol 1e-8, one ``solve_ivp`` call per 12.5 ms
+  env-step from the previous end state, timed over the same segment (the first 80 env-steps = 1 s
+  of simulated time from one state near trim, ``--quick`` 16), rate = env-steps / wall time.  Their
+  cost depends on the state (stiff bristles while the joints slide, a fraction of it once the rig
+  has come to rest after about 20 s), hence one fixed segment for all of them;
+* ``speedup_vs_scipy`` = joint-kernel rate at 4096 envs over the best numpy-RHS solve_ivp rate,
+  ``speedup_vs_scipy_compiled_rhs`` over the best compiled-RHS one, ``speedup_vs_mujoco`` over the
+  best MuJoCo + Python aero rate.
 
 Usage: ``python benchmarks/bench_step.py [--quick] [--json]``.
 """
@@ -36,7 +55,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from rig_env import JOINTS, RigParams, param_batch  # noqa: E402
+from rig_env import RigParams, param_batch  # noqa: E402
 from rig_env.physics import integrator as integ  # noqa: E402
 from rig_env.physics import layout as L  # noqa: E402
 from rig_env.simulate import _initial_demand, delay_line, flags_of  # noqa: E402
@@ -223,11 +242,16 @@ def main(argv: list[str] | None = None) -> dict:
     compile_info = compile_times()
     log(f"joint kernel JIT: compile {compile_info['compile_s']:.2f} s cold, {compile_info['cached_load_s']:.2f} s from cache")
 
-    from rig_env.reference import env_steps_per_s_scipy
+    from rig_env.reference import env_steps_per_s_scipy, env_steps_per_s_scipy_numpy
 
-    scipy_rates = {m: env_steps_per_s_scipy(params, peer_window, m) for m in ("Radau", "RK45")}
-    for m, v in scipy_rates.items():
-        log(f"scipy solve_ivp {m:5s} (1 env, rtol 1e-6): {v:10,.1f} env-steps/s")
+    segment = 16 if args.quick else 80  # env-steps of every solve_ivp peer, from the same state
+    methods = ("Radau", "RK45", "BDF")
+    scipy_numpy = {m: env_steps_per_s_scipy_numpy(params, segment, m) for m in methods}
+    for m, v in scipy_numpy.items():
+        log(f"scipy solve_ivp {m:5s} + numpy RHS (what a researcher would otherwise write; 1 env, rtol 1e-6, {segment} env-steps): {v:10,.1f} env-steps/s")
+    scipy_compiled = {m: env_steps_per_s_scipy(params, segment, m) for m in methods}
+    for m, v in scipy_compiled.items():
+        log(f"scipy solve_ivp {m:5s} + rig_env's compiled RHS (1 env, rtol 1e-6, {segment} env-steps): {v:10,.1f} env-steps/s")
 
     mujoco_rates: dict[str, float] = {}
     try:
@@ -243,7 +267,8 @@ def main(argv: list[str] | None = None) -> dict:
         notes["mujoco"] = f"not available: {exc}"
 
     ref = results["joint"].get("4096")
-    best_scipy = max(scipy_rates.values())
+    best_scipy = max(scipy_numpy.values())
+    best_scipy_compiled = max(scipy_compiled.values())
     aero_peers = [v for k, v in mujoco_rates.items() if k.startswith("python_aero")]
     out = {
         "env_steps_per_s": results,
@@ -251,8 +276,11 @@ def main(argv: list[str] | None = None) -> dict:
         "compile_s": compile_info["compile_s"],
         "cached_load_s": compile_info["cached_load_s"],
         "speedup_vs_scipy": ref / best_scipy if ref else None,
+        "speedup_vs_scipy_compiled_rhs": ref / best_scipy_compiled if ref else None,
         "speedup_vs_mujoco": ref / max(aero_peers) if ref and aero_peers else None,
-        "scipy_env_steps_per_s": scipy_rates,
+        "scipy_numpy_rhs_env_steps_per_s": scipy_numpy,
+        "scipy_compiled_rhs_env_steps_per_s": scipy_compiled,
+        "scipy_segment_env_steps": segment,
         "mujoco_env_steps_per_s": mujoco_rates,
         "envs_flagged": failed,
         "notes": notes,
@@ -261,7 +289,10 @@ def main(argv: list[str] | None = None) -> dict:
         "env_step": f"{N_SUB} x {H * 1e3:g} ms physics steps, aero {AIRSPEED:g} m/s + friction + stops + servos, 5 joints free",
     }
     if ref:
-        log(f"speedup at 4096 envs: {out['speedup_vs_scipy']:,.0f}x scipy (best of Radau/RK45), {out['speedup_vs_mujoco'] or float('nan'):,.1f}x MuJoCo + Python aero")
+        log(
+            f"speedup at 4096 envs: {out['speedup_vs_scipy']:,.0f}x scipy + numpy RHS (best of {'/'.join(methods)}), "
+            f"{out['speedup_vs_scipy_compiled_rhs']:,.0f}x scipy + compiled RHS, {out['speedup_vs_mujoco'] or float('nan'):,.1f}x MuJoCo + Python aero"
+        )
     if args.json:
         print(json.dumps(out, indent=2))
     return out
