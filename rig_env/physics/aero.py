@@ -18,9 +18,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 from rig_env.physics import layout as L
+from rig_env.physics import vmath
 from rig_env.physics.vec import FASTMATH, mtv, mv, norm, sub
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
@@ -36,6 +38,10 @@ PANEL_GAMMA = (0.75 * math.pi, 0.25 * math.pi, -0.25 * math.pi, -0.75 * math.pi)
 PANEL_COS = tuple([math.cos(g) for g in PANEL_GAMMA])
 PANEL_SIN = tuple([math.sin(g) for g in PANEL_GAMMA])
 MIX_ELEVATOR = (1.0, -1.0, -1.0, 1.0)
+# the same as arrays, which a loop over the panels indexes (numba freezes global arrays as constants)
+PANEL_COS_A = np.array(PANEL_COS)
+PANEL_SIN_A = np.array(PANEL_SIN)
+MIX_ELEVATOR_A = np.array(MIX_ELEVATOR)
 MIX_RUDDER = (-1.0, -1.0, 1.0, 1.0)
 GAUSS = 0.5 / math.sqrt(3.0)  # 2-point Gauss stations at mid +- GAUSS * length
 
@@ -62,11 +68,8 @@ def interp(x, xs, ys):
 
 @njit(**_JIT)
 def incidence(z, x):
-    """atan2(z, x) (rad), computed as atan(z / x) when x > 0 (flow from ahead): the same angle, and
-    glibc's atan costs about half its atan2."""
-    if x > 0.0:
-        return math.atan(z / x)
-    return math.atan2(z, x)
+    """atan2(z, x) (rad): the angle of the velocity (x, z) in its plane (rig_env.physics.vmath.atan2)."""
+    return vmath.atan2(z, x)
 
 
 @njit(**_JIT)
@@ -140,6 +143,69 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
 
 
 @njit(**_INLINE)
+def strip(vb0, wb, ce, sg, r, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn):
+    """Force and moment (arm axes, about the reference point) of the strip at radius r of a panel with
+    span e_r = (0, ce, sg) and normal n = x_arm x e_r = (0, -sg, ce) (their zero components left out of
+    the products).  vb0, wb: reference-point velocity relative to the air and angular velocity (arm
+    axes); qp: the panel's pitch rate; cl0, cm0: the coefficients' flap and camber part.  A strip below
+    MIN_AIRSPEED carries no load (selected, not branched, so that panels vectorise)."""
+    # strip velocity v = v_ref + w x (r e_r), arm axes
+    u = vb0[0] + wb[1] * sg * r - wb[2] * ce * r
+    v1 = vb0[1] - wb[0] * sg * r
+    v2 = vb0[2] + wb[0] * ce * r
+    wn = -(v1 * -sg + v2 * ce)  # -v.n
+    V = math.sqrt(u * u + wn * wn)
+    alpha = incidence(wn, u)
+    qhat = qp * c / (2.0 * V)
+    if nonlinear:
+        cl_static = interp(alpha, tab_alpha, tab_cn)
+        cm_static = cl_static * (cma / cla) if cla != 0.0 else cma * alpha
+    else:
+        cl_static = cla * alpha
+        cm_static = cma * alpha
+    CL = cl0 + cl_static + clq * qhat
+    CM = cm0 + cm_static + cmq * qhat
+    CD = cd0 + k_ind * CL * CL
+    qS = 0.5 * rho * V * V * dS
+    # lift normal to the in-plane velocity (u e_x - wn n); drag against the full strip velocity (so that
+    # the panels' drag sums to a force along the free stream, as Table 4's CD does).  The lift's qS / V
+    # is written as 0.5 rho V dS: no division
+    vabs = math.sqrt(u * u + v1 * v1 + v2 * v2)
+    lk = 0.5 * rho * V * dS * CL
+    lift_x = lk * wn
+    lift_n = lk * u
+    dk = qS * CD / vabs
+    fx = lift_x - dk * u
+    fy = lift_n * -sg - dk * v1
+    fz = lift_n * ce - dk * v2
+    # moment of the strip force about the reference point, (r e_r) x f, plus the section pitching
+    # moment about -e_r
+    ar1 = ce * r
+    ar2 = sg * r
+    mc = qS * c * CM
+    mx = ar1 * fz - ar2 * fy
+    my = ar2 * fx - mc * ce
+    mz = -(ar1 * fx) - mc * sg
+    if V < MIN_AIRSPEED:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    return fx, fy, fz, mx, my, mz
+
+
+@njit(**_INLINE)
+def panel(i, vb0, wb, flap, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn):
+    """Force and moment (arm axes) of panel i: its two Gauss strips at rm -+ dr_g."""
+    ce = PANEL_COS_A[i]
+    sg = PANEL_SIN_A[i]
+    se = MIX_ELEVATOR_A[i]
+    qp = -(wb[1] * ce + wb[2] * sg)  # -w.e_r: rotation about -e_r moves the leading edge towards +n
+    cl0 = se * cl_off + cld * flap
+    cm0 = se * cm_off + cmd * flap
+    a = strip(vb0, wb, ce, sg, rm - dr_g, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn)
+    b = strip(vb0, wb, ce, sg, rm + dr_g, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn)
+    return a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3], a[4] + b[4], a[5] + b[5]
+
+
+@njit(**_INLINE)
 def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn):
     """Compensator force (world, N) and moment about its aerodynamic reference point (world, N m).
 
@@ -177,59 +243,25 @@ def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn):
     mx = 0.0
     my = 0.0
     mz = 0.0
-    for i in range(4):
-        # span e_r = (0, ce, sg) and normal n = x_arm x e_r = (0, -sg, ce); the zero components are
-        # left out of the products below (the same sums with the exact zeros dropped)
-        ce = PANEL_COS[i]
-        sg = PANEL_SIN[i]
-        qp = -(wb[1] * ce + wb[2] * sg)  # -w.e_r: rotation about -e_r moves the leading edge towards +n
-        w1s = wb[1] * sg
-        w2c = wb[2] * ce
-        w0s = wb[0] * sg
-        w0c = wb[0] * ce
-        se = MIX_ELEVATOR[i]
-        for s in range(2):
-            r = rm - dr_g if s == 0 else rm + dr_g
-            # strip velocity v = v_ref + w x (r e_r), body axes
-            u = vb0[0] + w1s * r - w2c * r
-            v1 = vb0[1] - w0s * r
-            v2 = vb0[2] + w0c * r
-            wn = -(v1 * -sg + v2 * ce)  # -v.n
-            V = math.sqrt(u * u + wn * wn)
-            if V < MIN_AIRSPEED:
-                continue
-            alpha = incidence(wn, u)
-            qhat = qp * c / (2.0 * V)
-            if nonlinear:
-                cl_static = interp(alpha, tab_alpha, tab_cn)
-                cm_static = cl_static * (cma / cla) if cla != 0.0 else cma * alpha
-            else:
-                cl_static = cla * alpha
-                cm_static = cma * alpha
-            CL = se * cl_off + cl_static + clq * qhat + cld * flaps[i]
-            CM = se * cm_off + cm_static + cmq * qhat + cmd * flaps[i]
-            CD = cd0 + k_ind * CL * CL
-            qS = 0.5 * rho * V * V * dS
-            # lift normal to the in-plane velocity (u e_x - wn n); drag against the full strip velocity
-            # (so that the panels' drag sums to a force along the free stream, as Table 4's CD does).
-            # The lift's qS / V is written as 0.5 rho V dS: no division
-            vabs = math.sqrt(u * u + v1 * v1 + v2 * v2)
-            lk = 0.5 * rho * V * dS * CL
-            lift_x = lk * wn
-            lift_n = lk * u
-            dk = qS * CD / vabs
-            fxs = lift_x - dk * u
-            fys = lift_n * -sg - dk * v1
-            fzs = lift_n * ce - dk * v2
-            fx += fxs
-            fy += fys
-            fz += fzs
-            # moment of the strip force about the reference point, (r e_r) x f_strip, plus the section
-            # pitching moment about -e_r
-            ar1 = ce * r
-            ar2 = sg * r
-            mc = qS * c * CM
-            mx += ar1 * fzs - ar2 * fys
-            my += ar2 * fxs - mc * ce
-            mz += -(ar1 * fxs) - mc * sg
+    # one loop over the four panels, the same body for each and no library calls or jumps in it, so
+    # that LLVM computes the panels side by side in SIMD lanes; the table look-up of the nonlinear
+    # model is a search (not vectorisable), hence its own loop
+    if nonlinear:
+        for i in range(4):
+            f = panel(i, vb0, wb, flaps[i], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, True, tab_alpha, tab_cn)
+            fx += f[0]
+            fy += f[1]
+            fz += f[2]
+            mx += f[3]
+            my += f[4]
+            mz += f[5]
+    else:
+        for i in range(4):
+            f = panel(i, vb0, wb, flaps[i], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
+            fx += f[0]
+            fy += f[1]
+            fz += f[2]
+            mx += f[3]
+            my += f[4]
+            mz += f[5]
     return mv(A, (fx, fy, fz)), mv(A, (mx, my, mz))

@@ -1,0 +1,115 @@
+"""rig_env.physics.vmath against the C library (Python's math module): accuracy in units in the last
+place over the ranges the model uses, special values, and the branch-free range reductions."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from numba import njit
+
+from rig_env.physics import vmath as V
+
+
+@njit(cache=True)
+def _sincos_all(x, s, c):
+    for i in range(x.size):
+        s[i], c[i] = V.sincos(x[i])
+
+
+@njit(cache=True)
+def _exp_all(x, out):
+    for i in range(x.size):
+        out[i] = V.exp(x[i])
+
+
+@njit(cache=True)
+def _atan_all(x, out):
+    for i in range(x.size):
+        out[i] = V.atan(x[i])
+
+
+@njit(cache=True)
+def _atan2_all(y, x, out):
+    for i in range(x.size):
+        out[i] = V.atan2(y[i], x[i])
+
+
+def ulps(got: np.ndarray, ref: np.ndarray) -> float:
+    """Largest error in units in the last place of the reference."""
+    return float(np.max(np.abs(got - ref) / np.spacing(np.maximum(np.abs(ref), np.finfo(float).tiny))))
+
+
+def ref(f, *xs) -> np.ndarray:
+    return np.array([f(*v) for v in zip(*xs)])
+
+
+RNG = np.random.default_rng(12)
+
+
+@pytest.mark.parametrize("hi", [1.0, 10.0, 1e3, 1e6, 1e9])
+def test_sincos_within_two_ulp_and_2e16_absolute(hi):
+    x = RNG.uniform(-hi, hi, 50_000)
+    s, c = np.empty_like(x), np.empty_like(x)
+    _sincos_all(x, s, c)
+    rs, rc = ref(math.sin, x), ref(math.cos, x)
+    assert np.max(np.abs(s - rs)) <= 2.3e-16 and np.max(np.abs(c - rc)) <= 2.3e-16
+    away = (np.abs(rs) > 1e-3) & (np.abs(rc) > 1e-3)  # relative error near a zero measures the argument's rounding
+    assert ulps(s[away], rs[away]) <= 2.0 and ulps(c[away], rc[away]) <= 2.0
+
+
+def test_sincos_at_the_octant_boundaries_and_special_values():
+    x = np.concatenate([np.arange(-400, 401) * (math.pi / 4), [0.0, -0.0, 1e-300, 2.0**30, -(2.0**30), 2.0**31, 1e300]])
+    s, c = np.empty_like(x), np.empty_like(x)
+    _sincos_all(x, s, c)
+    assert np.max(np.abs(s - ref(math.sin, x))) <= 2.3e-16
+    assert np.max(np.abs(c - ref(math.cos, x))) <= 2.3e-16
+    x = np.array([np.nan, np.inf, -np.inf])
+    s, c = np.empty_like(x), np.empty_like(x)
+    _sincos_all(x, s, c)
+    assert np.all(np.isnan(s)) and np.all(np.isnan(c))
+
+
+def test_exp_within_two_ulp_over_its_range():
+    x = np.concatenate([RNG.uniform(-708.0, 709.0, 100_000), RNG.uniform(-1.0, 1.0, 50_000), RNG.uniform(-1e-8, 1e-8, 1000)])
+    out = np.empty_like(x)
+    _exp_all(x, out)
+    assert ulps(out, ref(math.exp, x)) <= 2.0
+
+
+def test_exp_ends_and_special_values():
+    x = np.array([0.0, -0.0, V.EXP_MIN - 1e-9, -1000.0, -np.inf, 709.7, V.EXP_MAX + 1e-9, np.inf, np.nan])
+    out = np.empty_like(x)
+    _exp_all(x, out)
+    assert out[0] == 1.0 and out[1] == 1.0
+    assert out[2] == 0.0 and out[3] == 0.0 and out[4] == 0.0  # would be subnormal: flushed (documented)
+    assert out[5] == pytest.approx(math.exp(709.7), rel=4.5e-16)
+    assert out[6] == np.inf and out[7] == np.inf and np.isnan(out[8])
+
+
+def test_atan_within_one_ulp():
+    x = np.concatenate([RNG.standard_cauchy(100_000), RNG.uniform(-3.0, 3.0, 50_000), [0.66, -0.66, V._T3P8, -V._T3P8, 1.0, -1.0]])
+    out = np.empty_like(x)
+    _atan_all(x, out)
+    assert ulps(out, ref(math.atan, x)) <= 1.0
+
+
+def test_atan_special_values():
+    x = np.array([0.0, np.inf, -np.inf, 1e300, np.nan])
+    out = np.empty_like(x)
+    _atan_all(x, out)
+    assert out[0] == 0.0 and out[1] == math.pi / 2 and out[2] == -math.pi / 2 and out[3] == math.pi / 2
+    assert np.isnan(out[4])
+
+
+def test_atan2_every_quadrant_within_two_ulp():
+    y, x = RNG.standard_normal(100_000), RNG.standard_normal(100_000)
+    y[:8] = [1.0, -1.0, 0.0, 2.0, -2.0, 0.0, 3.0, -3.0]
+    x[:8] = [0.0, 0.0, 1.0, -1.0, -1.0, -5.0, 3.0, -3.0]
+    out = np.empty_like(x)
+    _atan2_all(y, x, out)
+    assert ulps(out, ref(math.atan2, y, x)) <= 2.0
+    z = np.zeros(1)
+    _atan2_all(z, z, out[:1])
+    assert out[0] == 0.0
