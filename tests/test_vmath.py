@@ -25,6 +25,12 @@ def _exp_all(x, out):
 
 
 @njit(cache=True)
+def _expm1_all(x, out):
+    for i in range(x.size):
+        out[i] = V.expm1(x[i])
+
+
+@njit(cache=True)
 def _atan_all(x, out):
     for i in range(x.size):
         out[i] = V.atan(x[i])
@@ -86,6 +92,17 @@ def test_exp_ends_and_special_values():
     assert out[2] == 0.0 and out[3] == 0.0 and out[4] == 0.0  # would be subnormal: flushed (documented)
     assert out[5] == pytest.approx(math.exp(709.7), rel=4.5e-16)
     assert out[6] == np.inf and out[7] == np.inf and np.isnan(out[8])
+
+
+def test_expm1_within_four_ulp_near_zero_and_beyond():
+    x = np.concatenate([RNG.uniform(-0.5, 0.5, 50_000), RNG.uniform(-1e-10, 1e-10, 10_000), RNG.uniform(-700.0, 700.0, 50_000), [0.5, -0.5]])
+    out = np.empty_like(x)
+    _expm1_all(x, out)
+    assert ulps(out, ref(math.expm1, x)) <= 4.0  # Cephes: 4.2e-16 relative at most
+    x = np.array([0.0, -np.inf, np.nan])
+    out = np.empty_like(x)
+    _expm1_all(x, out)
+    assert out[0] == 0.0 and out[1] == -1.0 and np.isnan(out[2])
 
 
 def test_atan_within_one_ulp():

@@ -57,16 +57,16 @@ def torque(p, j, v, z):
 def bristle_decay(p, j, v, dt):
     """(a, e) of eq. (19) at rate v held over dt: decay rate a = sigma0 |v| / S(v) (1/s), e = 1 - exp(-a dt)."""
     a = p[FRICTION_BASE[j] + _S0] * abs(v) / stribeck(p, j, v)
-    return a, -math.expm1(-a * dt)
+    return a, -vmath.expm1(-a * dt)
 
 
 @njit(**_JIT)
 def advance_bristle_decay(v, z, dt, a, e):
     """Exact solution of eq. (19) over dt with v held constant, from its (a, e) of :func:`bristle_decay`."""
-    if a * dt < 1e-12:
-        return z + v * dt
-    # z -> z_ss + (z - z_ss) exp(-a dt), z_ss = v / a, written without cancellation
-    return z + (v - a * z) * e / a
+    # z -> z_ss + (z - z_ss) exp(-a dt), z_ss = v / a, written without cancellation; selected, not
+    # branched, so that the joints vectorise
+    relaxing = z + (v - a * z) * e / a
+    return z + v * dt if a * dt < 1e-12 else relaxing
 
 
 @njit(**_JIT)

@@ -9,12 +9,13 @@ written without branches on the argument (both sides of a range reduction are se
 to), so LLVM inlines them and can vectorise a loop over them.
 
 Accuracy (tests/test_vmath.py measures it against the C library over the ranges the model uses):
-within 2 units in the last place for finite arguments, exact at 0, NaN in, NaN out.
+within 2 units in the last place (expm1: 4) for finite arguments, exact at 0, NaN in, NaN out.
 
 | function | domain | notes |
 |---|---|---|
 | ``sincos(x)`` | abs(x) <= 2^30 (1.07e9 rad) | Cody-Waite reduction by pi/4 in three parts; larger arguments fall back to the C library |
 | ``exp(x)`` | all x | 0 below -708.39 (where exp is subnormal, < 2.5e-308), inf above 709.78 |
+| ``expm1(x)`` | all x | e^x - 1 without cancellation near 0; within 4 ulp (Cephes: 4.2e-16 relative) |
 | ``atan(x)`` | all x | +-pi/2 at +-inf |
 | ``atan2(y, x)`` | finite (y, x) | quadrant from the signs; atan2(0, 0) = 0, atan2(+-0, x < 0) = +pi |
 """
@@ -123,6 +124,16 @@ def exp(x):
     if x > EXP_MAX:
         e = math.inf
     return x if x != x else e  # NaN in, NaN out
+
+
+@njit(**_JIT)
+def expm1(x):
+    """e^x - 1, accurate near 0: Cephes expm1.c, the rational of :func:`exp` for abs(x) <= 1/2 (no
+    cancellation), exp(x) - 1 beyond."""
+    rr = x * x
+    px = x * ((_P0 * rr + _P1) * rr + _P2)
+    small = 2.0 * px / ((((_Q0 * rr + _Q1) * rr + _Q2) * rr + _Q3) - px)
+    return small if abs(x) <= 0.5 else exp(x) - 1.0
 
 
 # ---------------------------------------------------------------- atan (Cephes atan.c)
