@@ -14,11 +14,9 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
 from rig_env.physics import layout as L
-from rig_env.physics import vmath
 from rig_env.physics.vec import FASTMATH
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
@@ -31,42 +29,43 @@ FRICTION_BASE = (
     L.P_FRICTION_MODEL_PITCH_FS,
     L.P_FRICTION_MODEL_YAW_FS,
 )
-FRICTION_BASE_A = np.array(FRICTION_BASE)
 _FS, _FC, _ALPHA, _VD, _S0, _S1, _S2 = 0, 1, 2, 3, 4, 5, 6
 
 
 @njit(**_JIT)
 def stribeck(p, j, v):
     """S(v) of eq. (20) for joint j."""
-    b = FRICTION_BASE_A[j]
+    b = FRICTION_BASE[j]
     fc = p[b + _FC]
-    return fc + (p[b + _FS] - fc) * vmath.exp(-p[b + _ALPHA] * abs(v))
+    return fc + (p[b + _FS] - fc) * math.exp(-p[b + _ALPHA] * abs(v))
 
 
 @njit(**_JIT)
 def torque(p, j, v, z):
     """Friction torque tau_f of eq. (21) for joint j at rate v (rad/s) and bristle state z (rad)."""
-    b = FRICTION_BASE_A[j]  # no branches (at v = z = 0 it is exactly 0): a loop over the joints vectorises
+    if v == 0.0 and z == 0.0:  # a locked joint, or a free one at rest and relaxed
+        return 0.0
+    b = FRICTION_BASE[j]
     s0 = p[b + _S0]
     zdot = v - s0 * abs(v) * z / stribeck(p, j, v)
     vd = p[b + _VD]
-    return p[b + _S1] * vmath.exp(-(v / vd) ** 2) * zdot + s0 * z + p[b + _S2] * v
+    return p[b + _S1] * math.exp(-(v / vd) ** 2) * zdot + s0 * z + p[b + _S2] * v
 
 
 @njit(**_JIT)
 def bristle_decay(p, j, v, dt):
     """(a, e) of eq. (19) at rate v held over dt: decay rate a = sigma0 |v| / S(v) (1/s), e = 1 - exp(-a dt)."""
     a = p[FRICTION_BASE[j] + _S0] * abs(v) / stribeck(p, j, v)
-    return a, -vmath.expm1(-a * dt)
+    return a, -math.expm1(-a * dt)
 
 
 @njit(**_JIT)
 def advance_bristle_decay(v, z, dt, a, e):
     """Exact solution of eq. (19) over dt with v held constant, from its (a, e) of :func:`bristle_decay`."""
-    # z -> z_ss + (z - z_ss) exp(-a dt), z_ss = v / a, written without cancellation; selected, not
-    # branched, so that the joints vectorise
-    relaxing = z + (v - a * z) * e / a
-    return z + v * dt if a * dt < 1e-12 else relaxing
+    if a * dt < 1e-12:
+        return z + v * dt
+    # z -> z_ss + (z - z_ss) exp(-a dt), z_ss = v / a, written without cancellation
+    return z + (v - a * z) * e / a
 
 
 @njit(**_JIT)

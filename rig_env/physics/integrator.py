@@ -40,8 +40,8 @@ W_H = 156  # bias, 5
 W_JV = 161  # Jacobian columns, 45
 W_QDD = 206
 W_BACKUP = 211  # state at the start of the control step, N_STATE
-W_FREE = 240  # 1.0 for a free joint, 0.0 for a locked one, 5
-N_WORK = 245
+W_DECAY = 240  # bristle decay (a, e) over h/2 of each joint at the joint rate of the last update, 5 x 3
+N_WORK = 255
 RK_C = (0.0, 0.5, 0.5, 1.0)
 RK_W = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)
 
@@ -72,16 +72,27 @@ def rhs(y, z, ud, u, p, flags, free_idx, n_free, tabs, M, w, out):
     sv.derivatives(y, 10, 17, ud, p, flags, out, 10, 17)
 
 
-@njit(**_INLINE)
-def half_bristle_step(x, z, p, h, w):
+@njit(**_JIT)
+def half_bristle_step(x, z, p, free_idx, n_free, h, w):
     """Bristle states z of the free joints over h/2 at the joint rates of x (exact, eq. 19).
 
-    All five joints side by side (SIMD lanes, no branches or library calls): a locked joint is advanced
-    at rate 0 (w[W_FREE + j] = 0), which leaves its z unchanged.
+    The decay factors depend on the joint rate only, and the rate at the end of one physics step is the
+    rate at the start of the next: w[W_DECAY:] keeps (rate, a, e) of each joint's last update and they
+    are reused when the rate is bit-for-bit the same.  advance_env invalidates them at the start of
+    every control step (the caller may have changed states or parameters in between).
     """
-    for j in range(5):
-        v = x[L.X_QD + j] * w[W_FREE + j]
-        rate, e = fr.bristle_decay(p, j, v, 0.5 * h)
+    for a in range(n_free):
+        j = free_idx[a]
+        v = x[L.X_QD + j]
+        c = W_DECAY + 3 * j
+        if v == w[c]:
+            rate = w[c + 1]
+            e = w[c + 2]
+        else:
+            rate, e = fr.bristle_decay(p, j, v, 0.5 * h)
+            w[c] = v
+            w[c + 1] = rate
+            w[c + 2] = e
         z[j] = fr.advance_bristle_decay(v, z[j], 0.5 * h, rate, e)
 
 
@@ -90,7 +101,7 @@ def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w):
     """Advance one environment's state x (N_STATE,) by one physics step h (in place)."""
     z = x[L.X_Z : L.X_Z + 5]
     if flags & L.F_FRICTION:
-        half_bristle_step(x, z, p, h, w)
+        half_bristle_step(x, z, p, free_idx, n_free, h, w)
     y0 = w[W_Y0 : W_Y0 + N_Y]
     yt = w[W_YT : W_YT + N_Y]
     for i in range(10):
@@ -118,7 +129,7 @@ def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w):
     for i in range(14):
         x[L.X_SERVO + i] = y0[10 + i]
     if flags & L.F_FRICTION:
-        half_bristle_step(x, z, p, h, w)
+        half_bristle_step(x, z, p, free_idx, n_free, h, w)
     for k in range(7):
         if flags & L.F_SERVO:
             xs, vs = sv.project(p, k, x[L.X_SERVO + k], x[L.X_SERVO_RATE + k])
@@ -157,9 +168,7 @@ def advance_env(x, w, M, p, u, db, d_comp, d_hawk, k0, flags, free_idx, n_free, 
     for a in range(L.N_STATE):
         backup[a] = x[a]
     for j in range(5):
-        w[W_FREE + j] = 0.0
-    for a in range(n_free):
-        w[W_FREE + free_idx[a]] = 1.0
+        w[W_DECAY + 3 * j] = np.nan  # no cached bristle decay matches (NaN equals nothing)
     for s in range(n_sub):
         k = k0 + s
         push_demands(db, k % n_buf, u, p)

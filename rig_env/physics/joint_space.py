@@ -32,7 +32,7 @@ from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.aero import comp_aero, hawk_aero
-from rig_env.physics.vec import FASTMATH, add, sincos, col, cross, dot, inertia_world, mm, mtv, mv, rot_zy, rot_zyx, scale
+from rig_env.physics.vec import FASTMATH, add, col, cross, dot, inertia_world, mm, mtv, mv, rot_zy, rot_zyx, scale
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
 # the right-hand side's parts are inlined into their caller at numba-IR level: as separate LLVM
@@ -45,8 +45,7 @@ STOP_BASE = (-1, L.P_STOPS_RIG_PITCH_LOWER_DEG, L.P_STOPS_RIG_YAW_LOWER_DEG, L.P
 @njit(**_JIT)
 def pitch_axis(psi):
     """Rig-pitch axis (world): Rz(psi) e_y."""
-    s, c = sincos(psi)
-    return (-s, c, 0.0)
+    return (-math.sin(psi), math.cos(psi), 0.0)
 
 
 @njit(**_INLINE)
@@ -188,30 +187,22 @@ def air_velocity(u):
 
 
 @njit(**_INLINE)
-def stop_torque(j, q, qd, p):
-    """Stop torque on joint j (N m): a spring-damper beyond its limits that only pushes back."""
-    b = STOP_BASE[j]
-    if b < 0:
-        return 0.0
-    lo = p[b]
-    hi = p[b + 1]
-    k = p[b + 2]
-    c = p[b + 3]
-    if q[j] > hi:
-        return min(0.0, -k * (q[j] - hi) - c * qd[j])
-    if q[j] < lo:
-        return max(0.0, -k * (q[j] - lo) - c * qd[j])
-    return 0.0
-
-
-@njit(**_INLINE)
 def joint_torque(j, q, qd, z, p, flags):
     """Friction and stop torque on joint j (N m, acting on the joint's positive direction)."""
     tau = 0.0
     if flags & L.F_FRICTION:
         tau -= fr.torque(p, j, qd[j], z[j])
     if flags & L.F_STOPS:
-        tau += stop_torque(j, q, qd, p)
+        b = STOP_BASE[j]
+        if b >= 0:
+            lo = p[b]
+            hi = p[b + 1]
+            k = p[b + 2]
+            c = p[b + 3]
+            if q[j] > hi:
+                tau += min(0.0, -k * (q[j] - hi) - c * qd[j])
+            elif q[j] < lo:
+                tau += max(0.0, -k * (q[j] - lo) - c * qd[j])
     return tau
 
 
@@ -242,12 +233,7 @@ def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q):
             Q[k] = dot(axes[k], add(t_arm, t_hawk_pivot))
         else:
             Q[k] = dot(axes[k], t_hawk_gimbal)
-    if flags & L.F_FRICTION:
-        for j in range(5):  # the five joints side by side in SIMD lanes (no branches or library calls)
-            Q[j] -= fr.torque(p, j, qd[j], z[j])
-    if flags & L.F_STOPS:
-        for j in range(5):
-            Q[j] += stop_torque(j, q, qd, p)
+        Q[k] += joint_torque(k, q, qd, z, p, flags)
 
 
 @njit(**_JIT)

@@ -10,7 +10,10 @@ import math
 
 from numba import njit
 
-from rig_env.physics.vmath import FASTMATH, sincos  # noqa: F401  (FASTMATH re-exported for the kernels)
+FASTMATH = {"contract", "nsz", "arcp", "reassoc"}
+"""LLVM fast-math flags of every physics kernel: fused multiply-adds, reassociation, reciprocals and the
+sign of zero may change results in the last bits.  Never "nnan"/"ninf"/"fast": the blow-up detection
+relies on NaN and inf propagating and on np.isfinite."""
 
 _JIT = dict(cache=True, inline="always", error_model="numpy", fastmath=FASTMATH, _nrt=False)
 
@@ -88,27 +91,27 @@ def col(m, j):
 
 @njit(**_JIT)
 def rot_x(a):
-    s, c = sincos(a)
+    c, s = math.cos(a), math.sin(a)
     return (1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
 
 
 @njit(**_JIT)
 def rot_y(a):
-    s, c = sincos(a)
+    c, s = math.cos(a), math.sin(a)
     return (c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
 
 
 @njit(**_JIT)
 def rot_z(a):
-    s, c = sincos(a)
+    c, s = math.cos(a), math.sin(a)
     return (c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
 
 
 @njit(**_JIT)
 def rot_zy(yaw, pitch):
     """Rz(yaw) @ Ry(pitch), written out (the zero entries of the factors left out of the product)."""
-    sz, cz = sincos(yaw)
-    sy, cy = sincos(pitch)
+    cz, sz = math.cos(yaw), math.sin(yaw)
+    cy, sy = math.cos(pitch), math.sin(pitch)
     return (cz * cy, -sz, cz * sy, sz * cy, cz, sz * sy, -sy, 0.0, cy)
 
 
@@ -116,7 +119,7 @@ def rot_zy(yaw, pitch):
 def rot_zyx(yaw, pitch, roll):
     """Rz(yaw) @ Ry(pitch) @ Rx(roll), written out as :func:`rot_zy` times Rx."""
     b = rot_zy(yaw, pitch)
-    sx, cx = sincos(roll)
+    cx, sx = math.cos(roll), math.sin(roll)
     return (
         b[0], b[1] * cx + b[2] * sx, b[2] * cx - b[1] * sx,
         b[3], b[4] * cx + b[5] * sx, b[5] * cx - b[4] * sx,
