@@ -262,8 +262,9 @@ def factor_free(M, free_idx, n):
         s = M[a, a]
         for c in range(a):
             s -= M[a, c] * M[a, c]
-        d = math.sqrt(s) if s > 0.0 else np.nan
-        inv = 1.0 / d
+        # 1 / sqrt(s) as sqrt(s) * (1 / s): the square root and the division run side by side rather
+        # than one after the other (this chain of five pivots is the right-hand side's critical path)
+        inv = math.sqrt(s) * (1.0 / s) if s > 0.0 else np.nan
         M[a, a] = inv
         for b in range(a + 1, 5):
             t = M[b, a]
