@@ -206,6 +206,22 @@ def panel(i, vb0, wb, flap, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_of
     return a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3], a[4] + b[4], a[5] + b[5]
 
 
+@njit(**_JIT)
+def strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, tab_alpha, tab_cn):
+    """Sum of the eight strips' loads with the stall tables (a table search per strip: not vectorisable,
+    so compiled once as its own function rather than inlined beside the linear loop)."""
+    fx = fy = fz = mx = my = mz = 0.0
+    for i in range(4):
+        f = panel(i, vb0, wb, flaps[i], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, True, tab_alpha, tab_cn)
+        fx += f[0]
+        fy += f[1]
+        fz += f[2]
+        mx += f[3]
+        my += f[4]
+        mz += f[5]
+    return fx, fy, fz, mx, my, mz
+
+
 @njit(**_INLINE)
 def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn):
     """Compensator force (world, N) and moment about its aerodynamic reference point (world, N m).
@@ -238,25 +254,12 @@ def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn):
     cd0 = 0.5 * p[L.P_COMP_AERO_CD0]
     vb0 = mtv(A, sub(v_ref, v_air))
     wb = mtv(A, omega)
-    fx = 0.0
-    fy = 0.0
-    fz = 0.0
-    mx = 0.0
-    my = 0.0
-    mz = 0.0
-    # one loop over the four panels, the same body for each and no library calls or jumps in it, so
-    # that LLVM computes the panels side by side in SIMD lanes; the table look-up of the nonlinear
-    # model is a search (not vectorisable), hence its own loop
     if nonlinear:
-        for i in range(4):
-            f = panel(i, vb0, wb, flaps[i], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, True, tab_alpha, tab_cn)
-            fx += f[0]
-            fy += f[1]
-            fz += f[2]
-            mx += f[3]
-            my += f[4]
-            mz += f[5]
+        fx, fy, fz, mx, my, mz = strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, tab_alpha, tab_cn)
     else:
+        # one loop over the four panels, the same body for each and no library calls or jumps in it, so
+        # that LLVM computes them side by side in SIMD lanes
+        fx = fy = fz = mx = my = mz = 0.0
         for i in range(4):
             f = panel(i, vb0, wb, flaps[i], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
             fx += f[0]
