@@ -32,10 +32,12 @@ Observations are float32, see :class:`rig_env.envs.env.RigEnv` for the table.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
@@ -55,6 +57,18 @@ ACTION_SCALE_DEG = 40.0
 COMP_ACTIONS = ("comp_aileron", "comp_elevator", "comp_rudder")
 HAWK_ACTIONS = ("hawk_elevator", "hawk_aileron", "hawk_rudder")
 _DELAY_COLS = (L.P_SERVOS_COMPENSATOR_DELAY_S, L.P_SERVOS_HAWK_DELAY_S)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _clip_actions(a, out):
+    """out = a clipped to [-1, 1], both (n, k); returns False (out incomplete) at the first non-finite value."""
+    for i in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            v = a[i, j]
+            if not math.isfinite(v):
+                return False
+            out[i, j] = -1.0 if v < -1.0 else (1.0 if v > 1.0 else v)
+    return True
 
 
 class RigVectorEnv(VectorEnv):
@@ -229,8 +243,9 @@ class RigVectorEnv(VectorEnv):
         return self.task.reference(self.t)
 
     # ------------------------------------------------------------------ step
-    def _observe(self) -> np.ndarray:
-        return observe(self.sensors, self.task, self.t)
+    def _observe(self, ref: np.ndarray | None = None) -> np.ndarray:
+        """(num_envs, obs_dim) float32 observation; ref: the task's reference at self.t if already computed."""
+        return observe(self.sensors, self.task, self.t, ref)
 
     def check_actions(self, actions: Any) -> np.ndarray:
         """(num_envs, n_actions) float64 clipped to [-1, 1]; ValueError on wrong shape or non-finite values."""
@@ -238,10 +253,11 @@ class RigVectorEnv(VectorEnv):
         shape = (self.num_envs, len(self.action_names))
         if a.shape != shape:
             raise ValueError(f"actions: expected shape {shape} ({', '.join(self.action_names)}), got {a.shape}")
-        bad = ~np.all(np.isfinite(a), axis=1)
-        if np.any(bad):
+        out = np.empty(shape)
+        if not _clip_actions(a, out):
+            bad = ~np.all(np.isfinite(a), axis=1)
             raise ValueError(f"actions: non-finite value(s) in environment(s) {np.flatnonzero(bad)[:10].tolist()}; actions must be finite numbers in [-1, 1]")
-        return np.clip(a, -1.0, 1.0)
+        return out
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if self.keys is None:
@@ -279,7 +295,7 @@ class RigVectorEnv(VectorEnv):
         seg, y, r, err, band = self.task.tracked(self.t, q, qd, ref)
         self.metrics.update(self.t, seg, y, r, err, band, a, self.prev_action, on_stop)
         self.prev_action = a
-        obs = self._observe()
+        obs = self._observe(ref)
         infos: dict[str, Any] = {}
         done = terminated | truncated
         if np.any(done):
