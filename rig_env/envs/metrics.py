@@ -23,10 +23,12 @@ and closing segments, which happens a few times per episode, stays numpy.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
-_JIT = dict(cache=True, error_model="numpy", _nrt=False)  # allocation-free kernels, compiled lazily
+_JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
 
 METRIC_NAMES = (
     "rms_error",
@@ -46,7 +48,7 @@ METRIC_NAMES = (
 @njit(**_JIT)
 def _maximum(a, b):
     """``np.maximum`` of two floats (a NaN in either gives NaN)."""
-    if a >= b or a != a:
+    if a >= b or math.isnan(a):
         return a
     return b
 
@@ -72,9 +74,9 @@ def _accumulate(t, seg, y, r_in, err, band_abs, action, prev_action, violation, 
             frac = (y[i] - y0[i]) / d
         else:
             frac = 1.0
-        if t10[i] != t10[i] and frac >= 0.1:
+        if math.isnan(t10[i]) and frac >= 0.1:
             t10[i] = t[i]
-        if t90[i] != t90[i] and frac >= 0.9:
+        if math.isnan(t90[i]) and frac >= 0.9:
             t90[i] = t[i]
         if abs(y[i] - r[i]) > _maximum(0.05 * abs(d), band_abs[i]):
             t_out[i] = t[i]

@@ -42,7 +42,7 @@ from numba import njit
 
 from rig_env.params import JOINTS
 
-_JIT = dict(cache=True, error_model="numpy", _nrt=False)  # allocation-free kernels, compiled lazily
+_JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
 
 UNLIMITED = ("rig_roll", "model_yaw")
 POTENTIOMETER = ("rig_roll", "rig_pitch", "rig_yaw")

@@ -25,7 +25,7 @@ import math
 import numpy as np
 from numba import njit
 
-_JIT = dict(cache=True, error_model="numpy", _nrt=False)  # allocation-free kernels, compiled lazily
+_JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
 
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
 _M2 = np.uint64(0x94D049BB133111EB)

@@ -37,9 +37,9 @@ from typing import Any
 
 import numpy as np
 from gymnasium import spaces
-from numba import njit
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
+from numba import njit
 
 from rig_env.envs import streams as rs
 from rig_env.envs.config import RigEnvConfig
@@ -67,7 +67,7 @@ def _clip_actions(a, out):
             v = a[i, j]
             if not math.isfinite(v):
                 return False
-            out[i, j] = -1.0 if v < -1.0 else (1.0 if v > 1.0 else v)
+            out[i, j] = max(-1.0, min(v, 1.0))
     return True
 
 

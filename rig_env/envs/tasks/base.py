@@ -36,7 +36,7 @@ D = math.pi / 180.0
 G0 = 9.81  # m/s^2, for load factors in observations and docstrings (the physics uses P's gravity)
 STOP_MARGIN = 2.0 * D  # beyond a stop by more than this: terminated
 _STOP_COL = {j: getattr(L, f"P_STOPS_{j.upper()}_LOWER_DEG") for j in LIMITED_JOINTS}
-_JIT = dict(cache=True, error_model="numpy", _nrt=False)  # allocation-free kernels, compiled lazily
+_JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
 
 
 @njit(**_JIT)
