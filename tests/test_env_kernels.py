@@ -19,6 +19,7 @@ from rig_env.envs.metrics import StepMetrics
 from rig_env.envs.sensors import AIRSPEED_SCALE, ANGLE_SCALE, FLAP_SCALE, Sensors
 from rig_env.envs.tasks import VelocityVectorRoll
 from rig_env.envs.tasks.base import STOP_MARGIN, Task
+from rig_env.envs.vector_env import _command_inputs, _episode_ends
 from rig_env.params import JOINTS, RigParams, param_batch
 from rig_env.physics import layout as L
 
@@ -213,3 +214,34 @@ def test_actions_are_clipped_as_np_clip_and_non_finite_rejected():
     a[2, 1] = np.inf
     with pytest.raises(ValueError, match=r"environment\(s\) \[2\]"):
         env.check_actions(a)
+
+
+@pytest.mark.parametrize("k", [3, 6])
+def test_command_inputs_equal_the_numpy_formula(k):
+    n = 40
+    rng = np.random.default_rng(11)
+    a, pilot = rng.uniform(-1, 1, (n, k)), rng.uniform(-0.2, 0.2, (n, 3))
+    U = rng.standard_normal((n, L.N_INPUTS))
+    want = U.copy()
+    want[:, :k] = np.radians(40.0) * a
+    hawk = slice(L.U_HAWK_ELEVATOR, L.U_HAWK_ELEVATOR + 3)
+    want[:, hawk] = pilot + (want[:, hawk] if k > 3 else 0.0)
+    _command_inputs(a, pilot, math.radians(40.0), U)
+    np.testing.assert_array_equal(U, want)
+
+
+def test_episode_ends_equal_the_numpy_formula():
+    n = 200
+    rng = np.random.default_rng(13)
+    status = rng.choice(np.array([L.S_OK, L.S_OK, L.S_OK, 1, 2], dtype=np.int8), n)
+    beyond = rng.random(n) < 0.2
+    steps = rng.integers(600, 660, n)
+    reward = rng.random(n)
+    te, tr, r = np.empty(n, bool), np.empty(n, bool), np.empty(n)
+    any_done = _episode_ends(status, beyond, steps, 640, reward, te, tr, r)
+    te_np = (status != L.S_OK) | beyond
+    np.testing.assert_array_equal(te, te_np)
+    np.testing.assert_array_equal(tr, (steps >= 640) & ~te_np)
+    np.testing.assert_array_equal(r, np.where(te_np, 0.0, reward))
+    assert any_done and te.any() and tr.any() and not (te & tr).any()
+    assert not _episode_ends(np.zeros(3, np.int8), np.zeros(3, bool), np.zeros(3, np.int64), 640, np.ones(3), te[:3], tr[:3], r[:3])
