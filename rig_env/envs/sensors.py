@@ -9,9 +9,11 @@ Per control step (all environments at once, numpy, no per-environment loop):
     4. normalise:                  see the layout table below; every entry is clipped to its bounds
 
 Steps 1-3 of every environment are one numba pass (:func:`_update_kernel`), and so is step 4
-(:func:`_observation_kernel`, which can write straight into the float32 observation); both are
-compiled on first use and cached on disk, and give the same numbers as the numpy formulas above
-(``tests/test_env_kernels.py``).
+(:func:`_observation_kernel`); they give the same numbers as the numpy formulas above
+(``tests/test_env_kernels.py``).  Both are called with one set of argument types only (C-contiguous
+float64 arrays), and the first ``Sensors`` built in a process compiles them (or loads them from the
+disk cache, a few ms), so a real-time loop never pays for that inside a tick; nothing is compiled at
+import.
 
 The class takes only raw measurements (joint angles in rad, compensator flap positions in rad,
 airspeed in m/s) and optional standard-normal noise samples, so the real-time deployment loop can
@@ -52,6 +54,11 @@ AIRSPEED_SCALE = 40.0
 RATE_SCALE = {"rig_roll": 12.0, "rig_pitch": 5.0, "rig_yaw": 5.0, "model_pitch": 5.0, "model_yaw": 12.0}
 N_FLAPS = 4
 _NO_NOISE = np.zeros((1, 1))
+
+
+def _c64(x: np.ndarray) -> np.ndarray:
+    """x as a C-contiguous float64 array (no copy when it already is one): the kernels' only argument type."""
+    return np.ascontiguousarray(x, dtype=np.float64)
 
 
 @njit(**_JIT)
@@ -102,7 +109,7 @@ def _clip(v, lo, hi):
 
 @njit(**_JIT)
 def _observation_kernel(angles, rates, flaps, airspeed, lim_cols, unl_cols, rate_scale, low, high, out):
-    """Step 4 (the layout table) for every environment into out (n, obs_dim), float32 or float64.
+    """Step 4 (the layout table) for every environment into out (n, obs_dim) float64.
 
     angles, rates (n, n_j) rad, rad/s; flaps (n, 4) rad; airspeed (n,) m/s; lim_cols, unl_cols: columns
     of the limited and unlimited joints; rate_scale (n_j,) rad/s; low, high (obs_dim,) bounds.
@@ -185,6 +192,8 @@ class Sensors:
         self.angles = np.zeros((n_envs, nj))
         self.flaps = np.zeros((n_envs, N_FLAPS))
         self.airspeed = np.zeros(n_envs)
+        self._obs = np.zeros((n_envs, self.obs_dim))
+        self._warm_up()
 
     # ------------------------------------------------------------------ stages
     def _corrupt(self, raw: np.ndarray, noise: np.ndarray | None) -> np.ndarray:
@@ -221,22 +230,31 @@ class Sensors:
         """One control step for every environment from raw measurements (shapes as in :meth:`reset`)."""
         nb = self.delay_steps + 1
         self._k = (self._k + 1) % nb
-        noisy = noise is not None
-        _update_kernel(angles, flaps, np.asarray(airspeed, dtype=np.float64), noise if noisy else _NO_NOISE, noisy,
+        _update_kernel(_c64(angles), _c64(flaps), _c64(airspeed), _NO_NOISE if noise is None else _c64(noise), noise is not None,
                        self.sigma, self.lsb, self._buf, self._k, (self._k - self.delay_steps) % nb, self.dt, self.alpha,
                        self.angles, self.flaps, self.airspeed, self._prev, self.rates)
 
     def observation(self, out: np.ndarray | None = None) -> np.ndarray:
         """(n, obs_dim) normalised observation of the current measurements (layout in the module doc).
 
-        out: optional (n, obs_dim) float64 or float32 array (e.g. the leading columns of the
-        environment's observation) written in place and returned; a new float64 array otherwise.
+        out: optional (n, obs_dim) array (e.g. the leading columns of the environment's float32
+        observation) that receives it, cast to its dtype, and is returned; a new float64 array otherwise.
         """
-        if out is None:
-            out = np.empty((self.angles.shape[0], self.obs_dim))
         _observation_kernel(self.angles, self.rates, self.flaps, self.airspeed, self._lim_cols, self._unl_cols,
-                            self.rate_scale, self.low, self.high, out)
+                            self.rate_scale, self.low, self.high, self._obs)
+        if out is None:
+            return self._obs.copy()
+        out[...] = self._obs
         return out
+
+    def _warm_up(self) -> None:
+        """Compile (or load from the disk cache) both kernels on scratch arrays of the runtime types."""
+        nj, nc = len(self.joints), self.n_channels
+        z = lambda *shape: np.zeros(shape)  # noqa: E731
+        _update_kernel(z(1, nj), z(1, N_FLAPS), z(1), _NO_NOISE, False, self.sigma, self.lsb, z(1, 1, nc), 0, 0, self.dt,
+                       self.alpha, z(1, nj), z(1, N_FLAPS), z(1), z(1, nj), z(1, nj))
+        _observation_kernel(z(1, nj), z(1, nj), z(1, N_FLAPS), z(1), self._lim_cols, self._unl_cols, self.rate_scale,
+                            self.low, self.high, z(1, self.obs_dim))
 
     def labels(self) -> list[str]:
         """Names of the observation entries, in order."""
