@@ -250,7 +250,7 @@ class Sensors:
     def _warm_up(self) -> None:
         """Compile (or load from the disk cache) both kernels on scratch arrays of the runtime types."""
         nj, nc = len(self.joints), self.n_channels
-        z = lambda *shape: np.zeros(shape)  # noqa: E731
+        z = lambda *shape: np.zeros(shape)
         _update_kernel(z(1, nj), z(1, N_FLAPS), z(1), _NO_NOISE, False, self.sigma, self.lsb, z(1, 1, nc), 0, 0, self.dt,
                        self.alpha, z(1, nj), z(1, N_FLAPS), z(1), z(1, nj), z(1, nj))
         _observation_kernel(z(1, nj), z(1, nj), z(1, N_FLAPS), z(1), self._lim_cols, self._unl_cols, self.rate_scale,
