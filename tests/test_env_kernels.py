@@ -245,3 +245,23 @@ def test_episode_ends_equal_the_numpy_formula():
     np.testing.assert_array_equal(r, np.where(te_np, 0.0, reward))
     assert any_done and te.any() and tr.any() and not (te & tr).any()
     assert not _episode_ends(np.zeros(3, np.int8), np.zeros(3, bool), np.zeros(3, np.int64), 640, np.ones(3), te[:3], tr[:3], r[:3])
+
+
+def test_roll_reference_kernel_equals_the_numpy_profile():
+    """VelocityVectorRoll.reference against the profile written with numpy clips, on a grid with every phase boundary."""
+    n = 64
+    task = VelocityVectorRoll(n, ("rig_roll", "model_pitch"), 1 / 80, 8.0)
+    rng = np.random.default_rng(17)
+    task.reset(np.arange(n), rng.random((n, task.n_draws)))
+    Ts, Tr, Th, Td, R, phi0 = task.T_START, task.T_RAMP, task.Th, task.Td, task.R, task.phi0
+    t1 = Ts + Tr + Th
+    times = [np.full(n, x) for x in (0.0, 0.25, 0.5, 0.75, 1.0, 7.9)] + [t1, t1 - 0.01, t1 + 0.5 * Td, t1 + Td, t1 + Td + 1.0]
+    for t in times:
+        s1, s2, s3 = np.clip(t - Ts, 0.0, Tr), np.clip(t - Ts - Tr, 0.0, Th), np.clip(t - t1, 0.0, Td)
+        phi = phi0 + R * (s1**2 / (2 * Tr) + s2 + s3 - s3**2 / (2 * Td))
+        p = R * np.where(t < Ts + Tr, s1 / Tr, np.where(t < t1, 1.0, 1.0 - s3 / Td))
+        np.testing.assert_array_equal(task.reference(t), np.stack([phi, p], axis=1))
+    # the stop: the angle reference ends at the documented stop angle, the rate at 0
+    end = task.reference(t1 + Td + 1.0)
+    np.testing.assert_allclose(end[:, 0], phi0 + R * (0.25 + Th + Td / 2), rtol=1e-13, atol=1e-13)
+    np.testing.assert_array_equal(end[:, 1], 0.0)

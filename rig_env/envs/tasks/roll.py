@@ -5,8 +5,43 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from rig_env.envs.tasks.base import D, Task
+
+_JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
+
+
+@njit(**_JIT)
+def _ramp_clip(x, hi):
+    """``np.clip(x, 0, hi)`` of one finite float, as numpy's clip loop computes it (so -0.0 gives +0.0)."""
+    v = x if x > 0.0 else 0.0
+    return v if v < hi else hi
+
+
+@njit(**_JIT)
+def _roll_reference(t, phi0, R, Th, Td, t_start, t_ramp, out):
+    """The velocity-vector-roll reference of every environment into out (n, 2): roll angle, rad; roll rate, rad/s.
+
+    t (n,) s; phi0 rad, R rad/s, Th s, Td s (n,): the episode's draws; t_start, t_ramp s.  With
+    s1 = clip(t - t_start, 0, t_ramp), s2 = clip(t - t_start - t_ramp, 0, Th), s3 = clip(t - t1, 0, Td),
+    t1 = t_start + t_ramp + Th (the formulas of :class:`VelocityVectorRoll`):
+    phi = phi0 + R (s1^2 / (2 t_ramp) + s2 + s3 - s3^2 / (2 Td)); p = R (s1 / t_ramp before t_start + t_ramp,
+    1 until t1, then 1 - s3 / Td).
+    """
+    t_on = t_start + t_ramp
+    for i in range(t.shape[0]):
+        t1 = t_on + Th[i]
+        s1 = _ramp_clip(t[i] - t_start, t_ramp)
+        s2 = _ramp_clip(t[i] - t_start - t_ramp, Th[i])
+        s3 = _ramp_clip(t[i] - t1, Td[i])
+        out[i, 0] = phi0[i] + R[i] * (s1 * s1 / (2.0 * t_ramp) + s2 + s3 - s3 * s3 / (2.0 * Td[i]))
+        if t[i] < t_on:
+            out[i, 1] = R[i] * (s1 / t_ramp)
+        elif t[i] < t1:
+            out[i, 1] = R[i] * 1.0
+        else:
+            out[i, 1] = R[i] * (1.0 - s3 / Td[i])
 
 
 class VelocityVectorRoll(Task):
@@ -52,18 +87,11 @@ class VelocityVectorRoll(Task):
         q0[:, 0] = self.phi0[idx]
         return q0, qd0
 
-    def _phases(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        t1 = self.T_START + self.T_RAMP + self.Th
-        s1 = np.clip(t - self.T_START, 0.0, self.T_RAMP)
-        s2 = np.clip(t - self.T_START - self.T_RAMP, 0.0, self.Th)
-        s3 = np.clip(t - t1, 0.0, self.Td)
-        return s1, s2, s3, t1
-
     def reference(self, t: np.ndarray) -> np.ndarray:
-        s1, s2, s3, t1 = self._phases(t)
-        phi = self.phi0 + self.R * (s1**2 / (2 * self.T_RAMP) + s2 + s3 - s3**2 / (2 * self.Td))
-        p = self.R * np.where(t < self.T_START + self.T_RAMP, s1 / self.T_RAMP, np.where(t < t1, 1.0, 1.0 - s3 / self.Td))
-        return np.stack([phi, p], axis=1)
+        """(n, 2): roll angle reference phi, rad, and roll rate reference p, rad/s (the class docstring's profile)."""
+        out = np.empty((t.shape[0], 2))
+        _roll_reference(t, self.phi0, self.R, self.Th, self.Td, self.T_START, self.T_RAMP, out)
+        return out
 
     def stop_angle(self) -> np.ndarray:
         return self.phi0 + self.R * (0.5 * self.T_RAMP + self.Th + 0.5 * self.Td)
