@@ -15,8 +15,8 @@ _JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free
 @njit(**_JIT)
 def _ramp_clip(x, hi):
     """``np.clip(x, 0, hi)`` of one finite float, as numpy's clip loop computes it (so -0.0 gives +0.0)."""
-    v = x if x > 0.0 else 0.0
-    return v if v < hi else hi
+    v = x if x > 0.0 else 0.0  # noqa: FURB136 - the comparisons of numpy's loop, not min/max's
+    return v if v < hi else hi  # noqa: FURB136
 
 
 @njit(**_JIT)
