@@ -265,3 +265,32 @@ def test_roll_reference_kernel_equals_the_numpy_profile():
     end = task.reference(t1 + Td + 1.0)
     np.testing.assert_allclose(end[:, 0], phi0 + R * (0.25 + Th + Td / 2), rtol=1e-13, atol=1e-13)
     np.testing.assert_array_equal(end[:, 1], 0.0)
+
+
+def test_roll_observation_and_tracked_kernels_equal_the_numpy_formulas():
+    n = 300
+    free = ("rig_roll", "model_pitch")
+    task = VelocityVectorRoll(n, free, 1 / 80, 8.0)
+    rng = np.random.default_rng(19)
+    task.reset(np.arange(n), rng.random((n, task.n_draws)))
+    D = math.pi / 180.0
+    t = rng.choice(np.arange(0, 641) / 80.0, n)
+    t[:3] = (0.5, task.T_START + task.T_RAMP + task.Th[3], 7.0)
+    q, qd = rng.uniform(-4, 4, (n, 5)), rng.uniform(-8, 8, (n, 5))
+    ref = task.reference(t)
+    angles, rates = q[:, [0, 3]] + rng.normal(0, 0.5, (n, 2)), qd[:, [0, 3]] * 3.0  # some entries beyond the +-5 bounds
+    rates[0, 0] = np.nan
+    e = (ref[:, 0] - angles[:, 0]) / (45.0 * D)
+    ep = (ref[:, 1] - rates[:, 0]) / 12.0
+    want = np.clip(np.stack([e, ref[:, 1] / 12.0, ep], axis=1), task.obs_low, task.obs_high)
+    got = task.observation(ref, angles, rates)
+    np.testing.assert_array_equal(got, want)
+    assert np.isnan(got[0, 2]) and (np.abs(got[1:]) == 5.0).any()  # NaN kept, bounds reached
+    t1 = task.T_START + task.T_RAMP + task.Th
+    seg = np.where(t <= task.T_START, -1, np.where(t <= t1, 0, 1))
+    stop = task.phi0 + task.R * (0.5 * task.T_RAMP + task.Th + 0.5 * task.Td)
+    want = (seg, np.where(seg == 0, qd[:, 0], q[:, 0]), np.where(seg == 0, task.R, stop), (ref[:, 0] - q[:, 0]) / D,
+            np.where(seg == 0, 5.0 * D, 2.0 * D))
+    for g, w in zip(task.tracked(t, q, qd, ref), want):
+        np.testing.assert_array_equal(g, w)
+    assert set(np.unique(seg)) == {-1, 0, 1}
