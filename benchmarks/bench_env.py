@@ -5,7 +5,8 @@
 All three in the same run (the machines are shared and noisy: compare ratios).  Compile and cache
 load happen before timing (their time is printed apart).  Steps/s counts environment control steps (80 Hz, 5 physics
 substeps each) per wall-clock second.  The raw batch is ``integrator.step_batch``/``step_serial`` on the
-environment's own arrays: the cost of the physics alone.
+environment's own arrays: the cost of the physics alone; "env overhead" is the wall time per batch step of
+RigVectorEnv minus that of the raw batch (the environment's own bookkeeping: sensors, noise, task, metrics).
 """
 
 from __future__ import annotations
@@ -90,12 +91,14 @@ def main() -> None:
     print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, numpy {np.__version__}, load average {load}")
     print(f"# first step (numba compile or cache load): serial kernel {first_step_seconds(1):.2f} s, "
           f"parallel kernel {first_step_seconds(64):.2f} s; not included in the rates below")
-    print("| n_envs | RigVectorEnv steps/s | SyncVectorEnv(RigEnv) steps/s | raw physics steps/s | vector / sync | vector / raw |")
-    print("|---|---|---|---|---|---|")
+    print("| n_envs | RigVectorEnv steps/s | SyncVectorEnv(RigEnv) steps/s | raw physics steps/s | vector / sync | vector / raw | env overhead ms/step |")
+    print("|---|---|---|---|---|---|---|")
     for n in args.sizes:
         r = bench(n, args.seconds, args.sync_max)
         s = r.get("SyncVectorEnv(RigEnv)", float("nan"))
-        print(f"| {n} | {r['RigVectorEnv']:.0f} | {s:.0f} | {r['raw physics']:.0f} | {r['RigVectorEnv'] / s:.1f} | {r['RigVectorEnv'] / r['raw physics']:.2f} |")
+        overhead_ms = 1e3 * n * (1.0 / r["RigVectorEnv"] - 1.0 / r["raw physics"])
+        print(f"| {n} | {r['RigVectorEnv']:.0f} | {s:.0f} | {r['raw physics']:.0f} | {r['RigVectorEnv'] / s:.1f} | "
+              f"{r['RigVectorEnv'] / r['raw physics']:.2f} | {overhead_ms:.3f} |")
     print(f"# rendering: {render_ms():.1f} ms per rgb_array frame (median of 40, 448 x 1024)")
 
 

@@ -15,11 +15,20 @@ episode: RMS tracking error (of the task's primary error, in the task's display 
 effort (RMS of the normalised action), control rate (RMS of its change per second, 1/s) and the
 number of control steps with a constraint violation (a joint on a stop); the number of evaluated
 segments and of those that settled.
+
+The per-step accounting of every environment is one numba pass (:func:`_accumulate`, compiled on first
+use and cached on disk; ``tests/test_env_kernels.py`` checks it against the numpy formulas); opening
+and closing segments, which happens a few times per episode, stays numpy.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
+
+_JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
 
 METRIC_NAMES = (
     "rms_error",
@@ -33,6 +42,55 @@ METRIC_NAMES = (
     "segments",
     "segments_settled",
 )
+
+
+
+@njit(**_JIT)
+def _maximum(a, b):
+    """``np.maximum`` of two floats (a NaN in either gives NaN)."""
+    if a >= b or math.isnan(a):
+        return a
+    return b
+
+
+@njit(**_JIT)
+def _accumulate(t, seg, y, r_in, err, band_abs, action, prev_action, violation, dt,
+                r, y0, t10, t90, t_out, peak, err2, a2, da2, viol, n):
+    """One control step of :meth:`StepMetrics.update` after new segments were opened, in place.
+
+    Inputs (n,) unless noted: t s, seg, y, r_in (the segment target, used where seg >= 0), err
+    (display units), band_abs, action and prev_action (n, k) normalised, violation bool, dt s.
+    Per environment (formulas of the module docstring; d = r - y0, s = sign d):
+    t10/t90 = t at the first step with (y - y0) / d >= 0.1 / 0.9 (frac = 1 when |d| <= 1e-12);
+    t_out = t while |y - r| > max(0.05 |d|, band_abs); peak = max(peak, s (y - r));
+    err2 += err^2; a2 += mean(action^2); da2 += mean(((action - prev_action) / dt)^2); viol += violation; n += 1.
+    """
+    k = action.shape[1]
+    for i in range(t.shape[0]):
+        if seg[i] >= 0:
+            r[i] = r_in[i]
+        d = r[i] - y0[i]
+        if abs(d) > 1e-12:
+            frac = (y[i] - y0[i]) / d
+        else:
+            frac = 1.0
+        if math.isnan(t10[i]) and frac >= 0.1:
+            t10[i] = t[i]
+        if math.isnan(t90[i]) and frac >= 0.9:
+            t90[i] = t[i]
+        if abs(y[i] - r[i]) > _maximum(0.05 * abs(d), band_abs[i]):
+            t_out[i] = t[i]
+        peak[i] = _maximum(peak[i], np.sign(d) * (y[i] - r[i]))
+        err2[i] += err[i] * err[i]
+        sa, sda = 0.0, 0.0
+        for j in range(k):
+            sa += action[i, j] * action[i, j]
+            v = (action[i, j] - prev_action[i, j]) / dt
+            sda += v * v
+        a2[i] += sa / k
+        da2[i] += sda / k
+        viol[i] += violation[i]
+        n[i] += 1.0
 
 
 class StepMetrics:
@@ -88,20 +146,8 @@ class StepMetrics:
             self.t10[idx] = self.t90[idx] = np.nan
             self.t_out[idx] = t[idx] - self.dt
             self.peak[idx] = -np.inf
-        self.r = np.where(seg >= 0, r, self.r)
-        d = self.r - self.y0
-        s = np.sign(d)
-        frac = np.where(np.abs(d) > 1e-12, (y - self.y0) / np.where(d == 0, 1.0, d), 1.0)
-        self.t10 = np.where(np.isnan(self.t10) & (frac >= 0.1), t, self.t10)
-        self.t90 = np.where(np.isnan(self.t90) & (frac >= 0.9), t, self.t90)
-        band = np.maximum(0.05 * np.abs(d), band_abs)
-        self.t_out = np.where(np.abs(y - self.r) > band, t, self.t_out)
-        self.peak = np.maximum(self.peak, s * (y - self.r))
-        self.err2 += err**2
-        self.a2 += np.mean(action**2, axis=1)
-        self.da2 += np.mean(((action - prev_action) / self.dt) ** 2, axis=1)
-        self.viol += violation
-        self.n += 1
+        _accumulate(t, seg, y, r, err, band_abs, action, prev_action, violation, self.dt, self.r, self.y0, self.t10,
+                    self.t90, self.t_out, self.peak, self.err2, self.a2, self.da2, self.viol, self.n)
 
     def finish(self, idx: np.ndarray, t: np.ndarray) -> dict[str, np.ndarray]:
         """Episode metrics of envs idx (arrays of len(idx)); closes their current segment."""

@@ -19,14 +19,21 @@ from rig_env.params import RigParams, param_batch
 from rig_env.physics import layout as L
 
 
-def observe(sensors: Sensors, task: Task, t: np.ndarray) -> np.ndarray:
+def observe(sensors: Sensors, task: Task, t: np.ndarray, ref: np.ndarray | None = None) -> np.ndarray:
     """(n, obs_dim) float32: ``sensors.observation()`` then ``task.observation(ref(t), angles, rates)``.
 
-    t: (n,) time since the start of the episode (or of the armed run), s.
+    t: (n,) time since the start of the episode (or of the armed run), s.  ref: ``task.reference(t)``
+    when the caller already has it (the environment computes it once per step for the reward too).
+    Each part is written straight into the float32 array (the same rounding as concatenating in
+    float64 and casting).
     """
-    ref = task.reference(t)
-    parts = [sensors.observation(), task.observation(ref, sensors.angles, sensors.rates)]
-    return np.concatenate(parts, axis=1).astype(np.float32)
+    if ref is None:
+        ref = task.reference(t)
+    k = sensors.obs_dim
+    out = np.empty((sensors.angles.shape[0], k + len(task.ref_labels)), dtype=np.float32)
+    sensors.observation(out=out[:, :k])
+    out[:, k:] = task.observation(ref, sensors.angles, sensors.rates)
+    return out
 
 
 def labels(sensors: Sensors, task: Task) -> tuple[str, ...]:

@@ -8,6 +8,13 @@ Per control step (all environments at once, numpy, no per-environment loop):
                                    a = dt / (tau + dt),  tau = 1 / (2 pi f_c)   (filtered backward difference)
     4. normalise:                  see the layout table below; every entry is clipped to its bounds
 
+Steps 1-3 of every environment are one numba pass (:func:`_update_kernel`), and so is step 4
+(:func:`_observation_kernel`); they give the same numbers as the numpy formulas above
+(``tests/test_env_kernels.py``).  Both are called with one set of argument types only (C-contiguous
+float64 arrays), and the first ``Sensors`` built in a process compiles them (or loads them from the
+disk cache, a few ms), so a real-time loop never pays for that inside a tick; nothing is compiled at
+import.
+
 The class takes only raw measurements (joint angles in rad, compensator flap positions in rad,
 airspeed in m/s) and optional standard-normal noise samples, so the real-time deployment loop can
 reuse it unchanged with ``noise=None``, ``quantise=False`` and ``delay_steps=0`` (the rig's own
@@ -33,8 +40,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from rig_env.params import JOINTS
+
+_JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
 
 UNLIMITED = ("rig_roll", "model_yaw")
 POTENTIOMETER = ("rig_roll", "rig_pitch", "rig_yaw")
@@ -43,6 +53,86 @@ FLAP_SCALE = math.radians(40.0)
 AIRSPEED_SCALE = 40.0
 RATE_SCALE = {"rig_roll": 12.0, "rig_pitch": 5.0, "rig_yaw": 5.0, "model_pitch": 5.0, "model_yaw": 12.0}
 N_FLAPS = 4
+_NO_NOISE = np.zeros((1, 1))
+
+
+def _c64(x: np.ndarray) -> np.ndarray:
+    """x as a C-contiguous float64 array (no copy when it already is one): the kernels' only argument type."""
+    return np.ascontiguousarray(x, dtype=np.float64)
+
+
+@njit(**_JIT)
+def _update_kernel(angles_raw, flaps_raw, airspeed_raw, noise, noisy, sigma, lsb, buf, k, kd, dt, alpha,
+                   angles, flaps, airspeed, prev, rates):
+    """Steps 1-3 of the module docstring for every environment, in place.
+
+    angles_raw (n, n_j) rad, flaps_raw (n, 4) rad, airspeed_raw (n,) m/s; noise (n, C) N(0, 1), used
+    when ``noisy``; sigma, lsb (C,) per channel (C = n_j + 5; lsb 0: not quantised).  The corrupted
+    measurement goes to slot k of the ring buffer buf (n, d + 1, C); slot kd (the one d steps old) is
+    unpacked into angles (n, n_j), flaps (n, 4), airspeed (n,); rates (n, n_j) rad/s are filtered with
+    alpha from the backward difference over dt s against prev (n, n_j), which becomes the new angles.
+    """
+    n, nj = angles.shape
+    n_ch = sigma.shape[0]
+    for i in range(n):
+        for c in range(n_ch):
+            if c < nj:
+                m = angles_raw[i, c]
+            elif c < nj + N_FLAPS:
+                m = flaps_raw[i, c - nj]
+            else:
+                m = airspeed_raw[i]
+            if noisy:
+                m = m + sigma[c] * noise[i, c]
+            if lsb[c] > 0.0:
+                m = np.rint(m / lsb[c]) * lsb[c]
+            buf[i, k, c] = m
+        for c in range(nj):
+            a = buf[i, kd, c]
+            angles[i, c] = a
+            rates[i, c] += alpha * ((a - prev[i, c]) / dt - rates[i, c])
+            prev[i, c] = a
+        for c in range(N_FLAPS):
+            flaps[i, c] = buf[i, kd, nj + c]
+        airspeed[i] = buf[i, kd, nj + N_FLAPS]
+
+
+@njit(**_JIT)
+def _clip(v, lo, hi):
+    """v clipped to [lo, hi]; NaN stays NaN (as ``np.clip``)."""
+    if v < lo:
+        return lo
+    if v > hi:
+        return hi
+    return v
+
+
+@njit(**_JIT)
+def _observation_kernel(angles, rates, flaps, airspeed, lim_cols, unl_cols, rate_scale, low, high, out):
+    """Step 4 (the layout table) for every environment into out (n, obs_dim) float64.
+
+    angles, rates (n, n_j) rad, rad/s; flaps (n, 4) rad; airspeed (n,) m/s; lim_cols, unl_cols: columns
+    of the limited and unlimited joints; rate_scale (n_j,) rad/s; low, high (obs_dim,) bounds.
+    """
+    n, nj = angles.shape
+    for i in range(n):
+        j = 0
+        for c in lim_cols:
+            out[i, j] = _clip(angles[i, c] / ANGLE_SCALE, low[j], high[j])
+            j += 1
+        for c in unl_cols:
+            out[i, j] = _clip(math.sin(angles[i, c]), low[j], high[j])
+            j += 1
+        for c in unl_cols:
+            out[i, j] = _clip(math.cos(angles[i, c]), low[j], high[j])
+            j += 1
+        for c in range(nj):
+            out[i, j] = _clip(rates[i, c] / rate_scale[c], low[j], high[j])
+            j += 1
+        for c in range(N_FLAPS):
+            out[i, j] = _clip(flaps[i, c] / FLAP_SCALE, low[j], high[j])
+            j += 1
+        out[i, j] = _clip(airspeed[i] / AIRSPEED_SCALE, low[j], high[j])
 
 
 class Sensors:
@@ -88,6 +178,8 @@ class Sensors:
         self.n_channels = nj + N_FLAPS + 1
         self.unlimited = np.array([j in UNLIMITED for j in self.joints], dtype=bool)
         self.rate_scale = np.array([RATE_SCALE[j] for j in self.joints])
+        self._lim_cols = np.flatnonzero(~self.unlimited).astype(np.int64)
+        self._unl_cols = np.flatnonzero(self.unlimited).astype(np.int64)
         n_ang = int(np.sum(~self.unlimited) + 2 * np.sum(self.unlimited))
         self.obs_dim = n_ang + nj + N_FLAPS + 1
         lo = [-3.0] * int(np.sum(~self.unlimited)) + [-1.0] * 2 * int(np.sum(self.unlimited)) + [-5.0] * nj + [-1.5] * N_FLAPS + [0.0]
@@ -100,6 +192,8 @@ class Sensors:
         self.angles = np.zeros((n_envs, nj))
         self.flaps = np.zeros((n_envs, N_FLAPS))
         self.airspeed = np.zeros(n_envs)
+        self._obs = np.zeros((n_envs, self.obs_dim))
+        self._warm_up()
 
     # ------------------------------------------------------------------ stages
     def _corrupt(self, raw: np.ndarray, noise: np.ndarray | None) -> np.ndarray:
@@ -134,28 +228,33 @@ class Sensors:
 
     def update(self, angles: np.ndarray, flaps: np.ndarray, airspeed: np.ndarray, noise: np.ndarray | None = None) -> None:
         """One control step for every environment from raw measurements (shapes as in :meth:`reset`)."""
-        m = self._corrupt(self._stack(angles, flaps, airspeed), noise)
         nb = self.delay_steps + 1
         self._k = (self._k + 1) % nb
-        self._buf[:, self._k] = m
-        delayed = self._buf[:, (self._k - self.delay_steps) % nb]
-        self._unpack(delayed, slice(None))
-        diff = (self.angles - self._prev) / self.dt
-        self.rates += self.alpha * (diff - self.rates)
-        self._prev[:] = self.angles
+        _update_kernel(_c64(angles), _c64(flaps), _c64(airspeed), _NO_NOISE if noise is None else _c64(noise), noise is not None,
+                       self.sigma, self.lsb, self._buf, self._k, (self._k - self.delay_steps) % nb, self.dt, self.alpha,
+                       self.angles, self.flaps, self.airspeed, self._prev, self.rates)
 
-    def observation(self) -> np.ndarray:
-        """(n, obs_dim) normalised observation of the current measurements (layout in the module doc)."""
-        a = self.angles
-        parts = [
-            a[:, ~self.unlimited] / ANGLE_SCALE,
-            np.sin(a[:, self.unlimited]),
-            np.cos(a[:, self.unlimited]),
-            self.rates / self.rate_scale,
-            self.flaps / FLAP_SCALE,
-            self.airspeed[:, None] / AIRSPEED_SCALE,
-        ]
-        return np.clip(np.concatenate(parts, axis=1), self.low, self.high)
+    def observation(self, out: np.ndarray | None = None) -> np.ndarray:
+        """(n, obs_dim) normalised observation of the current measurements (layout in the module doc).
+
+        out: optional (n, obs_dim) array (e.g. the leading columns of the environment's float32
+        observation) that receives it, cast to its dtype, and is returned; a new float64 array otherwise.
+        """
+        _observation_kernel(self.angles, self.rates, self.flaps, self.airspeed, self._lim_cols, self._unl_cols,
+                            self.rate_scale, self.low, self.high, self._obs)
+        if out is None:
+            return self._obs.copy()
+        out[...] = self._obs
+        return out
+
+    def _warm_up(self) -> None:
+        """Compile (or load from the disk cache) both kernels on scratch arrays of the runtime types."""
+        nj, nc = len(self.joints), self.n_channels
+        z = lambda *shape: np.zeros(shape)
+        _update_kernel(z(1, nj), z(1, N_FLAPS), z(1), _NO_NOISE, False, self.sigma, self.lsb, z(1, 1, nc), 0, 0, self.dt,
+                       self.alpha, z(1, nj), z(1, N_FLAPS), z(1), z(1, nj), z(1, nj))
+        _observation_kernel(z(1, nj), z(1, nj), z(1, N_FLAPS), z(1), self._lim_cols, self._unl_cols, self.rate_scale,
+                            self.low, self.high, z(1, self.obs_dim))
 
     def labels(self) -> list[str]:
         """Names of the observation entries, in order."""

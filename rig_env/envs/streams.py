@@ -11,11 +11,21 @@ normal.  ``env_key`` is derived from an integer seed exactly as :func:`env_keys`
 same numbers as a batch of one seeded with ``s + i``, and a batch can be evaluated with numpy over all
 environments at once.  ``episode`` counts resets of that environment since its seed; ``step`` counts
 control steps within the episode; ``stream`` separates uses (initial state, reference, noise...).
+
+The draws of a batch are numba kernels (one pass over the environments, no temporaries; compiled on
+first use and cached on disk).  The logarithm of Box-Muller stays numpy's (its SIMD ``log`` differs
+from the C library's in the last bit), so the numbers are bit-identical to the plain numpy formulas
+(checked in ``tests/test_env_kernels.py``).
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
+
+_JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
 
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
 _M2 = np.uint64(0x94D049BB133111EB)
@@ -59,21 +69,72 @@ def keys_of(seeds: np.ndarray) -> np.ndarray:
         return _mix(s.astype(np.uint64) * _GOLD + _GOLD)
 
 
+@njit(**_JIT)
+def _mix1(x):
+    """SplitMix64 finaliser of one uint64 (wrapping arithmetic); :func:`_mix` of a scalar."""
+    x = x ^ (x >> np.uint64(30))
+    x = x * _M1
+    x = x ^ (x >> np.uint64(27))
+    x = x * _M2
+    return x ^ (x >> np.uint64(31))
+
+
+@njit(**_JIT)
+def _uniform_kernel(keys, episode, step, stream_code, j0, out, flip):
+    """out[i, c] = uniform number j0 + c of environment i, in [0, 1) (53 bits); 1 - that with ``flip``.
+
+    keys, episode, step: (m,) uint64; stream_code: uint64 (stream times its constant); out: (m, c) float64.
+    Uniform j (0-based) of an environment is ``mix(mix(key ^ ep C_EP ^ step C_STEP ^ stream C_STREAM)
+    + (j + 1) GOLD) >> 11`` times 2^-53.
+    """
+    m, k = out.shape
+    for i in range(m):
+        h = _mix1(keys[i] ^ (episode[i] * _C_EP) ^ (step[i] * _C_STEP) ^ stream_code)
+        for c in range(k):
+            x = _mix1(h + np.uint64(j0 + c + 1) * _GOLD)
+            u = np.float64(x >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+            out[i, c] = 1.0 - u if flip else u
+
+
+@njit(**_JIT)
+def _box_muller_kernel(log_u1, u2, out):
+    """out = sqrt(-2 log_u1) cos(2 pi u2), elementwise over (m, k) arrays (log_u1 = log of a (0, 1] uniform)."""
+    m, k = out.shape
+    for i in range(m):
+        for c in range(k):
+            out[i, c] = math.sqrt(-2.0 * log_u1[i, c]) * math.cos(2.0 * math.pi * u2[i, c])
+
+
+def _counters(keys: np.ndarray, episode: np.ndarray | int, step: np.ndarray | int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """keys, episode, step as (m,) contiguous uint64 arrays (scalars broadcast)."""
+    keys = np.ascontiguousarray(keys, dtype=np.uint64)
+    m = keys.shape[0]
+    ep = np.asarray(episode)
+    st = np.asarray(step)
+    ep = np.full(m, ep, dtype=np.uint64) if ep.ndim == 0 else np.ascontiguousarray(ep, dtype=np.uint64)
+    st = np.full(m, st, dtype=np.uint64) if st.ndim == 0 else np.ascontiguousarray(st, dtype=np.uint64)
+    return keys, ep, st
+
+
 def uniform(keys: np.ndarray, episode: np.ndarray, step: np.ndarray | int, stream: int, k: int) -> np.ndarray:
     """(m, k) uniforms in [0, 1) for m environments (keys, episode, step of shape (m,) or scalar)."""
+    keys, ep, st = _counters(keys, episode, step)
+    out = np.empty((keys.shape[0], k))
     with np.errstate(over="ignore"):
-        base = (
-            keys.astype(np.uint64)
-            ^ (np.asarray(episode, dtype=np.uint64) * _C_EP)
-            ^ (np.asarray(step, dtype=np.uint64) * _C_STEP)
-            ^ (np.uint64(stream) * _C_STREAM)
-        )
-        x = _mix(_mix(base)[:, None] + (np.arange(1, k + 1, dtype=np.uint64) * _GOLD)[None, :])
-    return (x >> np.uint64(11)).astype(np.float64) * (1.0 / 9007199254740992.0)
+        code = np.uint64(stream) * _C_STREAM
+    _uniform_kernel(keys, ep, st, code, 0, out, False)
+    return out
 
 
 def normal(keys: np.ndarray, episode: np.ndarray, step: np.ndarray | int, stream: int, k: int) -> np.ndarray:
-    """(m, k) standard normals (Box-Muller on 2k uniforms of the same stream)."""
-    u = uniform(keys, episode, step, stream, 2 * k)
-    u1 = 1.0 - u[:, :k]  # (0, 1]
-    return np.sqrt(-2.0 * np.log(u1)) * np.cos(2.0 * np.pi * u[:, k:])
+    """(m, k) standard normals: Box-Muller ``sqrt(-2 log(1 - u_j)) cos(2 pi u_{k+j})`` on 2k uniforms of the stream."""
+    keys, ep, st = _counters(keys, episode, step)
+    m = keys.shape[0]
+    with np.errstate(over="ignore"):
+        code = np.uint64(stream) * _C_STREAM
+    log_u1, out = np.empty((m, k)), np.empty((m, k))
+    _uniform_kernel(keys, ep, st, code, 0, log_u1, True)  # 1 - u in (0, 1]
+    _uniform_kernel(keys, ep, st, code, k, out, False)
+    np.log(log_u1, out=log_u1)
+    _box_muller_kernel(log_u1, out, out)
+    return out

@@ -32,12 +32,14 @@ Observations are float32, see :class:`rig_env.envs.env.RigEnv` for the table.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
+from numba import njit
 
 from rig_env.envs import streams as rs
 from rig_env.envs.config import RigEnvConfig
@@ -52,9 +54,54 @@ from rig_env.physics import layout as L
 from rig_env.simulate import flags_of, rates
 
 ACTION_SCALE_DEG = 40.0
+_RAD_PER_ACTION = math.radians(ACTION_SCALE_DEG)
 COMP_ACTIONS = ("comp_aileron", "comp_elevator", "comp_rudder")
 HAWK_ACTIONS = ("hawk_elevator", "hawk_aileron", "hawk_rudder")
 _DELAY_COLS = (L.P_SERVOS_COMPENSATOR_DELAY_S, L.P_SERVOS_HAWK_DELAY_S)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _clip_actions(a, out):
+    """out = a clipped to [-1, 1], both (n, k); returns False (out incomplete) at the first non-finite value."""
+    for i in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            v = a[i, j]
+            if not math.isfinite(v):
+                return False
+            out[i, j] = max(-1.0, min(v, 1.0))
+    return True
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _command_inputs(a, pilot, scale, U):
+    """Surface commands of the control step into U (n, N_INPUTS), rad, in place.
+
+    a (n, k) clipped actions (k = 3 compensator, or 6 with the Hawk's surfaces); pilot (n, 3) the task's
+    Hawk elevator, aileron, rudder, rad; scale rad per unit action.  U[:, :k] = scale a, then the Hawk
+    columns U_HAWK_ELEVATOR.. = pilot (+ scale a[:, 3:] when k = 6).
+    """
+    k = a.shape[1]
+    for i in range(a.shape[0]):
+        for j in range(k):
+            U[i, j] = scale * a[i, j]
+        for j in range(3):
+            U[i, L.U_HAWK_ELEVATOR + j] = pilot[i, j] + (U[i, L.U_HAWK_ELEVATOR + j] if k > 3 else 0.0)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _episode_ends(status, beyond, steps, max_steps, reward, terminated, truncated, reward_out):
+    """terminated = blown up (status != S_OK) or beyond a stop; truncated = at the time limit and not terminated.
+
+    All (n,); reward_out = reward, 0 where terminated.  Returns whether any environment's episode ended.
+    """
+    any_done = False
+    for i in range(status.shape[0]):
+        te = status[i] != L.S_OK or beyond[i]
+        tr = steps[i] >= max_steps and not te
+        terminated[i], truncated[i] = te, tr
+        reward_out[i] = 0.0 if te else reward[i]
+        any_done |= te or tr
+    return any_done
 
 
 class RigVectorEnv(VectorEnv):
@@ -229,8 +276,9 @@ class RigVectorEnv(VectorEnv):
         return self.task.reference(self.t)
 
     # ------------------------------------------------------------------ step
-    def _observe(self) -> np.ndarray:
-        return observe(self.sensors, self.task, self.t)
+    def _observe(self, ref: np.ndarray | None = None) -> np.ndarray:
+        """(num_envs, obs_dim) float32 observation; ref: the task's reference at self.t if already computed."""
+        return observe(self.sensors, self.task, self.t, ref)
 
     def check_actions(self, actions: Any) -> np.ndarray:
         """(num_envs, n_actions) float64 clipped to [-1, 1]; ValueError on wrong shape or non-finite values."""
@@ -238,10 +286,11 @@ class RigVectorEnv(VectorEnv):
         shape = (self.num_envs, len(self.action_names))
         if a.shape != shape:
             raise ValueError(f"actions: expected shape {shape} ({', '.join(self.action_names)}), got {a.shape}")
-        bad = ~np.all(np.isfinite(a), axis=1)
-        if np.any(bad):
+        out = np.empty(shape)
+        if not _clip_actions(a, out):
+            bad = ~np.all(np.isfinite(a), axis=1)
             raise ValueError(f"actions: non-finite value(s) in environment(s) {np.flatnonzero(bad)[:10].tolist()}; actions must be finite numbers in [-1, 1]")
-        return np.clip(a, -1.0, 1.0)
+        return out
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if self.keys is None:
@@ -249,12 +298,9 @@ class RigVectorEnv(VectorEnv):
         a = self.check_actions(actions)
         if self.viewer is not None:
             self.viewer.clear_held()
-        n_a = len(self.action_names)
-        self.U[:, :n_a] = np.radians(ACTION_SCALE_DEG) * a
         # the task's pilot inputs (Hawk elevator, aileron, rudder, rad): the Hawk surface commands, or
         # added to the action's Hawk commands with hawk_surfaces (the servo limits clip the sum)
-        hawk = slice(L.U_HAWK_ELEVATOR, L.U_HAWK_ELEVATOR + 3)
-        self.U[:, hawk] = self.task.pilot_inputs(self.t) + (self.U[:, hawk] if n_a > 3 else 0.0)
+        _command_inputs(a, self.task.pilot_inputs(self.t), _RAD_PER_ACTION, self.U)
         if self.config.turbulence > 0.0:
             nz = rs.normal(self.keys, self.episode, self.steps + 1, rs.S_TURBULENCE, 3)
             sig = self.config.turbulence * self.airspeed[:, None]
@@ -272,18 +318,17 @@ class RigVectorEnv(VectorEnv):
         ref = self.task.reference(self.t)
         reward = self.task.reward(q, qd, ref, a, self.prev_action)
         on_stop, beyond = self.task.limits(q, self.P)
-        failed = self.status != L.S_OK
-        terminated = failed | beyond
-        reward = np.where(terminated, 0.0, reward)
-        truncated = (self.steps >= self.max_steps) & ~terminated
+        n = self.num_envs
+        terminated, truncated, reward_out = np.empty(n, dtype=bool), np.empty(n, dtype=bool), np.empty(n)
+        any_done = _episode_ends(self.status, beyond, self.steps, self.max_steps, reward, terminated, truncated, reward_out)
+        reward = reward_out
         seg, y, r, err, band = self.task.tracked(self.t, q, qd, ref)
         self.metrics.update(self.t, seg, y, r, err, band, a, self.prev_action, on_stop)
         self.prev_action = a
-        obs = self._observe()
+        obs = self._observe(ref)
         infos: dict[str, Any] = {}
-        done = terminated | truncated
-        if np.any(done):
-            idx = np.flatnonzero(done)
+        if any_done:
+            idx = np.flatnonzero(terminated | truncated)
             infos = self._final_infos(idx, obs, q, qd, ref, truncated, beyond)
             if self.viewer is not None:
                 self.viewer.hold(self, idx)  # frames show an ended episode's last state until the next step

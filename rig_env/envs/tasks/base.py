@@ -27,6 +27,7 @@ from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
+from numba import njit
 
 from rig_env.params import JOINTS, LIMITED_JOINTS
 from rig_env.physics import layout as L
@@ -35,6 +36,36 @@ D = math.pi / 180.0
 G0 = 9.81  # m/s^2, for load factors in observations and docstrings (the physics uses P's gravity)
 STOP_MARGIN = 2.0 * D  # beyond a stop by more than this: terminated
 _STOP_COL = {j: getattr(L, f"P_STOPS_{j.upper()}_LOWER_DEG") for j in LIMITED_JOINTS}
+_JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
+
+
+@njit(**_JIT)
+def _stop_flags(q, P, joints, cols, margin, on, beyond):
+    """Per environment: on a stop (q <= lower or q >= upper) and beyond one by more than margin (rad).
+
+    q (n, 5) rad; P (n, N_PARAMS) with each stop pair (lower, upper) at columns cols[m], cols[m] + 1
+    (rad) for joint joints[m]; on, beyond (n,) bool outputs.  NaN angles are on no stop.
+    """
+    for i in range(q.shape[0]):
+        o, b = False, False
+        for m in range(joints.shape[0]):
+            x, lo, hi = q[i, joints[m]], P[i, cols[m]], P[i, cols[m] + 1]
+            o |= (x <= lo) | (x >= hi)
+            b |= (x < lo - margin) | (x > hi + margin)
+        on[i], beyond[i] = o, b
+
+
+@njit(**_JIT)
+def _control_cost_kernel(a, a_prev, out):
+    """out (n,) = 0.05 mean_j a_j^2 + 0.05 mean_j (a_j - a_prev_j)^2 for normalised actions a, a_prev (n, k)."""
+    k = a.shape[1]
+    for i in range(a.shape[0]):
+        s, ds = 0.0, 0.0
+        for j in range(k):
+            s += a[i, j] * a[i, j]
+            d = a[i, j] - a_prev[i, j]
+            ds += d * d
+        out[i] = 0.05 * (s / k) + 0.05 * (ds / k)
 
 
 class Task:
@@ -74,6 +105,7 @@ class Task:
         self.free_idx = np.array([JOINTS.index(j) for j in free_dofs])
         self.meas_roll = self.col("rig_roll")  # column of rig_roll in the measured joints (-1: locked)
         self.limited = np.array([JOINTS.index(j) for j in free_dofs if j in LIMITED_JOINTS], dtype=np.int64)
+        self._stop_cols = np.array([_STOP_COL[JOINTS[j]] for j in self.limited], dtype=np.int64)
         self.obs_low = -np.full(len(self.ref_labels), 5.0)
         self.obs_high = np.full(len(self.ref_labels), 5.0)
         self.V = np.zeros(n_envs)
@@ -110,19 +142,21 @@ class Task:
         return q, np.zeros((idx.size, 5))
 
     def limits(self, q: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(on a stop, beyond a stop by more than STOP_MARGIN), each (n,) bool, free limited joints."""
-        on = np.zeros(q.shape[0], dtype=bool)
-        beyond = np.zeros(q.shape[0], dtype=bool)
-        for j in self.limited:
-            col = _STOP_COL[JOINTS[j]]
-            lo, hi = P[:, col], P[:, col + 1]  # rad (to_vector converts *_deg)
-            on |= (q[:, j] <= lo) | (q[:, j] >= hi)
-            beyond |= (q[:, j] < lo - STOP_MARGIN) | (q[:, j] > hi + STOP_MARGIN)
+        """(on a stop, beyond a stop by more than STOP_MARGIN), each (n,) bool, free limited joints.
+
+        q: (n, 5) rad; P: (n, N_PARAMS) kernel parameter rows (stops in rad).
+        """
+        on = np.empty(q.shape[0], dtype=bool)
+        beyond = np.empty(q.shape[0], dtype=bool)
+        _stop_flags(q, P, self.limited, self._stop_cols, STOP_MARGIN, on, beyond)
         return on, beyond
 
     @staticmethod
     def _control_cost(a: np.ndarray, a_prev: np.ndarray) -> np.ndarray:
-        return 0.05 * np.mean(a**2, axis=1) + 0.05 * np.mean((a - a_prev) ** 2, axis=1)
+        """(n,) ``0.05 mean(a^2) + 0.05 mean((a - a_prev)^2)`` of normalised actions (n, k)."""
+        out = np.empty(a.shape[0])
+        _control_cost_kernel(a, a_prev, out)
+        return out
 
     # ------------------------------------------------------------------ hooks with defaults
     def pilot_inputs(self, t: np.ndarray) -> np.ndarray:

@@ -5,8 +5,76 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from rig_env.envs.tasks.base import D, Task
+
+_JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
+
+
+@njit(**_JIT)
+def _ramp_clip(x, hi):
+    """``np.clip(x, 0, hi)`` of one finite float, as numpy's clip loop computes it (so -0.0 gives +0.0)."""
+    v = x if x > 0.0 else 0.0  # noqa: FURB136 - the comparisons of numpy's loop, not min/max's
+    return v if v < hi else hi  # noqa: FURB136
+
+
+@njit(**_JIT)
+def _roll_reference(t, phi0, R, Th, Td, t_start, t_ramp, out):
+    """The velocity-vector-roll reference of every environment into out (n, 2): roll angle, rad; roll rate, rad/s.
+
+    t (n,) s; phi0 rad, R rad/s, Th s, Td s (n,): the episode's draws; t_start, t_ramp s.  With
+    s1 = clip(t - t_start, 0, t_ramp), s2 = clip(t - t_start - t_ramp, 0, Th), s3 = clip(t - t1, 0, Td),
+    t1 = t_start + t_ramp + Th (the formulas of :class:`VelocityVectorRoll`):
+    phi = phi0 + R (s1^2 / (2 t_ramp) + s2 + s3 - s3^2 / (2 Td)); p = R (s1 / t_ramp before t_start + t_ramp,
+    1 until t1, then 1 - s3 / Td).
+    """
+    t_on = t_start + t_ramp
+    for i in range(t.shape[0]):
+        t1 = t_on + Th[i]
+        s1 = _ramp_clip(t[i] - t_start, t_ramp)
+        s2 = _ramp_clip(t[i] - t_start - t_ramp, Th[i])
+        s3 = _ramp_clip(t[i] - t1, Td[i])
+        out[i, 0] = phi0[i] + R[i] * (s1 * s1 / (2.0 * t_ramp) + s2 + s3 - s3 * s3 / (2.0 * Td[i]))
+        if t[i] < t_on:
+            out[i, 1] = R[i] * (s1 / t_ramp)
+        elif t[i] < t1:
+            out[i, 1] = R[i] * 1.0
+        else:
+            out[i, 1] = R[i] * (1.0 - s3 / Td[i])
+
+
+@njit(**_JIT)
+def _roll_observation(ref, angles, rates, col, angle_scale, rate_scale, low, high, out):
+    """Appended entries of :class:`VelocityVectorRoll` into out (n, 3), each clipped to [low, high] (NaN kept).
+
+    ref (n, 2) roll angle rad and rate rad/s references; angles, rates (n, n_j) measured, column col
+    the rig roll; angle_scale rad, rate_scale rad/s: roll error / angle_scale, rate reference and rate
+    error / rate_scale.
+    """
+    for i in range(ref.shape[0]):
+        v = ((ref[i, 0] - angles[i, col]) / angle_scale, ref[i, 1] / rate_scale, (ref[i, 1] - rates[i, col]) / rate_scale)
+        for j in range(3):
+            out[i, j] = low[j] if v[j] < low[j] else (high[j] if v[j] > high[j] else v[j])  # noqa: FURB136 - NaN stays NaN
+
+
+@njit(**_JIT)
+def _roll_tracked(t, q, qd, ref, R, phi0, Th, Td, t_start, t_ramp, band_rate, band_stop, seg, y, r, err, band):
+    """Metrics' signals of every environment (outputs seg, y, r, err, band, each (n,)).
+
+    Before t_start: segment -1; until t1 = t_start + t_ramp + Th: segment 0, the spin-up (y the roll
+    rate qd[:, 0], target R, band band_rate rad/s); then segment 1, the stop (y the roll angle q[:, 0],
+    target the stop angle phi0 + R (t_ramp / 2 + Th + Td / 2), band band_stop rad).  err: the roll-angle
+    error ref[:, 0] - q[:, 0] in deg.
+    """
+    t_on = t_start + t_ramp
+    for i in range(t.shape[0]):
+        k = -1 if t[i] <= t_start else (0 if t[i] <= t_on + Th[i] else 1)
+        seg[i] = k
+        y[i] = qd[i, 0] if k == 0 else q[i, 0]
+        r[i] = R[i] if k == 0 else phi0[i] + R[i] * (0.5 * t_ramp + Th[i] + 0.5 * Td[i])
+        band[i] = band_rate if k == 0 else band_stop
+        err[i] = (ref[i, 0] - q[i, 0]) / D
 
 
 class VelocityVectorRoll(Task):
@@ -52,38 +120,30 @@ class VelocityVectorRoll(Task):
         q0[:, 0] = self.phi0[idx]
         return q0, qd0
 
-    def _phases(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        t1 = self.T_START + self.T_RAMP + self.Th
-        s1 = np.clip(t - self.T_START, 0.0, self.T_RAMP)
-        s2 = np.clip(t - self.T_START - self.T_RAMP, 0.0, self.Th)
-        s3 = np.clip(t - t1, 0.0, self.Td)
-        return s1, s2, s3, t1
-
     def reference(self, t: np.ndarray) -> np.ndarray:
-        s1, s2, s3, t1 = self._phases(t)
-        phi = self.phi0 + self.R * (s1**2 / (2 * self.T_RAMP) + s2 + s3 - s3**2 / (2 * self.Td))
-        p = self.R * np.where(t < self.T_START + self.T_RAMP, s1 / self.T_RAMP, np.where(t < t1, 1.0, 1.0 - s3 / self.Td))
-        return np.stack([phi, p], axis=1)
+        """(n, 2): roll angle reference phi, rad, and roll rate reference p, rad/s (the class docstring's profile)."""
+        out = np.empty((t.shape[0], 2))
+        _roll_reference(t, self.phi0, self.R, self.Th, self.Td, self.T_START, self.T_RAMP, out)
+        return out
 
     def stop_angle(self) -> np.ndarray:
         return self.phi0 + self.R * (0.5 * self.T_RAMP + self.Th + 0.5 * self.Td)
 
     def observation(self, ref: np.ndarray, angles: np.ndarray, rates: np.ndarray) -> np.ndarray:
-        e = (ref[:, 0] - angles[:, self.meas_roll]) / (45.0 * D)
-        ep = (ref[:, 1] - rates[:, self.meas_roll]) / 12.0
-        return np.clip(np.stack([e, ref[:, 1] / 12.0, ep], axis=1), self.obs_low, self.obs_high)
+        out = np.empty((ref.shape[0], 3))
+        _roll_observation(ref, angles, rates, self.meas_roll, 45.0 * D, 12.0, self.obs_low, self.obs_high, out)
+        return out
 
     def reward(self, q, qd, ref, a, a_prev):
         c = ((ref[:, 0] - q[:, 0]) / (10 * D)) ** 2 + ((ref[:, 1] - qd[:, 0]) / (60 * D)) ** 2
         return np.exp(-(c + self._control_cost(a, a_prev)))
 
     def tracked(self, t, q, qd, ref):
-        t1 = self.T_START + self.T_RAMP + self.Th
-        seg = np.where(t <= self.T_START, -1, np.where(t <= t1, 0, 1))
-        y = np.where(seg == 0, qd[:, 0], q[:, 0])
-        r = np.where(seg == 0, self.R, self.stop_angle())
-        band = np.where(seg == 0, 5.0 * D, 2.0 * D)
-        return seg, y, r, (ref[:, 0] - q[:, 0]) / D, band
+        n = t.shape[0]
+        seg, y, r, err, band = np.empty(n, dtype=np.int64), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+        _roll_tracked(t, q, qd, ref, self.R, self.phi0, self.Th, self.Td, self.T_START, self.T_RAMP, 5.0 * D, 2.0 * D,
+                      seg, y, r, err, band)
+        return seg, y, r, err, band
 
     def success(self, q, qd, ref, metrics):
         return (np.abs(ref[:, 0] - q[:, 0]) < 5 * D) & (np.abs(qd[:, 0]) < 20 * D)
