@@ -1,8 +1,8 @@
 """``rig-deploy`` (= ``python scripts/deploy.py``): export a law, fly it on a rig, or serve a simulated rig.
 
-    rig-deploy export --controller KIND --task NAME --out PATH [--rate 80] [--key-file F] [--gains KP KD KFF] [--policy FILE]
+    rig-deploy export --controller KIND --task NAME --out PATH [--task-option KEY=VALUE ...] [--rate 80] [--key-file F] [--gains KP KD KFF] [--policy FILE]
     rig-deploy run --law FILE --rig udp://HOST:PORT [--rate 80] [--arm] [--duration S] [--log PATH] [--key-file F]
-    rig-deploy sim-rig --port PORT [--task NAME] [--rate 80] [--duration S] [--loss P] [--blackout T0 DUR] ...
+    rig-deploy sim-rig --port PORT [--task NAME] [--task-option KEY=VALUE ...] [--rate 80] [--duration S] [--loss P] [--blackout T0 DUR] ...
     rig-deploy verify --law FILE [--key-file F]
 
 Exit status: 0 success; 2 bad arguments or a refused artefact (the message names what failed);
@@ -40,6 +40,27 @@ def _rig_address(url: str) -> tuple[str, int]:
     return u.hostname, u.port
 
 
+def task_options(pairs: Sequence[str] | None) -> dict[str, Any]:
+    """``--task-option KEY=VALUE`` arguments as the task's ``task_options`` mapping.
+
+    VALUE is read as JSON when it parses (numbers, true/false, quoted strings) and as a plain string
+    otherwise, so ``axis=sway_yaw`` and ``amplitude_deg=5`` both work; the task checks names and values
+    (a ValueError naming the option and what it accepts).
+    """
+    out: dict[str, Any] = {}
+    for pair in pairs or ():
+        key, sep, value = pair.partition("=")
+        if not sep or not key:
+            raise ValueError(f"--task-option {pair!r}: expected KEY=VALUE")
+        if key in out:
+            raise ValueError(f"--task-option {key!r}: given twice")
+        try:
+            out[key] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key] = value
+    return out
+
+
 def cmd_export(a: argparse.Namespace) -> int:
     import controllers  # noqa: F401  (registers the built-in laws and their artefact kinds)
     from controllers.base import CONTROLLERS, LoopSpec, make_controller
@@ -47,7 +68,7 @@ def cmd_export(a: argparse.Namespace) -> int:
     from controllers.deploy.linear import roll_tracking
     from rig_env.envs import RigVectorEnv
 
-    env = RigVectorEnv(1, task=a.task, control_rate=a.rate)
+    env = RigVectorEnv(1, task=a.task, control_rate=a.rate, task_options=task_options(a.task_option))
     spec = LoopSpec.from_env(env)
     c = env.config
     sensors = {"rate_filter_hz": c.rate_filter_hz, "link_delay_steps": c.link_delay_steps, "quantise": c.quantise, "pot_bits": c.pot_bits, "encoder_bits": c.encoder_bits}
@@ -62,7 +83,7 @@ def cmd_export(a: argparse.Namespace) -> int:
     else:
         raise ValueError(f"--controller {a.controller!r}: not available in this installation; available: {kinds}")
     rate_limit = env.params.servos.compensator.rate_limit_deg_s
-    artefact = art.from_controller(ctrl, sensors, art.default_limits(spec, rate_limit), source=f"rig-deploy export --controller {a.controller} --task {a.task}", notes=a.notes)
+    artefact = art.from_controller(ctrl, sensors, art.default_limits(spec, rate_limit), source=f"rig-deploy export --controller {a.controller} --task {a.task}" + "".join(f" --task-option {o}" for o in a.task_option or ()), notes=a.notes)
     digest = art.save(artefact, a.out, _key(a.key_file))
     print(f"wrote {a.out}: kind {artefact.kind}, task {spec.task}, {1 / spec.dt:g} Hz, sha256 {digest}")
     return 0
@@ -102,7 +123,7 @@ def cmd_sim_rig(a: argparse.Namespace) -> int:
     faults = Faults(loss=a.loss, cmd_loss=a.cmd_loss, delay=a.delay, duplicate=a.duplicate, reorder=a.reorder, corrupt=a.corrupt,
                     blackout=tuple(a.blackout) if a.blackout else None,
                     stuck=(a.stuck[0], float(a.stuck[1]), float(a.stuck[2])) if a.stuck else None, seed=a.fault_seed)
-    fields: dict[str, Any] = {}
+    fields: dict[str, Any] = {"task_options": task_options(a.task_option)}
     if a.no_noise:
         fields.update(angle_noise_deg=0.0, flap_noise_deg=0.0, airspeed_noise=0.0)
     rig = SimRig(a.port, a.task, a.rate, a.duration, a.seed, faults, host=a.host, realtime=a.realtime, **fields)
@@ -124,6 +145,7 @@ def parser() -> argparse.ArgumentParser:
     e = sub.add_parser("export", help="write a law to an artefact file")
     e.add_argument("--controller", required=True, help="controller kind (linear; lqr, pid, ppo, sac when installed)")
     e.add_argument("--task", required=True)
+    e.add_argument("--task-option", action="append", metavar="KEY=VALUE", help="a task option (repeatable), e.g. axis=sway_yaw for forced_oscillation")
     e.add_argument("--out", required=True)
     e.add_argument("--rate", type=float, default=80.0, help="control rate, Hz")
     e.add_argument("--policy", help="ppo, sac: a policy file from scripts/train.py (default: the shipped controllers/policies/<task>_<kind>.json)")
@@ -155,6 +177,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--port", type=int, required=True)
     s.add_argument("--host", default="127.0.0.1")
     s.add_argument("--task", default="velocity_vector_roll")
+    s.add_argument("--task-option", action="append", metavar="KEY=VALUE", help="a task option (repeatable), as for export")
     s.add_argument("--rate", type=float, default=80.0)
     s.add_argument("--duration", type=float, default=20.0)
     s.add_argument("--seed", type=int, default=0)
