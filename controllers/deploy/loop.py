@@ -33,19 +33,23 @@ frame is bridged by extrapolating the angles with the estimated rates (``angle +
 | rig status | RIG_FAULT bit set | FAULT |
 | controller | exception or non-finite output | FAULT |
 | overrun | the law's ``act`` longer than ``overrun_s`` (half a period) | FAULT |
-| stuck sensor (ACTIVE only) | a free joint's reading bit-identical for ``stuck_frames`` (40) consecutive fresh frames while a commanded surface moved by ``stuck_cmd_deg`` (2 deg) or more over them (:mod:`controllers.deploy.stuck`) | FAULT, naming the joint |
+| stuck sensor (ACTIVE only) | a free joint's reading bit-identical for ``stuck_frames`` (32) consecutive fresh frames while a commanded surface moved by ``stuck_cmd_deg`` (2 deg at 18 m/s, scaled by (18 / U)^2) or more over them (:mod:`controllers.deploy.stuck`) | FAULT, naming the joint |
 
 Why two stale bounds: a single 3-frame latch trips on random 10 % packet loss about once every
 1000 ticks (0.1^3), i.e. ~1.4 times in 20 s at 80 Hz; a 3-frame neutral hold with an 8-frame latch
 (0.1 s at 80 Hz; 0.1^8 per tick) keeps the safe state within 3 frames and the latch for real outages.
 Setting ``fault_frames = stale_frames`` gives the strict single bound.
 
-Why 40 frames for a stuck sensor: a still joint read through the default rig's converters (0.05 deg
+Why 32 frames for a stuck sensor: a still joint read through the default rig's converters (0.05 deg
 noise, 1 sigma; 12-bit pots, lsb 0.088 deg; 13-bit encoders, 0.044 deg) repeats its code on a frame
 with probability at most P(|z| < 0.044 / 0.05) = 0.62 (pot, true angle at a code's centre; 0.34 for
-an encoder), so ``stuck_frames`` repeats happen by chance with probability at most 0.62^40 = 5e-9 per
-tick: once in 27 days of 80 Hz ticks at rest (9 days at 244 Hz), while the detection delay is 0.5 s at
-80 Hz (0.16 s at 244 Hz).  The rule and why it needs the command's movement: :mod:`controllers.deploy.stuck`.
+an encoder), so ``stuck_frames`` repeats happen by chance with probability at most 0.62^32 = 2.3e-7
+per tick: once in 15 h of 80 Hz ticks (5 h at 244 Hz) for a pot held still at the worst angle while
+the command moves (which the rig's friction cannot do above 12 m/s, :mod:`controllers.deploy.stuck`);
+0.34^32 = 1e-15 for an encoder.  The delay is 0.4 s at 80 Hz (0.13 s at 244 Hz): measured on the sim
+rig, a rig_roll reading frozen during velocity_vector_roll's spin lets the demonstration law wind up
+until the model pitch passes its stop 37 frames later (40 frames was too late).  The rule and why it
+needs the command's movement: :mod:`controllers.deploy.stuck`.
 
 Output limits: ``command = prev + clip(clip(target, -pos, pos) - prev, -rate dt, rate dt)`` with the
 artefact's ``limits`` (default +-40 deg and the servos' 350 deg/s): the safe target is commanded at
@@ -102,7 +106,8 @@ class LoopConfig:
     stuck_frames: repeats of a free joint's reading that, with the command moving, latch FAULT
     ``stuck_sensor`` (module docstring); None or 0 disables the watchdog, else an integer in [2, 1e6].
     stuck_cmd_deg: the command movement (deg, max - min of any surface over the repeats) that shows the
-    rig is driven, [0, 80] deg (0: any repeat run of ``stuck_frames`` trips).
+    rig is driven at 18 m/s (scaled by (18 / U)^2 at airspeed U), [0, 80] deg (0: any repeat run of
+    ``stuck_frames`` trips, wind or not).
     """
 
     rig: tuple[str, int]
@@ -123,7 +128,7 @@ class LoopConfig:
     realtime: bool = False
     link_delay_steps: int = 0
     connect_timeout: float = 5.0
-    stuck_frames: int | None = 40
+    stuck_frames: int | None = 32
     stuck_cmd_deg: float = 2.0
 
     def __post_init__(self) -> None:
@@ -385,7 +390,7 @@ class RigLoop:
         if self.status & pr.STATUS_RIG_FAULT:
             bad = True
             self._latch(F_RIG, k, f"rig status 0x{self.status:x}")
-        j = self.stuck.update(self.angles[self.free], self.limits.cmd)  # the last command sent, in effect on the rig
+        j = self.stuck.update(self.angles[self.free], self.limits.cmd, self.airspeed)  # the last command sent, in effect on the rig
         if j >= 0 and self.state == ACTIVE:
             st = self.stuck
             self._latch(F_STUCK, k, f"{st.joints[j]} reading {math.degrees(st.value[j]):.4f} deg unchanged for {st.run[j]} frames "

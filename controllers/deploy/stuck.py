@@ -10,7 +10,7 @@ per free joint ``j``, on fresh frames only (a bridged or duplicated frame is nev
 | condition | meaning |
 |---|---|
 | frozen | the reading of ``j`` equals (bit for bit, as transmitted: float32) the value it had ``frames`` frames earlier, and every frame between |
-| driven | over those same frames, some commanded surface moved by at least ``cmd_span`` rad (max - min of the command, the rad the loop sent) |
+| driven | over those same frames, some commanded surface moved by at least ``cmd_span (U_REF / U)^2`` rad (max - min of the command the loop sent; U the frame's airspeed, m/s) |
 
 Both hold: the joint is reported (the loop latches FAULT ``stuck_sensor``, naming it).
 
@@ -23,11 +23,14 @@ range) one degree of compensator aileron gives 1.16 rad/s^2 of rig-roll accelera
 (``rig_env.linear.linearize`` at rest), while the rig roll's breakaway friction (0.061 N m, RIG_DATA) on
 its inertia of at least 0.14 kg m^2 (RIG_DATA, without the model) gives at most 0.44 rad/s^2, so friction can hold the rig still through a command
 change of at most 2 x 0.44 / 1.16 = 0.76 deg; the default ``cmd_span`` of 2 deg is 2.6 times that (still
-1.2 times at 12 m/s, where the dynamic pressure is 0.44 of 18 m/s's).  A rig sitting still under a
-constant command (DISARMED, FAULT at neutral, a law holding its output) has no evidence and never trips.
+1.2 times at 12 m/s, where the dynamic pressure is 0.44 of 18 m/s's).  The aerodynamic moment of a
+deflection grows as U^2 delta, so at airspeed U the span asked for is ``cmd_span (U_REF / U)^2``
+(U_REF = 18 m/s): the same change of moment at every airspeed; with the wind off (U = 0) nothing is
+evidence and the watchdog is quiet.  A rig sitting still under a constant command (DISARMED, FAULT at
+neutral, a law holding its output) has no evidence and never trips.
 
-Not detected: a channel frozen while the command stays within ``cmd_span`` (a law holding a steady
-output: indistinguishable from a rig at rest); a fault that freezes the angle but keeps adding noise
+Not detected: a channel frozen while the command stays within that span (a law holding a steady
+output: indistinguishable from a rig at rest; the wind off); a fault that freezes the angle but keeps adding noise
 downstream (not bit-identical); a wrong but moving reading (offset, gain, a slipping coupling).  Can
 false-trip: a free joint held still (at a mechanical stop, or by the motion of the others) while the
 command moves and its converter adds no noise; with the default rig's 0.05 deg noise that reading is
@@ -38,14 +41,16 @@ from __future__ import annotations
 
 import numpy as np
 
+U_REF = 18.0  # m/s: the airspeed at which ``cmd_span`` is the evidence (bottom of velocity_vector_roll's range)
+
 
 class StuckDetector:
     """Per-joint frozen-reading counters with the command span over each run (module table).
 
     joints: names of the monitored (free) joints.  frames: repeats needed (None or 0: disabled).
-    cmd_span: rad, the command movement that counts as "driven" (0: any frozen run trips).
-    ``update(angles, command)``: angles (n_j,) rad of a fresh frame, command (n_s,) rad (the last
-    command sent); returns the index of the first stuck joint, or -1.  ``run`` (n_j,) repeats so far,
+    cmd_span: rad, the command movement that counts as "driven" at ``U_REF`` (0: any frozen run trips).
+    ``update(angles, command, airspeed)``: angles (n_j,) rad of a fresh frame, command (n_s,) rad (the
+    last command sent), airspeed m/s (the frame's); returns the index of the first stuck joint, or -1.  ``run`` (n_j,) repeats so far,
     ``span`` (n_j,) rad the command's movement over each joint's current run.
     """
 
@@ -62,7 +67,7 @@ class StuckDetector:
         self.value[:] = np.nan
         self.run[:] = 0
 
-    def update(self, angles: np.ndarray, command: np.ndarray) -> int:
+    def update(self, angles: np.ndarray, command: np.ndarray, airspeed: float) -> int:
         if not self.frames:
             return -1
         same = angles == self.value
@@ -75,5 +80,6 @@ class StuckDetector:
         np.minimum(self.cmin, command, out=self.cmin)
         np.maximum(self.cmax, command, out=self.cmax)
         np.max(self.cmax - self.cmin, axis=1, out=self.span)
-        hit = (self.run >= self.frames) & (self.span >= self.cmd_span)
+        # span >= cmd_span (U_REF / U)^2 without dividing by U (U = 0: no evidence unless cmd_span = 0)
+        hit = (self.run >= self.frames) & (self.span * airspeed**2 >= self.cmd_span * U_REF**2)
         return int(np.argmax(hit)) if hit.any() else -1
