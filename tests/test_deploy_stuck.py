@@ -72,7 +72,9 @@ def test_still_noisy_joint_repeat_rate_matches_theory_and_default_bound_never_tr
     n = 100_000
     true = np.full((n, 1), 100 * POT_LSB)  # worst case: the true angle at a code's centre
     ang = readings(true, rng)
-    phi = lambda x: 0.5 * (1.0 + math.erf(x / math.sqrt(2)))  # noqa: E731
+    def phi(x: float) -> float:
+        return 0.5 * (1.0 + math.erf(x / math.sqrt(2)))
+
     pc = np.array([phi((c + 0.5) * POT_LSB / SIGMA) - phi((c - 0.5) * POT_LSB / SIGMA) for c in range(-6, 7)])
     assert abs(pc.sum() - 1.0) < 1e-12 and abs(pc[6] - 0.62) < 0.005
     rep = np.mean(ang[1:, 0] == ang[:-1, 0])
@@ -164,7 +166,7 @@ def fly_frames(art, angles: np.ndarray, commands: np.ndarray, **cfg) -> FedLoop:
     loop.t0 = time.perf_counter()
     for k, (a, c) in enumerate(zip(angles, commands)):
         loop.feed(a, c)
-        fresh, bad = loop._sense(k, 0.0)
+        loop._sense(k, 0.0)
         if k == 0:
             loop.state = ACTIVE  # armed at the first frame
     return loop
@@ -193,3 +195,26 @@ def test_loop_latches_stuck_fault_on_a_free_joint_and_ignores_locked_ones(vvr_ar
     assert ev["fault"] == "stuck_sensor" and ev["tick"] == start + N and ev["detail"].startswith("model_pitch reading")
     off = fly_frames(vvr_artefact, ang, cmd, stuck_frames=None)
     assert off.state == ACTIVE and off.fault == 0
+
+
+# ---------------------------------------------------------------------- the default span, against the model
+def test_default_span_is_more_than_roll_friction_can_hold():
+    """stuck_cmd_deg = 2 deg at 18 m/s: more than the command change the rig roll's breakaway friction can hold still.
+
+    Friction holds the rig through a moment change of at most 2 Fs; on the smallest roll inertia (0.14 kg m^2,
+    RIG_DATA, without the model) that is an acceleration of 2 Fs / 0.14, which one rad of compensator aileron
+    matches with B = d(roll acceleration)/d(aileron) from the linear model at rest.  The evidence is scaled by
+    (18 / U)^2, so the margin is the same at every airspeed if B grows as U^2 (checked at 12 m/s).
+    """
+    from rig_env.linear import linearize, trim
+    from rig_env.params import RigParams
+
+    p = RigParams.default()
+    fs = p.friction.rig_roll.Fs
+    assert 0.058 <= fs <= 0.061  # RIG_DATA: Coulomb 0.058-0.060 N m, breakaway / Coulomb 1.01
+    for u in (18.0, 12.0):
+        b = float(linearize(p, trim(p, free_dofs=("rig_roll",), airspeed=u)).B[1, 0])  # rad/s^2 per rad of comp_aileron
+        held = 2.0 * fs / 0.14 / b  # rad
+        need = SPAN * (U_REF / u) ** 2
+        print(f"{u} m/s: B = {b:.2f} rad/s^2/rad; friction holds {math.degrees(held):.2f} deg; the watchdog asks {math.degrees(need):.2f} deg")
+        assert need > 2.5 * held

@@ -20,13 +20,14 @@ creeping to rest, and a joint that decelerates or reaches a stop keeps a lagged 
 that evidence false-trips on every joint that comes to rest under a noise-free converter.  A command
 change is evidence the rig cannot ignore: at 18 m/s (the bottom of velocity_vector_roll's airspeed
 range) one degree of compensator aileron gives 1.16 rad/s^2 of rig-roll acceleration
-(``rig_env.linear.linearize`` at rest), while the rig roll's breakaway friction (0.061 N m, RIG_DATA) on
-its inertia of at least 0.14 kg m^2 (RIG_DATA, without the model) gives at most 0.44 rad/s^2, so friction can hold the rig still through a command
-change of at most 2 x 0.44 / 1.16 = 0.76 deg; the default ``cmd_span`` of 2 deg is 2.6 times that (still
-1.2 times at 12 m/s, where the dynamic pressure is 0.44 of 18 m/s's).  The aerodynamic moment of a
-deflection grows as U^2 delta, so at airspeed U the span asked for is ``cmd_span (U_REF / U)^2``
-(U_REF = 18 m/s): the same change of moment at every airspeed; with the wind off (U = 0) nothing is
-evidence and the watchdog is quiet.  A rig sitting still under a constant command (DISARMED, FAULT at
+(``rig_env.linear.linearize`` at rest), while the rig roll's breakaway friction (0.0596 N m in the
+model; RIG_DATA 0.058-0.061) on its inertia of at least 0.14 kg m^2 (RIG_DATA, without the model) gives
+at most 0.43 rad/s^2, so friction can hold the rig still through a command change of at most
+2 x 0.43 / 1.16 = 0.73 deg; the default ``cmd_span`` of 2 deg is 2.7 times that.  The aerodynamic moment
+of a deflection grows as U^2 delta (the linear model's B: 66.5 rad/s^2/rad at 18 m/s, 29.6 at 12 m/s),
+so at airspeed U the span asked for is ``cmd_span (U_REF / U)^2`` (U_REF = 18 m/s): the same margin over
+friction at every airspeed (``tests/test_deploy_stuck.py`` checks it at 18 and 12 m/s); with the wind
+off (U = 0) nothing is evidence and the watchdog is quiet.  A rig sitting still under a constant command (DISARMED, FAULT at
 neutral, a law holding its output) has no evidence and never trips.
 
 Not detected: a channel frozen while the command stays within that span (a law holding a steady
