@@ -149,8 +149,8 @@ class FedLoop(RigLoop):
 
 
 @pytest.fixture(scope="module")
-def vvr_artefact(tmp_path_factory):
-    """The demonstration roll-tracking law for velocity_vector_roll, through a file (as the loop gets it)."""
+def vvr_law(tmp_path_factory):
+    """The demonstration roll-tracking law for velocity_vector_roll, as a file."""
     from controllers.base import LoopSpec
     from rig_env.envs import RigVectorEnv
 
@@ -158,7 +158,19 @@ def vvr_artefact(tmp_path_factory):
     sensors = {"rate_filter_hz": 10.0, "link_delay_steps": 0, "quantise": True, "pot_bits": 12, "encoder_bits": 13}
     path = tmp_path_factory.mktemp("stuck") / "law.json"
     A.save(A.from_controller(roll_tracking(spec), sensors, A.default_limits(spec, 350.0), source="test"), path)
-    return A.load(path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def vvr_artefact(vvr_law):
+    return A.load(vvr_law)
+
+
+def test_run_command_refuses_bad_stuck_frames(vvr_law, capsys):
+    from controllers.deploy.cli import EXIT_REFUSED, main
+
+    assert main(["run", "--law", str(vvr_law), "--rig", "udp://127.0.0.1:9", "--stuck-frames", "1"]) == EXIT_REFUSED
+    assert "stuck_frames = 1" in capsys.readouterr().err
 
 
 def fly_frames(art, angles: np.ndarray, commands: np.ndarray, **cfg) -> FedLoop:

@@ -45,7 +45,7 @@ noise, 1 sigma; 12-bit pots, lsb 0.088 deg; 13-bit encoders, 0.044 deg) repeats 
 with probability at most P(|z| < 0.044 / 0.05) = 0.62 (pot, true angle at a code's centre; 0.34 for
 an encoder), so ``stuck_frames`` repeats happen by chance with probability at most 0.62^32 = 2.3e-7
 per tick: once in 15 h of 80 Hz ticks (5 h at 244 Hz) for a pot held still at the worst angle while
-the command moves (which the rig's friction cannot do above 12 m/s, :mod:`controllers.deploy.stuck`);
+the command moves (which the rig roll's friction cannot do at any airspeed: :mod:`controllers.deploy.stuck`);
 0.34^32 = 1e-15 for an encoder.  The delay is 0.4 s at 80 Hz (0.13 s at 244 Hz): measured on the sim
 rig, a rig_roll reading frozen during velocity_vector_roll's spin lets the demonstration law wind up
 until the model pitch passes its stop 37 frames later (40 frames was too late).  The rule and why it
