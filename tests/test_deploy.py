@@ -30,7 +30,7 @@ from controllers.deploy import artefact as A
 from controllers.deploy import protocol as pr
 from controllers.deploy.framelog import read_log
 from controllers.deploy.linear import LinearLaw
-from controllers.deploy.loop import ACTIVE, FAULT, LoopConfig, RigLoop
+from controllers.deploy.loop import ACTIVE, F_STUCK, FAULT, LoopConfig, RigLoop
 from controllers.deploy.simrig import fly_offline
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -391,6 +391,49 @@ def test_short_gap_holds_safe_then_resumes_without_fault(tmp_path, law_file):
     assert 3 <= gap["missed"].max() < 8  # past the hold bound, short of the latch bound
     assert np.all(gap["mode"][gap["missed"] >= 3] == pr.MODE_SAFE) and np.all(gap["state"] == ACTIVE)
     assert loop["final_state"] == "ACTIVE" and not loop["faults"] and log["mode"][-1] == pr.MODE_ACTIVE
+
+
+def _repeats(fresh_log: np.ndarray, joint: int) -> np.ndarray:
+    """For each fresh frame, how many frames in a row before it gave the same reading of ``joint`` (the detector's ``run``)."""
+    a = fresh_log["angles"][:, joint]
+    run = np.zeros(a.size, dtype=np.int64)
+    for i in range(1, a.size):
+        run[i] = run[i - 1] + 1 if a[i] == a[i - 1] else 0
+    return run
+
+
+def test_stuck_sensor_latches_fault_naming_the_joint(tmp_path, law_file):
+    """rig_roll frozen by the sim rig at 2 s while the law spins the rig: FAULT stuck_sensor after 40 repeats, then SAFE."""
+    t0, n = 2.0, LoopConfig.stuck_frames
+    loop, rig, _rec, log = fly(tmp_path, law_file, 4.0, ("--stuck", "rig_roll", str(t0), "1.5"))
+    assert rig["counts"]["stuck"] > 0
+    faults = [e for e in loop["events"] if e["event"] == "fault"]
+    assert [e["fault"] for e in faults] == ["stuck_sensor"] and faults[0]["detail"].startswith("rig_roll reading")
+    assert loop["final_state"] == "FAULT" and loop["faults"] == ["stuck_sensor"]
+    fresh = log[(log["fresh"] == 1) & (log["seq"] >= 0)]
+    hit = int(np.flatnonzero(fresh["fault"] & F_STUCK)[0])
+    assert _repeats(fresh, 0)[hit] == n  # the tick of the n-th repeat, not earlier, not later
+    first_stuck = np.flatnonzero(fresh["rig_time"] >= t0)[0]
+    print(f"stuck at {t0} s: FAULT at rig time {fresh['rig_time'][hit]:.4f} s, {hit - first_stuck} fresh frames after the first frozen one")
+    assert t0 + (n - 2) / 80.0 <= fresh["rig_time"][hit] <= t0 + (n + 4) / 80.0  # within the bound (a late frame skipped adds one)
+    assert np.all(fresh["state"][:hit] == ACTIVE)
+    after = log[log["tick"] >= fresh["tick"][hit]]
+    assert np.all(after["mode"] == pr.MODE_SAFE) and np.all(after["state"] == FAULT)
+
+
+def test_stuck_watchdog_quiet_on_a_still_noise_free_rig(tmp_path):
+    """A law commanding nothing on a rig without sensor noise: readings repeat far past the bound, no evidence of drive, no trip."""
+    law = tmp_path / "zero.json"
+    r = subprocess.run([sys.executable, SCRIPT, "export", "--controller", "linear", "--task", TASK, "--out", str(law), "--gains", "0", "0", "0"],
+                       env=ENV, capture_output=True, text=True, timeout=120, check=False)
+    assert r.returncode == 0, r.stderr
+    loop, _rig, _rec, log = fly(tmp_path, law, 4.0, ("--no-noise",))
+    fresh = log[(log["fresh"] == 1) & (log["seq"] >= 0)]
+    longest = [int(_repeats(fresh, j).max()) for j in range(5)]
+    print(f"still rig, no noise: longest runs of repeated readings per joint {longest} frames")
+    assert np.all(np.abs(log["command"]) == 0.0)
+    assert max(longest[0], longest[3]) > 2 * LoopConfig.stuck_frames  # a free joint repeated: a pure flatline rule would trip
+    assert loop["final_state"] == "ACTIVE" and not loop["faults"]
 
 
 def test_corrupted_duplicated_reordered_and_foreign_frames_ignored_and_counted(tmp_path, law_file):

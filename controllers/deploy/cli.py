@@ -1,7 +1,7 @@
 """``rig-deploy`` (= ``python scripts/deploy.py``): export a law, fly it on a rig, or serve a simulated rig.
 
     rig-deploy export --controller KIND --task NAME --out PATH [--task-option KEY=VALUE ...] [--rate 80] [--key-file F] [--gains KP KD KFF] [--policy FILE]
-    rig-deploy run --law FILE --rig udp://HOST:PORT [--rate 80] [--arm] [--duration S] [--log PATH] [--key-file F]
+    rig-deploy run --law FILE --rig udp://HOST:PORT [--rate 80] [--arm] [--duration S] [--log PATH] [--key-file F] [--stuck-frames 32]
     rig-deploy sim-rig --port PORT [--task NAME] [--task-option KEY=VALUE ...] [--rate 80] [--duration S] [--loss P] [--blackout T0 DUR] ...
     rig-deploy verify --law FILE [--key-file F]
 
@@ -102,7 +102,7 @@ def cmd_run(a: argparse.Namespace) -> int:
     rate = a.rate if a.rate is not None else 1.0 / art.spec.dt
     cfg = LoopConfig(rig=_rig_address(a.rig), rate_hz=rate, bind=(a.bind, a.bind_port), duration=a.duration, arm=a.arm, log_path=a.log,
                      seed=a.seed, stale_frames=a.stale_frames, fault_frames=a.fault_frames, realtime=a.realtime,
-                     link_delay_steps=a.link_delay_steps)
+                     link_delay_steps=a.link_delay_steps, stuck_frames=a.stuck_frames, stuck_cmd_deg=a.stuck_cmd_deg)
     loop = RigLoop(art, cfg)
     signal.signal(signal.SIGINT, lambda *_: loop.stop())
     signal.signal(signal.SIGTERM, lambda *_: loop.stop())
@@ -169,6 +169,9 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--bind-port", type=int, default=0)
     r.add_argument("--stale-frames", type=int, default=3)
     r.add_argument("--fault-frames", type=int, default=8)
+    r.add_argument("--stuck-frames", type=int, default=32,
+                   help="FAULT when a free joint's reading repeats for this many frames while the command moves (0: off)")
+    r.add_argument("--stuck-cmd-deg", type=float, default=2.0, help="command movement, deg at 18 m/s (x (18/U)^2 at U), that shows the rig is driven (stuck-sensor watchdog)")
     r.add_argument("--key-file")
     r.add_argument("--realtime", action="store_true", help="SCHED_FIFO scheduling (Linux, privileged)")
     r.add_argument("--link-delay-steps", type=int, default=0, help="age of a sensor frame on arrival, control steps (reference lead)")

@@ -33,11 +33,23 @@ frame is bridged by extrapolating the angles with the estimated rates (``angle +
 | rig status | RIG_FAULT bit set | FAULT |
 | controller | exception or non-finite output | FAULT |
 | overrun | the law's ``act`` longer than ``overrun_s`` (half a period) | FAULT |
+| stuck sensor (ACTIVE only) | a free joint's reading bit-identical for ``stuck_frames`` (32) consecutive fresh frames while a commanded surface moved by ``stuck_cmd_deg`` (2 deg at 18 m/s, scaled by (18 / U)^2) or more over them (:mod:`controllers.deploy.stuck`) | FAULT, naming the joint |
 
 Why two stale bounds: a single 3-frame latch trips on random 10 % packet loss about once every
 1000 ticks (0.1^3), i.e. ~1.4 times in 20 s at 80 Hz; a 3-frame neutral hold with an 8-frame latch
 (0.1 s at 80 Hz; 0.1^8 per tick) keeps the safe state within 3 frames and the latch for real outages.
 Setting ``fault_frames = stale_frames`` gives the strict single bound.
+
+Why 32 frames for a stuck sensor: a still joint read through the default rig's converters (0.05 deg
+noise, 1 sigma; 12-bit pots, lsb 0.088 deg; 13-bit encoders, 0.044 deg) repeats its code on a frame
+with probability at most P(|z| < 0.044 / 0.05) = 0.62 (pot, true angle at a code's centre; 0.34 for
+an encoder), so ``stuck_frames`` repeats happen by chance with probability at most 0.62^32 = 2.3e-7
+per tick: once in 15 h of 80 Hz ticks (5 h at 244 Hz) for a pot held still at the worst angle while
+the command moves (which the rig roll's friction cannot do at any airspeed: :mod:`controllers.deploy.stuck`);
+0.34^32 = 1e-15 for an encoder.  The delay is 0.4 s at 80 Hz (0.13 s at 244 Hz): measured on the sim
+rig, a rig_roll reading frozen during velocity_vector_roll's spin lets the demonstration law wind up
+until the model pitch passes its stop 37 frames later (40 frames was too late).  The rule and why it
+needs the command's movement: :mod:`controllers.deploy.stuck`.
 
 Output limits: ``command = prev + clip(clip(target, -pos, pos) - prev, -rate dt, rate dt)`` with the
 artefact's ``limits`` (default +-40 deg and the servos' 350 deg/s): the safe target is commanded at
@@ -60,14 +72,16 @@ import numpy as np
 from controllers.deploy import protocol as pr
 from controllers.deploy.artefact import Artefact
 from controllers.deploy.framelog import FrameLog
+from controllers.deploy.stuck import StuckDetector
 from rig_env.envs.observation import labels, observe, task_for_seed
 from rig_env.envs.sensors import UNLIMITED, Sensors
 from rig_env.params import JOINTS, RigParams, param_batch
 
 DISARMED, ACTIVE, FAULT = 0, 1, 2
 STATES = ("DISARMED", "ACTIVE", "FAULT")
-F_STALE, F_SENSOR, F_RIG, F_CONTROLLER, F_OVERRUN = 1, 2, 4, 8, 16
-FAULTS = {F_STALE: "stale", F_SENSOR: "sensor_range", F_RIG: "rig_status", F_CONTROLLER: "controller", F_OVERRUN: "overrun"}
+F_STALE, F_SENSOR, F_RIG, F_CONTROLLER, F_OVERRUN, F_STUCK = 1, 2, 4, 8, 16, 32
+FAULTS = {F_STALE: "stale", F_SENSOR: "sensor_range", F_RIG: "rig_status", F_CONTROLLER: "controller", F_OVERRUN: "overrun",
+          F_STUCK: "stuck_sensor"}
 LIMITED_MAX = math.radians(90.0)
 UNLIMITED_MAX = 1.0e4
 FLAP_MAX = math.radians(60.0)
@@ -89,6 +103,11 @@ class LoopConfig:
     link_delay_steps: age of a frame when the loop gets it, control steps (the environments'
     ``link_delay_steps``): the task reference is taken at ``rig_time + link_delay_steps dt``, so with
     that delay on the link the law sees what it saw in ``RigVectorEnv(link_delay_steps=...)``, [0, 50].
+    stuck_frames: repeats of a free joint's reading that, with the command moving, latch FAULT
+    ``stuck_sensor`` (module docstring); None or 0 disables the watchdog, else an integer in [2, 1e6].
+    stuck_cmd_deg: the command movement (deg, max - min of any surface over the repeats) that shows the
+    rig is driven at 18 m/s (scaled by (18 / U)^2 at airspeed U), [0, 80] deg (0: any repeat run of
+    ``stuck_frames`` trips, wind or not).
     """
 
     rig: tuple[str, int]
@@ -109,6 +128,8 @@ class LoopConfig:
     realtime: bool = False
     link_delay_steps: int = 0
     connect_timeout: float = 5.0
+    stuck_frames: int | None = 32
+    stuck_cmd_deg: float = 2.0
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.rate_hz) and 1.0 <= self.rate_hz <= 2000.0):
@@ -125,6 +146,11 @@ class LoopConfig:
             raise ValueError(f"frame_wait = {self.frame_wait}: allowed range [0, 0.5] periods")
         if self.miss_fraction is not None and not 0.0 < self.miss_fraction <= 1.0:
             raise ValueError(f"miss_fraction = {self.miss_fraction}: allowed range (0, 1]")
+        sf = self.stuck_frames
+        if sf is not None and not (isinstance(sf, int) and not isinstance(sf, bool) and (sf == 0 or 2 <= sf <= 1_000_000)):
+            raise ValueError(f"stuck_frames = {sf!r}: None or 0 (disabled), else an integer in [2, 1000000] frames")
+        if not (isinstance(self.stuck_cmd_deg, (int, float)) and math.isfinite(self.stuck_cmd_deg) and 0.0 <= self.stuck_cmd_deg <= 80.0):
+            raise ValueError(f"stuck_cmd_deg = {self.stuck_cmd_deg!r}: allowed range [0, 80] deg")
 
 
 class OutputLimits:
@@ -169,6 +195,7 @@ class RigLoop:
         self.lim_max = np.array([UNLIMITED_MAX if j in UNLIMITED else LIMITED_MAX for j in JOINTS])
         self.scale = math.radians(spec.action_scale_deg)
         self.limits = OutputLimits(artefact, self.period)
+        self.stuck = StuckDetector(spec.free_dofs, cfg.stuck_frames, math.radians(cfg.stuck_cmd_deg), pr.N_SURFACES)
         self.overrun_s = cfg.overrun_s if cfg.overrun_s is not None else 0.5 * self.period
         self.miss_s = (cfg.miss_fraction if cfg.miss_fraction is not None else 1.0 - cfg.phase) * self.period
         self.rig = (socket.gethostbyname(cfg.rig[0]), int(cfg.rig[1]))
@@ -219,7 +246,8 @@ class RigLoop:
             except (AttributeError, PermissionError, OSError) as e:
                 self.events.append({"tick": 0, "event": "realtime_refused", "detail": str(e)})
         header = {"artefact_sha256": self.art.sha256, "kind": self.art.kind, "task": self.spec.task, "rate_hz": cfg.rate_hz,
-                  "rig": list(self.rig), "seed": cfg.seed, "stale_frames": cfg.stale_frames, "fault_frames": cfg.fault_frames}
+                  "rig": list(self.rig), "seed": cfg.seed, "stale_frames": cfg.stale_frames, "fault_frames": cfg.fault_frames,
+                  "stuck_frames": cfg.stuck_frames, "stuck_cmd_deg": cfg.stuck_cmd_deg}
         self.log = FrameLog(cfg.log_path, cfg.rate_hz, header)
         n_ticks = None if cfg.duration is None else int(round(cfg.duration * cfg.rate_hz))
         self.lat = np.zeros(n_ticks if n_ticks else 1 << 20)  # unbounded runs: statistics of the last 2**20 ticks
@@ -362,6 +390,11 @@ class RigLoop:
         if self.status & pr.STATUS_RIG_FAULT:
             bad = True
             self._latch(F_RIG, k, f"rig status 0x{self.status:x}")
+        j = self.stuck.update(self.angles[self.free], self.limits.cmd, self.airspeed)  # the last command sent, in effect on the rig
+        if j >= 0 and self.state == ACTIVE:
+            st = self.stuck
+            self._latch(F_STUCK, k, f"{st.joints[j]} reading {math.degrees(st.value[j]):.4f} deg unchanged for {st.run[j]} frames "
+                                    f"while the commands moved {math.degrees(st.span[j]):.1f} deg")
         return True, bad
 
     def _lifecycle(self, k: int, wake: float, fresh: bool, bad_now: bool) -> None:
