@@ -61,6 +61,8 @@ def _state(law) -> dict[str, np.ndarray]:
     """Every internal state of a law: integrators, filters, last outputs, estimator, schedule interpolation."""
     if law.kind in ("ppo", "sac"):
         return {}  # a feed-forward policy has no state
+    if getattr(law, "artefact_kind", "") == "lqr_emulation":
+        return {"alpha_b": law.alpha_b, "active": law.active, "hawk": law.hawk, "pilot": law.pilot, "flap": law.flap, "u_past": law.u_past}
     if getattr(law, "artefact_kind", "").endswith("_heave_sway"):
         r = law.ref
         st = {"ref.clock": r.clock, "ref.w_ref": r.w_ref, "ref.th_ref": r.th_ref, "ref.th_base": r.th_base, "ref.fresh": r.fresh}
@@ -219,7 +221,8 @@ def test_runtime_imports_only_numpy(exported, tmp_path, kind, task, opts):
 
 
 @pytest.mark.parametrize("kind, task, art_kind", [("pid", "velocity_vector_roll", "pid"), ("lqr", "velocity_vector_roll", "lqr"),
-                                                  ("lqr", "pull_up_push_over", "lqr_heave_sway"), ("ppo", "velocity_vector_roll", "ppo")])
+                                                  ("lqr", "pull_up_push_over", "lqr_heave_sway"), ("lqr", "free_flight_emulation", "lqr_emulation"),
+                                                  ("ppo", "velocity_vector_roll", "ppo")])
 def test_cli_export_and_verify(tmp_path, kind, task, art_kind):
     out = tmp_path / f"{kind}.json"
     r = subprocess.run([sys.executable, SCRIPT, "export", "--controller", kind, "--task", task, "--out", str(out)],
@@ -298,15 +301,18 @@ def test_round_trip_on_every_other_task_the_law_flies(tmp_path, kind, task, opts
 def test_heave_sway_tables_are_the_design_tools(kind, task, opts):
     """Independent of the runtime: the stored model rows are rig_env.linearize's at the zero-input trim
     (axis_point), the static curve is rig_env.trim's (static_table), the reference constants are the task's
-    and the arm's; PID gains are tune_driven's, LQR gains control.lqr's (lqr_point with the chosen weights)."""
+    and the arm's; PID gains are tune_driven's, LQR gains control.lqr's (lqr_point with the chosen weights).
+    (Free-flight emulation's registered LQR is the model-following one, tests/test_laws_emulation.py; the
+    heave/sway LQR, which can still fly it when built directly, is checked here.)"""
     from controllers.axis_design import axis_point, lqr_point, static_table, tune_driven
+    from controllers.heave_sway import HeaveSwayLQR
     from rig_env.envs.sensors import RATE_SCALE
     from rig_env.envs.tasks.base import G0
     from rig_env.envs.tasks.oscillation import ForcedOscillation
     from rig_env.params import RigParams
 
     spec = LoopSpec.from_env(RigVectorEnv(1, task=task, task_options=opts))
-    law = make_controller(kind, spec, 1)
+    law = HeaveSwayLQR(spec, 1) if kind == "lqr" else make_controller(kind, spec, 1)
     t, p = law.tables, RigParams.default()
     j, fd = t.reference.joint, spec.free_dofs
     assert (t.reference.arm_length, t.reference.g0, t.reference.t_ramp) == (p.geometry.arm_length, G0, ForcedOscillation.T_RAMP)

@@ -1,4 +1,4 @@
-"""Artefact kinds ``"pid"``, ``"lqr"``, ``"pid_heave_sway"``, ``"lqr_heave_sway"``: the designed tables of the model-based laws as plain data.
+"""Artefact kinds ``"pid"``, ``"lqr"``, ``"pid_heave_sway"``, ``"lqr_heave_sway"``, ``"lqr_emulation"``: the designed tables of the model-based laws as plain data.
 
 The laws keep their design apart from their runtime (:class:`controllers.pid.PIDTables`,
 :class:`controllers.lqr.LQRTables`, :class:`controllers.heave_sway.HeaveSwayTables`), so the artefact stores the tables and loading builds the very
@@ -10,6 +10,7 @@ class that flies in simulation, from numpy alone (no python-control, scipy, numb
 | lqr | ``airspeeds``, ``phis``; ``K``, ``u_trim``, ``q_op``, ``A_q``, ``A_w``, ``B`` over (V, phi); ``kalman_gain``; ``sig_*`` | ``phi_step``, ``link_delay_steps``, ``estimator``, ``sig_*``, ``design`` |
 | pid_heave_sway | model over V: ``airspeeds``, ``cw``, ``b``, ``A_row``, ``q_op``, ``S``, ``static_theta``, ``static_u``, ``static_n``; ``sig_*`` | ``kp``, ``ki``, ``k_angle``, ``v_design``, ``rate_limit``, ``feedforward``, ``decouple``, ``ref_*``, ``sig_*``, ``design`` |
 | lqr_heave_sway | the same model; ``K`` (V, 2 nq + 1), ``A_q``, ``A_w``, ``B`` over V; ``kalman_gain``; ``sig_*`` | ``link_delay_steps``, ``ref_*``, ``sig_*``, ``design`` |
+| lqr_emulation | ``airspeeds``, ``K`` (V, 11 + d), ``q_op`` (V, 2); servo models ``comp_phi``, ``comp_gamma``, ``hawk_phi``, ``hawk_gamma``; ``ref_scales``; ``sig_*`` | ``hawk_delay_steps``, ``arm_length``, ``sig_*``, ``design`` |
 
 ``design`` is the law's provenance: tuning targets and achieved margins (pid), weights, grid, noise
 model and loop margins (lqr), the airspeed range and the sensor layout assumed.  ``ref_*``: the
@@ -25,6 +26,7 @@ from typing import Any
 
 from controllers.base import Controller, LoopSpec
 from controllers.deploy.artefact import register_kind
+from controllers.emulation import EmulationLQR
 from controllers.heave_sway import HeaveSwayLQR, HeaveSwayPID
 from controllers.lqr import LQRLaw
 from controllers.pid import PIDLaw
@@ -51,5 +53,6 @@ register_kind("pid", _exporter(PIDLaw), _pid)
 register_kind("lqr", _exporter(LQRLaw), _lqr)
 register_kind("pid_heave_sway", _exporter(HeaveSwayPID), HeaveSwayPID.from_data)
 register_kind("lqr_heave_sway", _exporter(HeaveSwayLQR), HeaveSwayLQR.from_data)
+register_kind("lqr_emulation", _exporter(EmulationLQR), EmulationLQR.from_data)
 
 from controllers.deploy import policy_kinds  # noqa: E402, F401  (registers "ppo" and "sac": the learned laws)

@@ -190,6 +190,8 @@ class FreeFlightEmulation(Task):
     default_episode_seconds = 6.0
     required = ("rig_pitch", "model_pitch")
     ref_labels = ("alpha_error", "q_ref", "q_error", "accel_ref", "elevator_cmd", "input_active")
+    ref_scales = {"alpha_error": 5.0 * D, "q_ref": 1.0, "q_error": 1.0, "accel_ref": G0, "elevator_cmd": 5.0 * D, "input_active": 1.0}
+    """Units (rad, rad/s, m/s^2, -) per normalised value of the appended entries (the table above), for the laws."""
     n_draws = 3 + 5
     FIT_LIMIT = 0.5
 

@@ -1,0 +1,295 @@
+"""Model-following LQR for free-flight emulation: fly the compensator so that the Hawk on the rig feels what the free Hawk would.
+
+Task (:class:`rig_env.envs.tasks.freeflight.FreeFlightEmulation`): after a 3-2-1-1 on the Hawk elevator,
+the model's angle of attack and pitch rate on the heave-pitch rig should follow those of the free
+aircraft (its short period and heave, :class:`rig_env.envs.tasks.freeflight.FreeHawkShortPeriod`).
+The rig's own heave-pitch mode rings instead (open loop, emulation error about 1.5; criterion 0.5).
+
+This is *explicit model following* (Stevens & Lewis, *Aircraft Control and Simulation*, model-following
+LQ design; Kaufman's "model-following" tracker): the rig and the reference model are put side by side
+in one linear system and a discrete LQR minimises the difference between them.  Design model
+(:mod:`controllers.emulation_design`), per airspeed of a grid over the loop's airspeed range:
+
+| states | from |
+|---|---|
+| ``rig_pitch``, ``model_pitch`` and their rates (from the zero-input trim) | ``rig_env.trim`` / ``rig_env.linearize`` (viscous friction kept), as :func:`controllers.axis_design.axis_point` |
+| ``flap``, ``flap_rate``: the compensator's heave input through its servo | second-order servo, ``servos.compensator`` |
+| ``alpha_ff``, ``q_ff``: the free Hawk's short period | the task's own reference model (``FreeHawkShortPeriod.matrices``) |
+| ``hawk_elevator``, ``hawk_elevator_rate``: the Hawk elevator through its servo | ``servos.hawk``; it drives the rig's Hawk (``linearize``'s ``hawk_elevator`` column) and the free Hawk alike |
+| ``pilot_cmd``: the pilot's elevator command | held, decaying with :data:`TAU_PILOT` (a step input's model; keeps it stabilisable) |
+| ``u_1`` .. ``u_d``: the last ``d`` heave commands | the loop's delay line |
+
+The loop's delay (servo delay + the telemetry delay of ``link_delay_steps`` control periods, the latter
+moved from the measurement to the input, which leaves the loop gain unchanged) is discretised exactly
+with the zero-order hold (Astrom & Wittenmark, *Computer-Controlled Systems*, sampling a system with a
+time delay), so the gains see the servo and the delay the rig has.  Cost (Bryson):
+
+    J = sum e_alpha^2 / a_max^2 + e_q^2 / q_max^2 + (rig_pitch - trim)^2 / th_max^2 + u^2 / u_max(V)^2
+
+with ``e_alpha = alpha_ff - alpha`` (the rig's alpha linearised: rig pitch + model pitch - l cos(theta) rig
+pitch rate / V), ``e_q = q_ff - (rig pitch rate + model pitch rate)``; the maxima start from the task
+reward's own scales (:data:`MAX_DEVIATION`: 1.5 deg, 15 deg/s, and 15 deg of rig pitch, its stop margin)
+and the input's 0.5 (20 deg of flap) at 20 m/s, scaled ``20 / V`` as the other LQRs' (:data:`MAX_INPUT`);
+the e_alpha and e_q maxima are then tightened by the largest factor of :data:`WEIGHT_SCALES` whose loop
+as flown keeps :data:`TARGETS` (GM 6 dB, PM 45 deg) at every design airspeed.
+
+Runtime (numpy only; this module): ``heave = -K(V) x`` clipped to +-1, with ``K`` interpolated linearly
+in the measured airspeed, and ``x`` built from the observation:
+
+* rig and model angles (potentiometer/encoder, delayed) and the loop's filtered rates, minus the trim;
+* ``alpha_ff = alpha_error + (alpha - alpha_b)``: the task's ``alpha_error`` entry plus the measured
+  alpha (:func:`rig_alpha` of the measured angles and rates) relative to ``alpha_b``, the measured alpha
+  latched when ``input_active`` rises (the task's baseline); 0 before;
+* ``q_ff`` = the ``q_ref`` entry; ``pilot_cmd`` = the ``elevator_cmd`` entry;
+* the Hawk servo's states from the pilot command through the servo model and its delay (as the task's
+  reference model is driven), the compensator servo's states and the delay line from the law's own
+  past commands (the servo model, ZOH-exact).
+
+No integrator: the rig's heave is meant to wash out, not to hold.  ``law.describe()``: closed-loop poles
+and, per design airspeed, the margins of the loop as flown, broken at the heave command: the law with its
+own servo model and delay line, the loop's rate filter, the rig with servo and delay
+(:func:`controllers.emulation_design.loop_as_flown`; default rig, 18-22 m/s: GM 13-15 dB, PM 58-61 deg,
+delay margin 0.16-0.28 s).
+Artefact kind ``"lqr_emulation"`` (:meth:`EmulationTables.to_data`; :mod:`controllers.deploy.laws`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from controllers.base import Controller, LoopSpec, UnsupportedTask, register
+from controllers.signals import SignalScales, table_array
+
+if TYPE_CHECKING:  # the design's types only; the runtime never imports rig_env
+    from rig_env.params import RigParams
+
+TASK = "free_flight_emulation"
+FREE_DOFS = ("rig_pitch", "model_pitch")
+MAX_DEVIATION = {"alpha_error": math.radians(1.5), "q_error": math.radians(15.0), "rig_pitch": math.radians(15.0)}
+"""Bryson maxima (rad, rad/s, rad): the task reward's scales of e_alpha and e_q and its rig-pitch stop margin."""
+WEIGHT_SCALES = (1.0, 0.85, 0.7, 0.6, 0.5)
+"""Candidate factors on the e_alpha and e_q maxima of :data:`MAX_DEVIATION`, loosest first: the design keeps the
+tightest whose loop as flown meets :data:`TARGETS` at every design airspeed (as the heave/sway LQR's weight search)."""
+TARGETS = {"gm_db": 6.0, "pm_deg": 45.0}
+MAX_INPUT = 0.5
+"""Normalised heave input (1 = 40 deg) at :data:`V_REF`; ``u_max(V) = MAX_INPUT V_REF / V``."""
+V_REF = 20.0
+TAU_PILOT = 1.0
+"""Time constant (s) of the pilot command's model in the design (a held step that decays)."""
+V_STEP = 2.5
+"""m/s between design airspeeds."""
+BASE_STATES = ("rig_pitch", "model_pitch", "rig_pitch_rate", "model_pitch_rate", "flap", "flap_rate",
+               "alpha_ff", "q_ff", "hawk_elevator", "hawk_elevator_rate", "pilot_cmd")
+REF_ENTRIES = ("alpha_error", "q_ref", "elevator_cmd", "input_active")
+"""Task entries of the observation the law reads (their units per normalised value are stored in the tables)."""
+
+
+def check_emulation(spec: LoopSpec) -> None:
+    """UnsupportedTask unless ``spec`` is free-flight emulation on the heave-pitch rig (rig_pitch, model_pitch free, the rest locked)."""
+    if spec.task != TASK:
+        raise UnsupportedTask(f"task {spec.task!r}: the model-following LQR flies {TASK!r} only")
+    if tuple(spec.free_dofs) != FREE_DOFS:
+        raise UnsupportedTask(f"free_dofs = {list(spec.free_dofs)}: the model-following LQR is designed for {list(FREE_DOFS)}")
+    missing = [e for e in REF_ENTRIES if e not in spec.obs_labels]
+    if missing:
+        raise UnsupportedTask(f"observation lacks {missing}: the model-following LQR reads them")
+
+
+def state_labels(n_delay: int) -> tuple[str, ...]:
+    """Names of the design model's states (the columns of ``K``): :data:`BASE_STATES` then the delay line ``u_1..u_d``."""
+    return BASE_STATES + tuple(f"u_{k}" for k in range(1, n_delay + 1))
+
+
+def rig_alpha(theta: np.ndarray, phi: np.ndarray, theta_rate: np.ndarray, V: np.ndarray, l: float) -> np.ndarray:
+    """The model's angle of attack on the heave-pitch rig, rad: ``theta + phi - atan2(l theta' cos theta, V - l theta' sin theta)``.
+
+    As the task computes it (``rig_env.envs.tasks.freeflight.rig_alpha``; the gimbal moves at ``l theta'`` on
+    its arc), here from measured values."""
+    return theta + phi - np.arctan2(l * theta_rate * np.cos(theta), V - l * theta_rate * np.sin(theta))
+
+
+@dataclass(frozen=True)
+class EmulationTables:
+    """Everything :class:`EmulationLQR` executes, as plain numbers.  ``nv`` design airspeeds, ``d`` delay steps.
+
+    | field | shape | unit |
+    |---|---|---|
+    | airspeeds | (nv,) | m/s, increasing (> 1) |
+    | K | (nv, 11 + d) | normalised input per state (:func:`state_labels` order; rad, rad/s, normalised) |
+    | q_op | (nv, 2) | rad: zero-input trim of rig_pitch, model_pitch |
+    | comp_phi, comp_gamma | (2, 2), (d + 1, 2) | the compensator servo over one period: ``s+ = phi s + sum_j gamma[j] u(k - j)`` |
+    | hawk_phi, hawk_gamma | (2, 2), (2,) | the Hawk servo over one period (zero-order hold) |
+    | hawk_delay_steps | int | periods between the pilot command and the Hawk servo's input, as the task's reference model |
+    | arm_length | scalar | m, pivot to model gimbal |
+    | ref_scales | (4,) | units per normalised value of :data:`REF_ENTRIES` |
+    | scales | :class:`SignalScales` | the observation's normalisation |
+    | design | dict | provenance: weights, grid, delays, poles and margins per airspeed |
+    """
+
+    airspeeds: np.ndarray
+    K: np.ndarray
+    q_op: np.ndarray
+    comp_phi: np.ndarray
+    comp_gamma: np.ndarray
+    hawk_phi: np.ndarray
+    hawk_gamma: np.ndarray
+    hawk_delay_steps: int
+    arm_length: float
+    ref_scales: np.ndarray
+    scales: SignalScales
+    design: dict[str, Any]
+
+    @property
+    def n_delay(self) -> int:
+        return self.comp_gamma.shape[0] - 1
+
+    def to_data(self) -> dict[str, Any]:
+        """Artefact entries: numpy arrays and JSON values."""
+        arrays = {k: np.array(getattr(self, k), dtype=np.float64) for k in ("airspeeds", "K", "q_op", "comp_phi", "comp_gamma", "hawk_phi", "hawk_gamma", "ref_scales")}
+        return {**arrays, "hawk_delay_steps": int(self.hawk_delay_steps), "arm_length": float(self.arm_length),
+                **self.scales.to_data(), "design": dict(self.design)}
+
+    @classmethod
+    def from_data(cls, d: Mapping[str, Any], spec: LoopSpec) -> EmulationTables:
+        """Check ``d`` (from the design or an artefact); a ValueError names the entry, UnsupportedTask a wrong spec."""
+        name = "lqr_emulation"
+        check_emulation(spec)
+        keys = ("airspeeds", "K", "q_op", "comp_phi", "comp_gamma", "hawk_phi", "hawk_gamma", "hawk_delay_steps", "arm_length", "ref_scales", "design")
+        missing = [k for k in keys if k not in d]
+        if missing:
+            raise ValueError(f"{name}: missing entries {missing}")
+        V = table_array(d, "airspeeds", owner=name, shape=None)
+        if V.ndim != 1 or V.size < 1 or V[0] <= 1.0 or np.any(np.diff(V) <= 0):
+            raise ValueError(f"{name}: airspeeds must be increasing and > 1 m/s, got {V.tolist() if V.ndim == 1 else V.shape}")
+        nv = V.size
+        cg = table_array(d, "comp_gamma", owner=name, shape=None)
+        if cg.ndim != 2 or cg.shape[1] != 2 or not 1 <= cg.shape[0] <= 101:
+            raise ValueError(f"{name}: comp_gamma: expected shape (d + 1, 2) with d in [0, 100], got {cg.shape}")
+        nd = cg.shape[0] - 1
+        hd = d["hawk_delay_steps"]
+        if isinstance(hd, bool) or not isinstance(hd, int) or not 0 <= hd <= 100:
+            raise ValueError(f"{name}: hawk_delay_steps = {hd!r}: an integer in [0, 100]")
+        arm = d["arm_length"]
+        if isinstance(arm, bool) or not isinstance(arm, (int, float)) or not math.isfinite(arm) or arm <= 0:
+            raise ValueError(f"{name}: arm_length = {arm!r}: must be a finite number > 0")
+        if type(d["design"]) is not dict:
+            raise ValueError(f"{name}: design must be an object")
+        rs = table_array(d, "ref_scales", owner=name, shape=(len(REF_ENTRIES),))
+        if np.any(rs <= 0):
+            raise ValueError(f"{name}: ref_scales must be > 0")
+        return cls(V, table_array(d, "K", owner=name, shape=(nv, len(BASE_STATES) + nd)), table_array(d, "q_op", owner=name, shape=(nv, 2)),
+                   table_array(d, "comp_phi", owner=name, shape=(2, 2)), cg, table_array(d, "hawk_phi", owner=name, shape=(2, 2)),
+                   table_array(d, "hawk_gamma", owner=name, shape=(2,)), int(hd), float(arm), rs, SignalScales.from_data(d, spec), dict(d["design"]))
+
+
+@register("lqr")
+class EmulationLQR(Controller):
+    """Model-following LQR of free-flight emulation (module docstring); registered before the heave/sway LQR.
+
+    | argument | default | meaning |
+    |---|---|---|
+    | params | default rig | rig parameters of the design model |
+    | link_delay_steps | 1 | telemetry delay the design accounts for, control steps |
+    | rate_filter_hz | 10.0 | the loop's rate filter, for the margins as flown |
+    | max_deviation | :data:`MAX_DEVIATION` | Bryson maxima by name (``alpha_error``, ``q_error``, ``rig_pitch``), overriding entry by entry |
+    | max_input | :data:`MAX_INPUT` | normalised heave input allowed at 20 m/s |
+    | tables | None | a finished design (:class:`EmulationTables` or its data); the arguments above must then be left at their defaults |
+    """
+
+    artefact_kind = "lqr_emulation"
+
+    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1, rate_filter_hz: float = 10.0,
+                 max_deviation: dict[str, float] | None = None, max_input: float | None = None,
+                 tables: EmulationTables | Mapping[str, Any] | None = None) -> None:
+        check_emulation(spec)  # cheap, before any design
+        if tables is None:
+            # design time only: python-control, scipy, the numba model and rig_env
+            from controllers.emulation_design import design_emulation_lqr
+
+            tables = design_emulation_lqr(spec, params, link_delay_steps=link_delay_steps, rate_filter_hz=rate_filter_hz,
+                                          max_deviation=max_deviation, max_input=max_input)
+        elif params is not None or link_delay_steps != 1 or rate_filter_hz != 10.0 or max_deviation is not None or max_input is not None:
+            raise ValueError("tables given: params, link_delay_steps, rate_filter_hz, max_deviation and max_input belong to the design and must not be passed too")
+        super().__init__(spec, num_envs)
+        t = self.tables = tables if isinstance(tables, EmulationTables) else EmulationTables.from_data(tables, spec)
+        ix, sc, n = spec.index, t.scales, self.num_envs
+        self._ca, self._cm = ix("rig_pitch_angle"), ix("model_pitch_angle")
+        self._ra, self._rm = ix("rig_pitch_rate"), ix("model_pitch_rate")
+        self._air = ix("airspeed")
+        self._ref = [ix(e) for e in REF_ENTRIES]
+        self._rate_scale = np.array(sc.rate_scale, dtype=np.float64)
+        self.nd = t.n_delay
+        self.alpha_b = np.zeros(n)  # measured alpha when the input began
+        self.a_ff = np.zeros(n)  # the free Hawk's alpha as last reconstructed (rad; diagnostics)
+        self.active = np.zeros(n, dtype=bool)
+        self.hawk = np.zeros((n, 2))  # Hawk servo (position, rate), rad
+        self.pilot = np.zeros((n, t.hawk_delay_steps + 2))  # pilot commands, newest first
+        self.flap = np.zeros((n, 2))  # compensator servo (position, rate), normalised
+        self.u_past = np.zeros((n, self.nd))  # u(k-1) .. u(k-d)
+
+    @classmethod
+    def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> EmulationLQR:
+        """The runtime of a deployed artefact (numpy only)."""
+        return cls(spec, num_envs, tables=EmulationTables.from_data(data, spec))
+
+    def to_data(self) -> dict[str, Any]:
+        return self.tables.to_data()
+
+    def reset(self, mask: np.ndarray | None = None) -> None:
+        m = self._mask(mask)
+        for a in (self.alpha_b, self.active, self.hawk, self.pilot, self.flap, self.u_past):
+            a[m] = 0
+
+    def _at(self, table: np.ndarray, V: np.ndarray) -> np.ndarray:
+        """Linear interpolation in airspeed of a table (nv, k) at V (n,), clamped to the grid."""
+        Vg = self.tables.airspeeds
+        if Vg.size == 1:
+            return np.broadcast_to(table[0], (V.size,) + table.shape[1:]).copy()
+        x = np.clip(np.interp(V, Vg, np.arange(Vg.size)), 0, Vg.size - 1 - 1e-9)
+        i = np.floor(x).astype(np.int64)
+        w = (x - i)[:, None]
+        return (1 - w) * table[i] + w * table[i + 1]
+
+    def state(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(x (n, 11 + d) in :func:`state_labels` order, airspeed (n,)) from the observation; advances the latches and the Hawk servo model."""
+        t, o = self.tables, obs
+        sc = t.scales
+        V = np.maximum(o[:, self._air] * sc.airspeed_scale, 5.0)
+        th, ph = o[:, self._ca] * sc.angle_scale, o[:, self._cm] * sc.angle_scale
+        thd, phd = o[:, self._ra] * self._rate_scale[0], o[:, self._rm] * self._rate_scale[1]
+        e_a, q_ff, cmd = (o[:, c] * s for c, s in zip(self._ref[:3], t.ref_scales[:3]))
+        on = o[:, self._ref[3]] > 0.5
+        alpha = rig_alpha(th, ph, thd, V, t.arm_length)
+        self.alpha_b = np.where(on & ~self.active, alpha, self.alpha_b)
+        self.active = on
+        a_ff = self.a_ff = np.where(on, e_a + alpha - self.alpha_b, 0.0)
+        self.pilot = np.roll(self.pilot, 1, axis=1)
+        self.pilot[:, 0] = cmd
+        self.hawk = self.hawk @ t.hawk_phi.T + np.outer(self.pilot[:, t.hawk_delay_steps + 1], t.hawk_gamma)
+        q_op = self._at(t.q_op, V)
+        x = np.concatenate([np.stack([th - q_op[:, 0], ph - q_op[:, 1], thd, phd, self.flap[:, 0], self.flap[:, 1], a_ff, q_ff,
+                                      self.hawk[:, 0], self.hawk[:, 1], cmd], axis=1), self.u_past], axis=1)
+        return x, V
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        o = self._check_obs(obs)
+        t = self.tables
+        x, V = self.state(o)
+        u = np.clip(-np.einsum("nj,nj->n", self._at(t.K, V), x), -1.0, 1.0)
+        # the compensator servo's states one period on, from the command history (u(k) .. u(k - d))
+        hist = np.concatenate([u[:, None], self.u_past], axis=1)
+        self.flap = self.flap @ t.comp_phi.T + hist @ t.comp_gamma
+        if self.nd:
+            self.u_past = hist[:, :-1]
+        a = np.zeros((self.num_envs, self.spec.n_actions))
+        a[:, self.spec.action_index("comp_elevator")] = u
+        return a
+
+    def describe(self) -> dict[str, Any]:
+        """Closed-loop poles (as [re, im]) and margins (servo and delay in the loop) at every design airspeed, as computed by the design."""
+        return {"points": [dict(p) for p in self.tables.design["points"]]}

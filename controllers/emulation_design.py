@@ -1,0 +1,273 @@
+"""Design of the model-following LQR (:mod:`controllers.emulation`): the tables its numpy runtime executes.
+
+Imported only when a law is designed (python-control, scipy, the numba model, ``rig_env``).  At every
+airspeed of a grid over ``spec.airspeed_range`` (:data:`controllers.emulation.V_STEP` apart):
+
+1. :func:`continuous_model`: the rig at its zero-input trim (:func:`controllers.axis_design.axis_point`,
+   plus ``rig_env.linearize``'s Hawk-elevator column there), the compensator and Hawk servos, the free
+   Hawk's short period (the task's ``FreeHawkShortPeriod.matrices``) and the pilot command, side by side
+   (the state table of :mod:`controllers.emulation`).
+2. :func:`zoh_with_delay`: exact zero-order-hold discretisation at the control period with the loop's
+   input delay (servo delay + ``link_delay_steps`` periods), the delay line appended to the state.
+3. ``control.dlqr`` with the Bryson weights of the module docstring.
+4. :func:`loop_as_flown`: the margins of the law as it flies (its own servo model and delay line, the
+   loop's rate filter, the rig with servo and delay), recorded in ``design["points"]``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import control
+import numpy as np
+from scipy.linalg import expm
+
+from controllers.axis_design import axis_point
+from controllers.base import LoopSpec
+from controllers.emulation import (
+    BASE_STATES,
+    MAX_DEVIATION,
+    MAX_INPUT,
+    REF_ENTRIES,
+    TARGETS,
+    TAU_PILOT,
+    V_REF,
+    V_STEP,
+    WEIGHT_SCALES,
+    EmulationTables,
+    check_emulation,
+    state_labels,
+)
+from controllers.signals import signal_scales
+from rig_env import linearize, trim
+from rig_env.params import RigParams
+from rig_env.physics import layout as L
+
+_S = {k: i for i, k in enumerate(BASE_STATES)}
+
+
+def zoh_with_delay(A: np.ndarray, b: np.ndarray, h: float, tau: float) -> tuple[np.ndarray, np.ndarray]:
+    """Sampling ``x' = A x + b u(t - tau)`` with a zero-order hold of period h: ``x(k+1) = Phi x(k) + sum_j G[j] u(k - j)``.
+
+    Astrom & Wittenmark, *Computer-Controlled Systems*, sec. 2.3 (time delay): with ``tau = (d - 1) h + tau'``,
+    0 < tau' <= h, ``G[d-1] = int_0^{h-tau'} e^{As} ds b`` and ``G[d] = e^{A(h-tau')} int_0^{tau'} e^{As} ds b``; tau = 0 gives
+    the plain hold (d = 0).  Returns (Phi (n, n), G (d + 1, n)).
+    """
+    if not (h > 0 and tau >= 0):
+        raise ValueError(f"h = {h}, tau = {tau}: need h > 0 and tau >= 0")
+    n = A.shape[0]
+
+    def hold(t: float) -> tuple[np.ndarray, np.ndarray]:  # (e^{At}, int_0^t e^{As} ds b)
+        M = np.zeros((n + 1, n + 1))
+        M[:n, :n], M[:n, n] = A, b
+        E = expm(M * t)
+        return E[:n, :n], E[:n, n]
+
+    Phi, g = hold(h)
+    d = math.ceil(tau / h - 1e-9)
+    G = np.zeros((d + 1, n))
+    if d == 0:
+        G[0] = g
+        return Phi, G
+    tp = tau - (d - 1) * h
+    E1, g0 = hold(h - tp)
+    G[d - 1] = g0
+    G[d] = E1 @ hold(tp)[1]
+    return Phi, G
+
+
+def servo_matrices(wn: float, zeta: float) -> tuple[np.ndarray, np.ndarray]:
+    """(A (2, 2), b (2,)) of the servo ``s'' = wn^2 (u - s) - 2 zeta wn s'`` (``rig_env.physics.servo``), state (s, s')."""
+    return np.array([[0.0, 1.0], [-wn**2, -2.0 * zeta * wn]]), np.array([0.0, wn**2])
+
+
+def continuous_model(params: RigParams, airspeed: float, dt: float, tau_pilot: float = TAU_PILOT) -> tuple[np.ndarray, np.ndarray, np.ndarray, Any]:
+    """Step 1: (A (11, 11), b (11,), q_op (5,), free-Hawk model) in the :data:`controllers.emulation.BASE_STATES` order; b: heave command (normalised)."""
+    from rig_env.envs.tasks.freeflight import FreeHawkShortPeriod
+
+    fd = ("rig_pitch", "model_pitch")
+    P = params.to_vector()
+    q_op, sys = axis_point(params, fd, airspeed)
+    op = trim(params, free_dofs=fd, airspeed=float(airspeed), controls={}, q_guess=q_op)
+    b_hawk = np.asarray(linearize(params, op, inputs=["hawk_elevator"], friction="viscous").B)[:, 0]
+    ref = FreeHawkShortPeriod(1, dt)
+    ref.configure(np.array([0]), np.array([float(airspeed)]), P[None])
+    Am = ref.matrices(np.array([0]))[0][0]  # states alpha, q, theta, h, delta, delta'
+    A, b = np.zeros((11, 11)), np.zeros(11)
+    r, f, m, hw, w = 0, _S["flap"], _S["alpha_ff"], _S["hawk_elevator"], _S["pilot_cmd"]
+    A[r:4, r:4] = np.asarray(sys.A)
+    A[r:4, f] = np.asarray(sys.B)[:, 1]  # heave column, per normalised input
+    A[r:4, hw] = b_hawk
+    A[f:f + 2, f:f + 2], b[f:f + 2] = servo_matrices(2 * math.pi * P[L.P_SERVOS_COMPENSATOR_NATURAL_FREQ_HZ], P[L.P_SERVOS_COMPENSATOR_DAMPING])
+    sub = [0, 1, 4, 5]  # alpha, q, delta, delta': theta and h do not feed back
+    A[m:m + 4, m:m + 4] = Am[np.ix_(sub, sub)]  # includes the Hawk servo rows of the reference
+    A[hw + 1, w] = ref.wn[0] ** 2
+    A[w, w] = -1.0 / tau_pilot
+    return A, b, q_op, ref
+
+
+def error_outputs(q_op: np.ndarray, airspeed: float, arm_length: float, n: int) -> np.ndarray:
+    """(3, n): e_alpha, e_q and the rig pitch's deviation, linear in the state (the module docstring's cost)."""
+    C = np.zeros((3, n))
+    C[0, _S["alpha_ff"]] = 1.0
+    C[0, [_S["rig_pitch"], _S["model_pitch"], _S["rig_pitch_rate"]]] = [-1.0, -1.0, arm_length * math.cos(q_op[1]) / airspeed]
+    C[1, _S["q_ff"]] = 1.0
+    C[1, [_S["rig_pitch_rate"], _S["model_pitch_rate"]]] = -1.0
+    C[2, _S["rig_pitch"]] = 1.0
+    return C
+
+
+def design_point(params: RigParams, airspeed: float, dt: float, link_delay_steps: int, md: dict[str, float], max_input: float,
+                 rate_filter_hz: float = 10.0) -> dict[str, Any]:
+    """Steps 1-3 at one airspeed: the augmented discrete model, the gain, and the margins of the loop as flown (:func:`loop_as_flown`)."""
+    A, b, q_op, ref = continuous_model(params, airspeed, dt)
+    P = params.to_vector()
+    tau = float(P[L.P_SERVOS_COMPENSATOR_DELAY_S]) + link_delay_steps * dt
+    Phi, G = zoh_with_delay(A, b, dt, tau)
+    n, d = A.shape[0], G.shape[0] - 1
+    N = n + d
+    Ad, Bd = np.zeros((N, N)), np.zeros((N, 1))
+    Ad[:n, :n], Bd[:n, 0] = Phi, G[0]
+    for j in range(1, d + 1):
+        Ad[:n, n + j - 1] = G[j]
+    if d:
+        Bd[n, 0] = 1.0
+        for j in range(1, d):
+            Ad[n + j, n + j - 1] = 1.0
+    C = error_outputs(q_op, airspeed, float(params.geometry.arm_length), N)
+    W = np.diag([1.0 / md["alpha_error"] ** 2, 1.0 / md["q_error"] ** 2, 1.0 / md["rig_pitch"] ** 2])
+    u_max = max_input * V_REF / airspeed
+    Q = (C.T @ W @ C + 1e-8 * np.eye(N)) * dt  # the tiny identity only makes Q definite (every mode is stable or controlled)
+    R = np.array([[dt / u_max**2]])
+    K, _, poles = control.dlqr(Ad, Bd, Q, R)
+    pt = {"airspeed": float(airspeed), "K": np.asarray(K)[0], "q_op": q_op[[1, 3]], "Ad": Ad, "Bd": Bd, "poles": np.asarray(poles), "d": d,
+          "comp_phi": Phi[_S["flap"]:_S["flap"] + 2, _S["flap"]:_S["flap"] + 2], "comp_gamma": G[:, _S["flap"]:_S["flap"] + 2],
+          "hawk_wn": float(ref.wn[0]), "hawk_zeta": float(ref.zeta[0]), "hawk_delay_steps": int(ref.delay_steps[0])}
+    pt["margins"] = loop_as_flown(pt, dt, rate_filter_hz)
+    return pt
+
+
+def loop_as_flown(pt: dict[str, Any], dt: float, rate_filter_hz: float = 10.0) -> dict[str, float]:
+    """Margins (:func:`margins_discrete`) of the law as flown, broken at the heave command.
+
+    Plant: the rig with the compensator servo and the loop's delay (the design's discrete model, the
+    reference and pilot states dropped: they do not depend on the command).  Sensors: the angles, and the
+    rates from the loop's filtered backward difference ``(a / dt) (z - 1) / (z - (1 - a))``,
+    ``a = dt / (tau + dt)`` (``rig_env.envs.sensors``), which the design's state feedback does not see.
+    Controller: ``K`` with the servo states and the delay line from the law's own command history
+    (:meth:`controllers.emulation.EmulationLQR.act`), a dynamic system of its own.  So this loop, not the
+    state-feedback one, is the one the rig closes.
+    """
+    Ad, Bd, K, d = pt["Ad"], pt["Bd"], pt["K"], pt["d"]
+    n = len(BASE_STATES)
+    f = _S["flap"]
+    plant_idx = [0, 1, 2, 3, f, f + 1, *range(n, n + d)]
+    Ap, Bp = Ad[np.ix_(plant_idx, plant_idx)], Bd[plant_idx]
+    Cp = np.zeros((2, len(plant_idx)))
+    Cp[0, 0] = Cp[1, 1] = 1.0
+    plant = control.ss(Ap, Bp, Cp, np.zeros((2, 1)), dt)
+    a = dt / (1.0 / (2.0 * math.pi * rate_filter_hz) + dt)
+    H = control.ss(control.tf([a / dt, -a / dt], [1.0, -(1.0 - a)], dt))
+    sensors = control.append(control.ss([], [], [], np.eye(2), dt), H, H)  # inputs (th, ph, th, ph) -> (th, ph, H th, H ph)
+    fan = np.vstack([np.eye(2), np.eye(2)])
+    y = sensors * control.ss([], [], [], fan, dt) * plant
+    Kr, Kf, Ku = K[:4], K[f:f + 2], K[n:n + d]
+    Phc, G = pt["comp_phi"], pt["comp_gamma"]
+    m = 2 + d
+    Ac, Bc = np.zeros((m, m)), np.zeros((m, 4))
+    Ac[:2, :2] = Phc - np.outer(G[0], Kf)
+    Ac[:2, 2:] = -np.outer(G[0], Ku) + G[1:].T
+    Bc[:2] = -np.outer(G[0], Kr)
+    if d:
+        Ac[2, :2], Ac[2, 2:], Bc[2] = -Kf, -Ku, -Kr
+        for j in range(1, d):
+            Ac[2 + j, 1 + j] = 1.0
+    ctrl = control.ss(Ac, Bc, np.concatenate([-Kf, -Ku])[None, :], -Kr[None, :], dt)
+    L = -(ctrl * y)
+    return margins_discrete(L, dt)
+
+
+def margins_discrete(L: control.StateSpace, dt: float, n_w: int = 4000) -> dict[str, float]:
+    """Margins of a stable discrete SISO loop ``L`` (negative feedback), read off its frequency response on a log grid up to Nyquist.
+
+    ``gm_db``: the smallest gain increase to reach -1 (phase crossings with |L| < 1; inf if none); ``gm_low_db``:
+    the largest gain reduction that does (crossings with |L| > 1, a conditionally stable loop; -inf if none);
+    ``pm_deg``: 180 deg minus the largest |phase| at a gain crossover (phase in (-180, 180]); ``wc``: that
+    crossover, rad/s; ``delay_margin_s``: pm / wc, the extra loop delay that would destabilise it; ``sm``:
+    min |1 + L|, the distance of the Nyquist curve to -1; ``rho``: the closed loop's largest |z| (< 1: stable).
+    The design's tables store an infinite margin as None (JSON).
+    """
+    w = np.geomspace(1e-2, math.pi / dt, n_w)
+    A, B, C, D = (np.asarray(x, dtype=np.float64) for x in (L.A, L.B, L.C, L.D))
+    z = np.exp(1j * w * dt)
+    Lw = (C @ np.linalg.solve(z[:, None, None] * np.eye(A.shape[0]) - A, np.broadcast_to(B, (w.size, *B.shape))))[:, 0, 0] + D[0, 0]
+    mag, ph = np.abs(Lw), np.angle(Lw)
+    out = {"gm_db": math.inf, "gm_low_db": -math.inf, "pm_deg": 180.0, "wc": 0.0, "delay_margin_s": math.inf,
+           "sm": float(np.min(np.abs(1.0 + Lw))), "rho": float(np.max(np.abs(np.linalg.eigvals(A - B @ C / (1.0 + D[0, 0])))))}
+    im = np.imag(Lw)
+    for k in np.flatnonzero((np.sign(im[:-1]) != np.sign(im[1:])) & (np.real(Lw[:-1]) < 0)):  # crossings of the negative real axis
+        g = -20.0 * math.log10(max(mag[k], 1e-300))
+        if g > 0:
+            out["gm_db"] = min(out["gm_db"], g)
+        else:
+            out["gm_low_db"] = max(out["gm_low_db"], g)
+    for k in np.flatnonzero(np.sign(mag[:-1] - 1.0) != np.sign(mag[1:] - 1.0)):  # gain crossovers
+        pm = 180.0 - abs(math.degrees(ph[k]))
+        if pm < out["pm_deg"]:
+            out.update(pm_deg=pm, wc=float(w[k]), delay_margin_s=math.radians(pm) / float(w[k]))
+    return out
+
+
+def design_emulation_lqr(spec: LoopSpec, params: RigParams | None = None, *, link_delay_steps: int = 1, rate_filter_hz: float = 10.0,
+                         max_deviation: dict[str, float] | None = None, max_input: float | None = None) -> EmulationTables:
+    """Tables of :class:`controllers.emulation.EmulationLQR` (steps 1-3 over the airspeed grid)."""
+    from rig_env.envs.tasks.freeflight import FreeFlightEmulation
+
+    check_emulation(spec)
+    if isinstance(link_delay_steps, bool) or not isinstance(link_delay_steps, int) or not 0 <= link_delay_steps <= 50:
+        raise ValueError(f"link_delay_steps = {link_delay_steps!r}: an integer in [0, 50]")
+    unknown = sorted(set(max_deviation or {}) - set(MAX_DEVIATION))
+    if unknown:
+        raise ValueError(f"max_deviation: unknown entries {unknown}; allowed {sorted(MAX_DEVIATION)}")
+    md = {**MAX_DEVIATION, **(max_deviation or {})}
+    mi = MAX_INPUT if max_input is None else float(max_input)
+    if any(not (math.isfinite(v) and v > 0) for v in (*md.values(), mi)):
+        raise ValueError(f"max_deviation = {md}, max_input = {mi}: every maximum must be finite and > 0")
+    params_default, params = params is None, params or RigParams.default()
+    lo, hi = spec.airspeed_range
+    if lo <= 1.0:
+        raise ValueError(f"airspeed_range = {spec.airspeed_range}: the emulation design needs airspeed > 1 m/s")
+    V = np.linspace(lo, hi, max(2, math.ceil((hi - lo) / V_STEP) + 1)) if hi > lo else np.array([lo])
+    if not (math.isfinite(rate_filter_hz) and rate_filter_hz > 0):
+        raise ValueError(f"rate_filter_hz = {rate_filter_hz!r}: must be finite and > 0")
+    if max_deviation is not None:
+        candidates = [(None, md)]
+    else:  # loosest first: keep the tightest that meets the targets
+        candidates = [(s, {**md, "alpha_error": s * md["alpha_error"], "q_error": s * md["q_error"]}) for s in WEIGHT_SCALES]
+    chosen = None
+    for scale, mdc in candidates:
+        pts = [design_point(params, float(v), spec.dt, link_delay_steps, mdc, mi, rate_filter_hz) for v in V]
+        ok = all(p["margins"]["gm_db"] >= TARGETS["gm_db"] and p["margins"]["pm_deg"] >= TARGETS["pm_deg"] and p["margins"]["rho"] < 1.0 for p in pts)
+        if ok or chosen is None:
+            chosen = (scale, mdc, pts)
+        if not ok:
+            break
+    scale, md, pts = chosen
+    d = pts[0]["d"]
+    hawk = pts[0]
+    Ah, bh = servo_matrices(hawk["hawk_wn"], hawk["hawk_zeta"])
+    hawk_phi, hawk_gamma = zoh_with_delay(Ah, bh, spec.dt, 0.0)
+    ref_scales = np.array([float(FreeFlightEmulation.ref_scales[e]) for e in REF_ENTRIES])
+    points = [{"airspeed": p["airspeed"], "phi_deg": 0.0, "poles": [[float(z.real), float(z.imag)] for z in p["poles"]],
+               "rig_pitch": {k: (float(v) if math.isfinite(v) else None) for k, v in p["margins"].items()}} for p in pts]
+    design = {"airspeed_range": list(spec.airspeed_range), "link_delay_steps": int(link_delay_steps), "rate_filter_hz": float(rate_filter_hz),
+              "params_default": params_default,
+              "method": "controllers.emulation_design (explicit model following: control.dlqr on the rig and the free Hawk's short period side by side, servo and delay in)",
+              "max_deviation": {k: float(v) for k, v in md.items()}, "weight_scale": scale, "targets": dict(TARGETS),
+              "max_input": float(mi), "tau_pilot": float(TAU_PILOT),
+              "states": list(state_labels(d)), "loop_delay_s": float(params.to_vector()[L.P_SERVOS_COMPENSATOR_DELAY_S]) + link_delay_steps * spec.dt,
+              "points": points}
+    return EmulationTables(V, np.array([p["K"] for p in pts]), np.array([p["q_op"] for p in pts]), pts[0]["comp_phi"], pts[0]["comp_gamma"],
+                           hawk_phi, hawk_gamma[0], int(hawk["hawk_delay_steps"]), float(params.geometry.arm_length), ref_scales,
+                           signal_scales(spec), design)
