@@ -85,7 +85,10 @@ class EvalResult:
 
     metrics[kind][name]: (n,) arrays (``rig_env.envs.metrics.METRIC_NAMES``, ``success``, ``status``,
     ``stop_exceeded``).  history[kind]: ``t`` (T,) s, ``q`` (k, T, 5) deg, ``qd`` (k, T, 5) deg/s,
-    ``ref`` (k, T, m) task reference (angles deg, rates deg/s), ``action`` (k, T, n_a) normalised.
+    ``ref`` (k, T, m) task reference (angles deg, rates deg/s), ``action`` (k, T, n_a) normalised, ``y``,
+    ``y_ref`` (k, T) the task's tracked quantity and its reference, deg (``Task.display``).  display: the
+    task's ``label`` of that quantity, the ``joint`` (index in JOINTS) it is, if any, and ``rate`` (joint
+    index, reference column) of a commanded rate, if any; ``actions``: the action names.
     """
 
     task: str
@@ -97,6 +100,7 @@ class EvalResult:
     history: dict[str, dict[str, np.ndarray]]
     seconds: float
     build_seconds: dict[str, float]
+    display: dict[str, Any] = field(default_factory=dict)
 
 
 LawFactory = Callable[[LoopSpec, int], Controller]
@@ -171,6 +175,7 @@ def evaluate(
     ref0 = env.reference()
     ref_h = np.full((C, k_rec, T, ref0.shape[1]), np.nan)
     act_h = np.full((C, k_rec, T, len(env.action_names)), np.nan)
+    y_h, yr_h = np.full((C, k_rec, T), np.nan), np.full((C, k_rec, T), np.nan)
     done = np.zeros(n * C, dtype=bool)
     rec_live = np.ones(n * C, dtype=bool)
     final: dict[str, np.ndarray] = {}
@@ -183,12 +188,15 @@ def evaluate(
         obs, _, term, trunc, info = env.step(actions)
         ended = term | trunc
         rec_live &= ~ended  # an ended environment already holds its next episode (same-step autoreset)
-        q, qd, ref = np.degrees(env.joint_angles), np.degrees(env.joint_rates), np.degrees(env.reference())
+        ref_rad = env.reference()
+        y_disp, y_ref = env.task.display(env.t, env.joint_angles, env.joint_rates, ref_rad)
+        q, qd, ref = np.degrees(env.joint_angles), np.degrees(env.joint_rates), np.degrees(ref_rad)
         for c, b in enumerate(blocks.values()):
             rows = np.arange(b.start, b.start + k_rec)
             live = rec_live[rows]
             q_h[c, live, step], qd_h[c, live, step] = q[rows][live], qd[rows][live]
             ref_h[c, live, step], act_h[c, live, step] = ref[rows][live], actions[rows][live]
+            y_h[c, live, step], yr_h[c, live, step] = y_disp[rows][live], y_ref[rows][live]
         if "final_info" in info:
             fi, m = info["final_info"], info["_final_info"] & ~done
             for key, v in fi.items():
@@ -206,5 +214,9 @@ def evaluate(
     seconds = time.perf_counter() - t_start
     t = (np.arange(T) + 1) * env.dt
     metrics = {name: {k: v[b].copy() for k, v in final.items()} for name, b in blocks.items()}
-    history = {name: {"t": t, "q": q_h[c], "qd": qd_h[c], "ref": ref_h[c], "action": act_h[c]} for c, name in enumerate(names)}
-    return EvalResult(task, conditions.name, seed, n, paired, metrics, history, seconds, build_s)
+    history = {name: {"t": t, "q": q_h[c], "qd": qd_h[c], "ref": ref_h[c], "action": act_h[c], "y": y_h[c], "y_ref": yr_h[c]}
+               for c, name in enumerate(names)}
+    rate = env.task.display_rate
+    display = {"label": env.task.display_label, "joint": env.task.display_joint, "rate": rate, "actions": tuple(env.action_names),
+               "rate_label": None if rate is None else f"{JOINTS[rate[0]].replace('_', ' ')} rate, deg/s"}
+    return EvalResult(task, conditions.name, seed, n, paired, metrics, history, seconds, build_s, display)

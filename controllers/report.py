@@ -1,8 +1,8 @@
 """Plots and the one-page Markdown report of a comparison (:mod:`controllers.compare`).
 
 Files: ``history_<task>.png`` (first recorded nominal episode, identical conditions for every law:
-roll angle against its reference, roll rate when the task commands one, tracking error, aileron,
-and rig_pitch / rig_yaw when free), ``metrics.png`` (bars per task and law, nominal solid, robust
+the task's tracked quantity against its reference, the commanded rate when there is one, the
+tracking error, every command a law used, and the other free rig joints; :func:`plot_history`), ``metrics.png`` (bars per task and law, nominal solid, robust
 hatched) and ``report.md``.
 """
 
@@ -32,48 +32,59 @@ def _plt():
 
 
 def plot_history(res: Any, path: Path) -> Path:
-    """Time histories of episode 0 of every law of one evaluation result."""
+    """Time histories of episode 0 of every law of one evaluation result.
+
+    Panels: the task's tracked quantity against its reference (``Task.display``: roll angle, rig pitch or
+    yaw, the model's alpha, the level error), the commanded rate when the task has one, the tracking error,
+    every command some law used (aileron, elevator, rudder, Hawk surfaces), and the free rig joints other
+    than the tracked one."""
     plt = _plt()
     names = list(res.history)
     h0 = res.history[names[0]]
-    has_rate = h0["ref"].shape[-1] > 1
-    extra = [j for j, k in (("rig_pitch", 1), ("rig_yaw", 2)) if np.any(np.isfinite(h0["q"][0, :, k])) and np.nanmax(np.abs(h0["q"][0, :, k])) > 1e-9]
-    panels = ["roll", *(["rate"] if has_rate else []), "error", "aileron", *extra]
-    fig, axes = plt.subplots(len(panels), 1, figsize=(9, 2.1 * len(panels) + 0.6), sharex=True)
+    disp = dict(getattr(res, "display", {}) or {})
+    label, joint, rate = disp.get("label", "tracked quantity, deg"), disp.get("joint"), disp.get("rate")
+    act_names = list(disp.get("actions", ("comp_aileron", "comp_elevator", "comp_rudder")))
+    used = [k for k in range(h0["action"].shape[-1])
+            if any(np.nanmax(np.abs(res.history[n]["action"][0, :, k]), initial=0.0) > 1e-3 for n in names)]
+    extra = [j for j, k in (("rig_pitch", 1), ("rig_yaw", 2))
+             if k != joint and np.any(np.isfinite(h0["q"][0, :, k])) and np.nanmax(np.abs(h0["q"][0, :, k])) > 1e-9]
+    panels = ["tracked", *(["rate"] if rate is not None else []), "error", *(f"action{k}" for k in used), *extra]
+    fig, axes = plt.subplots(len(panels), 1, figsize=(9, 2.1 * len(panels) + 0.6), sharex=True, squeeze=False)
     t = h0["t"]
-    for ax, panel in zip(axes, panels):
+    for ax, panel in zip(axes[:, 0], panels):
         for c, name in enumerate(names):
             h = res.history[name]
             col = COLORS[c % len(COLORS)]
-            if panel == "roll":
-                ax.plot(t, h["q"][0, :, 0], color=col, lw=1.4, label=name)
+            if panel == "tracked":
+                ax.plot(t, h["y"][0], color=col, lw=1.4, label=name)
             elif panel == "rate":
-                ax.plot(t, h["qd"][0, :, 0], color=col, lw=1.4, label=name)
+                ax.plot(t, h["qd"][0, :, rate[0]], color=col, lw=1.4, label=name)
             elif panel == "error":
-                ax.plot(t, h["ref"][0, :, 0] - h["q"][0, :, 0], color=col, lw=1.2, label=name)
-            elif panel == "aileron":
-                ax.plot(t, 40.0 * h["action"][0, :, 0], color=col, lw=1.0, label=name)
+                ax.plot(t, h["y_ref"][0] - h["y"][0], color=col, lw=1.2, label=name)
+            elif panel.startswith("action"):
+                ax.plot(t, 40.0 * h["action"][0, :, int(panel[6:])], color=col, lw=1.0, label=name)
             else:
-                k = 1 if panel == "rig_pitch" else 2
-                ax.plot(t, h["q"][0, :, k], color=col, lw=1.2, label=name)
-        if panel == "roll":
-            ax.plot(t, h0["ref"][0, :, 0], "k--", lw=1.0, label="reference")
-            ax.set_ylabel("roll angle, deg")
+                ax.plot(t, h["q"][0, :, 1 if panel == "rig_pitch" else 2], color=col, lw=1.2, label=name)
+        if panel == "tracked":
+            ax.plot(t, h0["y_ref"][0], "k--", lw=1.0, label="reference")
+            ax.set_ylabel(label)
             ax.legend(loc="best", fontsize=8, ncol=len(names) + 1)
         elif panel == "rate":
-            ax.plot(t, h0["ref"][0, :, 1], "k--", lw=1.0, label="reference")
-            ax.set_ylabel("roll rate, deg/s")
+            ax.plot(t, h0["ref"][0, :, rate[1]], "k--", lw=1.0, label="reference")
+            ax.set_ylabel(disp.get("rate_label") or "rate, deg/s")
         elif panel == "error":
             ax.axhline(0.0, color="0.6", lw=0.8)
-            ax.set_ylabel("roll error, deg")
-            lim = np.nanpercentile(np.abs(np.concatenate([res.history[n]["ref"][0, :, 0] - res.history[n]["q"][0, :, 0] for n in names])), 98)
-            ax.set_ylim(-1.2 * max(lim, 1.0), 1.2 * max(lim, 1.0))
-        elif panel == "aileron":
-            ax.set_ylabel("aileron cmd, deg")
+            ax.set_ylabel("error, deg")
+            lim = np.nanpercentile(np.abs(np.concatenate([res.history[n]["y_ref"][0] - res.history[n]["y"][0] for n in names])), 98)
+            lim = lim if np.isfinite(lim) else 1.0
+            ax.set_ylim(-1.2 * max(lim, 0.1), 1.2 * max(lim, 0.1))
+        elif panel.startswith("action"):
+            k = int(panel[6:])
+            ax.set_ylabel(f"{act_names[k].replace('comp_', '').replace('_', ' ')} cmd, deg", fontsize=9)
         else:
             ax.set_ylabel(f"{panel}, deg")
         ax.grid(alpha=0.3)
-    axes[-1].set_xlabel("time, s")
+    axes[-1, 0].set_xlabel("time, s")
     fig.suptitle(f"{res.task}: episode 0 ({res.conditions} conditions, seed {res.seed}), same conditions for every law", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)

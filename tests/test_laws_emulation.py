@@ -248,3 +248,15 @@ def test_success_rate_of_the_emulation(turbulence, threshold):
     err = np.asarray(res.metrics["lqr"]["emulation_error"])
     assert rate >= threshold, f"success {rate:.2f} < {threshold} (median error {np.median(err):.3f})"
     assert np.median(err) < np.median(res.metrics["pid"]["emulation_error"])
+
+
+def test_runtime_alpha_is_the_tasks():
+    """The runtime's numpy copy of the rig's alpha (it cannot import rig_env) is the task's function."""
+    from controllers.emulation import rig_alpha
+    from rig_env.envs.tasks.freeflight import rig_alpha as task_alpha
+
+    rng = np.random.default_rng(4)
+    q, qd = rng.normal(0, 0.3, (50, 5)), rng.normal(0, 1.0, (50, 5))
+    V = rng.uniform(10, 30, 50)
+    a, _ = task_alpha(q, qd, V, np.full(50, 1.1))
+    np.testing.assert_array_equal(rig_alpha(q[:, 1], q[:, 3], qd[:, 1], V, 1.1), a)

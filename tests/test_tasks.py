@@ -345,3 +345,35 @@ def test_bank_to_bank_reference_does_not_step_on_the_final_control_step():
     t_end = np.full(3, 17.0)
     np.testing.assert_array_equal(task.reference(t_end), task.reference(t_end - dt))
     np.testing.assert_array_equal(task.reference(t_end)[:, 0], task.banks[:, 3])  # steps at 1, 5, 9, 13 s
+
+
+@pytest.mark.parametrize("task", sorted(TASKS))
+def test_display_is_the_tracked_quantity_and_its_reference(task):
+    """What the comparison plots (Task.display, deg) is what each task tracks: the displayed joint's angle
+    against the task's angle reference, free-flight emulation's alpha from its baseline against the free
+    Hawk's alpha (from the input's start), departure recovery's level error against 0."""
+    from rig_env.envs.tasks.freeflight import rig_alpha
+
+    env = RigVectorEnv(4, task=task)
+    env.reset(seed=1)
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        env.step(rng.uniform(-0.3, 0.3, (4, env.action_space.shape[1])))
+    T, q, qd, ref = env.task, env.joint_angles, env.joint_rates, env.reference()
+    y, r = T.display(env.t, q, qd, ref)
+    assert y.shape == r.shape == (4,)
+    D = math.pi / 180
+    if task == "free_flight_emulation":
+        a, _ = rig_alpha(q, qd, T.V, T.l)
+        on = ref[:, 4] > 0.5
+        assert on.any()
+        np.testing.assert_allclose(y[on], (a - ref[:, 5])[on] / D, rtol=1e-12)
+        np.testing.assert_allclose(r[on], ref[on, 0] / D, rtol=1e-12)
+        assert np.all(np.isnan(y[~on]))
+    elif task == "departure_recovery":
+        np.testing.assert_allclose(y, T.level_error(q) / D, rtol=1e-12)
+        assert np.all(r == 0.0)
+    else:
+        assert T.display_joint is not None
+        np.testing.assert_allclose(y, q[:, T.display_joint] / D, rtol=1e-12)
+        np.testing.assert_allclose(r, ref[:, 0] / D, rtol=1e-9, atol=1e-9)

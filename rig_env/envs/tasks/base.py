@@ -79,6 +79,9 @@ class Task:
     | required | joints that must be free (a ``ValueError`` otherwise) |
     | ref_labels | names of the observation entries the task appends (bounds ``obs_low``/``obs_high``) |
     | n_draws | uniforms consumed per reset |
+    | display_label | what :meth:`display` returns, for plots (e.g. "roll angle, deg") |
+    | display_joint | index in ``JOINTS`` of the joint :meth:`display` shows (None: a derived quantity) |
+    | display_rate | (joint index, reference column) of a commanded rate to plot beside it, or None |
 
     Options (``task_options`` of the configuration) are checked by :meth:`check_options`; the base
     class accepts none.  Per-episode conditions set by the environment before :meth:`reset`
@@ -95,6 +98,9 @@ class Task:
     ref_labels: ClassVar[tuple[str, ...]]
     n_draws: ClassVar[int]
     reward_range: ClassVar[tuple[float, float]] = (0.0, 1.0)
+    display_label: str = "tracked quantity, deg"
+    display_joint: int | None = None
+    display_rate: tuple[int, int] | None = None
 
     def __init__(self, n_envs: int, free_dofs: tuple[str, ...], dt: float, episode_seconds: float, **options: Any) -> None:
         missing = [j for j in self.required if j not in free_dofs]
@@ -198,6 +204,14 @@ class Task:
     def success(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, metrics: dict[str, np.ndarray]) -> np.ndarray:
         """(m,) bool for envs that reached their time limit (rows of q, qd, ref, metrics)."""
         raise NotImplementedError
+
+    def display(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(n,) tracked quantity and (n,) its reference, deg, for plots (:attr:`display_label`).
+
+        From :meth:`tracked`: ``y`` and ``y + error`` (its error is reference minus ``y`` in degrees);
+        a task whose tracked ``y`` is not an angle overrides this."""
+        _, y, _, err, _ = self.tracked(t, q, qd, ref)
+        return y / D, y / D + err
 
 
 def smooth_ramp(x: np.ndarray) -> np.ndarray:

@@ -77,6 +77,7 @@ class DepartureRecovery(Task):
     """
 
     name = "departure_recovery"
+    display_label = "level error E, deg"
     default_free_dofs = ("rig_roll", "rig_pitch", "model_pitch", "model_yaw")
     default_airspeed = (18.0, 22.0)
     default_episode_seconds = 8.0
@@ -153,6 +154,10 @@ class DepartureRecovery(Task):
     def tracked(self, t, q, qd, ref):
         r = self.recovery_distance(q, qd)
         return np.zeros(self.n, dtype=np.int64), r, np.zeros(self.n), self.level_error(q) / D, np.ones(self.n)
+
+    def display(self, t, q, qd, ref):
+        """(level error E, 0), deg: the recovery's target is level."""
+        return self.level_error(q) / D, np.zeros(self.n)
 
     def success(self, q, qd, ref, metrics):
         settled = metrics["segments_settled"] == 1

@@ -185,6 +185,7 @@ class FreeFlightEmulation(Task):
     """
 
     name = "free_flight_emulation"
+    display_label = "model alpha from its baseline, deg"
     default_free_dofs = ("rig_pitch", "model_pitch")
     default_airspeed = (18.0, 22.0)
     default_episode_seconds = 6.0
@@ -277,6 +278,12 @@ class FreeFlightEmulation(Task):
         ea, _, _ = self._errors(q, qd, ref)
         alpha, _ = rig_alpha(q, qd, self.V, self.l)
         return np.full(self.n, -1), alpha - ref[:, 5], ref[:, 0], ea / D, np.full(self.n, 0.5 * D)
+
+    def display(self, t, q, qd, ref):
+        """(alpha - alpha_b, alpha_ff), deg, from the input's start (NaN before: nothing is emulated yet)."""
+        alpha, _ = rig_alpha(q, qd, self.V, self.l)
+        on = ref[:, 4] > 0.5
+        return np.where(on, (alpha - ref[:, 5]) / D, np.nan), np.where(on, ref[:, 0] / D, np.nan)
 
     def success(self, q, qd, ref, metrics):
         return metrics["emulation_error"] < self.FIT_LIMIT

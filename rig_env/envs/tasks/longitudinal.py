@@ -65,6 +65,7 @@ class PullUpPushOver(Task):
     """
 
     name = "pull_up_push_over"
+    display_label, display_joint, display_rate = "rig pitch (heave), deg", 1, (1, 1)
     default_free_dofs = ("rig_pitch", "model_pitch")
     default_airspeed = (18.0, 22.0)
     default_episode_seconds = 8.0

@@ -82,6 +82,8 @@ class ForcedOscillation(Task):
         if driven not in free_dofs:
             raise ValueError(f"task {self.name!r} (axis {self.axis!r}) needs free joint(s) {[driven]}; free_dofs = {list(free_dofs)}")
         self.j, self.c = JOINTS.index(driven), self.col(driven)
+        self.display_label = f"{driven.replace('_', ' ')}, deg"
+        self.display_joint, self.display_rate = self.j, (self.j, 1)
         self.A, self.f, self.theta_b = np.zeros(n_envs), np.ones(n_envs), np.zeros(n_envs)
         self.sums = np.zeros((n_envs, 9))  # least-squares sums: 1, s, c, s^2, s c, c^2, y, y s, y c
 

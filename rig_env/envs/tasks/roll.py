@@ -99,6 +99,7 @@ class VelocityVectorRoll(Task):
     """
 
     name = "velocity_vector_roll"
+    display_label, display_joint, display_rate = "roll angle, deg", 0, (0, 1)
     default_free_dofs = ("rig_roll", "model_pitch")
     default_airspeed = (18.0, 22.0)
     default_episode_seconds = 8.0
@@ -145,6 +146,10 @@ class VelocityVectorRoll(Task):
                       seg, y, r, err, band)
         return seg, y, r, err, band
 
+    def display(self, t, q, qd, ref):
+        """(roll angle, its reference), deg: the tracked quantity of :meth:`tracked` switches from the rate to the angle."""
+        return q[:, 0] / D, ref[:, 0] / D
+
     def success(self, q, qd, ref, metrics):
         return (np.abs(ref[:, 0] - q[:, 0]) < 5 * D) & (np.abs(qd[:, 0]) < 20 * D)
 
@@ -167,6 +172,7 @@ class BankToBank(Task):
     """
 
     name = "bank_to_bank"
+    display_label, display_joint = "roll angle, deg", 0
     default_free_dofs = ("rig_roll", "rig_yaw", "model_pitch", "model_yaw")
     default_airspeed = (15.0, 20.0)
     default_episode_seconds = 17.0
