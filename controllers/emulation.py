@@ -36,20 +36,22 @@ as flown keeps :data:`TARGETS` (GM 6 dB, PM 45 deg) at every design airspeed.
 Runtime (numpy only; this module): ``heave = -K(V) x`` clipped to +-1, with ``K`` interpolated linearly
 in the measured airspeed, and ``x`` built from the observation:
 
-* rig and model angles (potentiometer/encoder, delayed) and the loop's filtered rates, minus the trim;
+* the rig's angles (from the trim) and rates and the heave flap's position and rate: a steady-state Kalman
+  filter on the design model's rows (the Hawk-elevator and delay-line states known to the law), correcting
+  with the measured angles (potentiometer/encoder) and the heave flap unmixed from the four flap encoders,
+  all as old as the telemetry (the design's delayed state); noise :data:`SIGMA_A`, :data:`SIGMA_F`,
+  :data:`SIGMA_Z`, :data:`SIGMA_ZF`; started from the measurements and the loop's filtered rates;
 * ``alpha_ff = alpha_error + (alpha - alpha_b)``: the task's ``alpha_error`` entry plus the measured
   alpha (:func:`rig_alpha` of the measured angles and rates) relative to ``alpha_b``, the measured alpha
   latched when ``input_active`` rises (the task's baseline); 0 before;
 * ``q_ff`` = the ``q_ref`` entry; ``pilot_cmd`` = the ``elevator_cmd`` entry;
 * the Hawk servo's states from the pilot command through the servo model and its delay (as the task's
-  reference model is driven), the compensator servo's states and the delay line from the law's own
-  past commands (the servo model, ZOH-exact).
+  reference model is driven), and the delay line from the law's own past commands.
 
 No integrator: the rig's heave is meant to wash out, not to hold.  ``law.describe()``: closed-loop poles
 and, per design airspeed, the margins of the loop as flown, broken at the heave command: the law with its
-own servo model and delay line, the loop's rate filter, the rig with servo and delay
-(:func:`controllers.emulation_design.loop_as_flown`; default rig, 18-22 m/s: GM 13-15 dB, PM 58-61 deg,
-delay margin 0.16-0.28 s).
+estimator and delay line, the rig with servo and delay (:func:`controllers.emulation_design.loop_as_flown`; default rig, 15-25 m/s: GM 12.4-12.9 dB, PM 48-49 deg,
+delay margin 0.16-0.27 s, with the weights tightened to 0.6 of the reward's scales).
 Artefact kind ``"lqr_emulation"`` (:meth:`EmulationTables.to_data`; :mod:`controllers.deploy.laws`).
 """
 
@@ -79,6 +81,20 @@ TARGETS = {"gm_db": 6.0, "pm_deg": 45.0}
 MAX_INPUT = 0.5
 """Normalised heave input (1 = 40 deg) at :data:`V_REF`; ``u_max(V) = MAX_INPUT V_REF / V``."""
 V_REF = 20.0
+SIGMA_A = (0.5, 2.0)
+"""Process noise of the estimator: white accelerations of rig_pitch and model_pitch, rad/s^2 (what the linear
+model misses: gusts, LuGre friction beyond its viscous term).  A trade between tracking and command noise,
+chosen on the comparison's nominal conditions (32 episodes): with the roll LQR's (10, 40) the flap activity
+doubles (control rate 18 /s against 3-5 /s) for no gain in emulation error; feeding the loop's
+filtered-difference rates to the gains instead of an estimate gave 9.5 /s."""
+SIGMA_Z = math.radians(0.1)
+"""Angle measurement noise of the estimator, rad: 0.05 deg noise and 0.088 deg potentiometer quantisation."""
+SIGMA_F = 10.0
+"""Process noise of the estimator's flap: white acceleration, normalised/s^2 (the servo model's error: its rate
+limit, and the comparison's spread of servo bandwidth 5-8 Hz and delay 10-20 ms)."""
+SIGMA_ZF = 0.002
+"""Measurement noise of the heave flap unmixed from the four encoders, normalised (0.08 deg; each encoder 0.05 deg
+noise and 0.044 deg steps)."""
 TAU_PILOT = 1.0
 """Time constant (s) of the pilot command's model in the design (a held step that decays)."""
 V_STEP = 2.5
@@ -86,6 +102,7 @@ V_STEP = 2.5
 BASE_STATES = ("rig_pitch", "model_pitch", "rig_pitch_rate", "model_pitch_rate", "flap", "flap_rate",
                "alpha_ff", "q_ff", "hawk_elevator", "hawk_elevator_rate", "pilot_cmd")
 REF_ENTRIES = ("alpha_error", "q_ref", "elevator_cmd", "input_active")
+_ARRAYS = ("airspeeds", "K", "q_op", "hawk_phi", "hawk_gamma", "ref_scales", "est_rows", "est_input", "kalman_gain")
 """Task entries of the observation the law reads (their units per normalised value are stored in the tables)."""
 
 
@@ -122,11 +139,12 @@ class EmulationTables:
     | airspeeds | (nv,) | m/s, increasing (> 1) |
     | K | (nv, 11 + d) | normalised input per state (:func:`state_labels` order; rad, rad/s, normalised) |
     | q_op | (nv, 2) | rad: zero-input trim of rig_pitch, model_pitch |
-    | comp_phi, comp_gamma | (2, 2), (d + 1, 2) | the compensator servo over one period: ``s+ = phi s + sum_j gamma[j] u(k - j)`` |
     | hawk_phi, hawk_gamma | (2, 2), (2,) | the Hawk servo over one period (zero-order hold) |
     | hawk_delay_steps | int | periods between the pilot command and the Hawk servo's input, as the task's reference model |
     | arm_length | scalar | m, pivot to model gimbal |
     | ref_scales | (4,) | units per normalised value of :data:`REF_ENTRIES` |
+    | est_rows, est_input | (nv, 6, 11 + d), (nv, 6) | the estimated states' rows of the discrete design model (rig angles and rates, flap and its rate): ``p+ = est_rows x + est_input u`` |
+    | kalman_gain | (nv, 6, 3) | the estimator's correction per unit innovation of the two angles and the flap |
     | scales | :class:`SignalScales` | the observation's normalisation |
     | design | dict | provenance: weights, grid, delays, poles and margins per airspeed |
     """
@@ -134,23 +152,24 @@ class EmulationTables:
     airspeeds: np.ndarray
     K: np.ndarray
     q_op: np.ndarray
-    comp_phi: np.ndarray
-    comp_gamma: np.ndarray
     hawk_phi: np.ndarray
     hawk_gamma: np.ndarray
     hawk_delay_steps: int
     arm_length: float
     ref_scales: np.ndarray
+    est_rows: np.ndarray
+    est_input: np.ndarray
+    kalman_gain: np.ndarray
     scales: SignalScales
     design: dict[str, Any]
 
     @property
     def n_delay(self) -> int:
-        return self.comp_gamma.shape[0] - 1
+        return self.K.shape[1] - len(BASE_STATES)
 
     def to_data(self) -> dict[str, Any]:
         """Artefact entries: numpy arrays and JSON values."""
-        arrays = {k: np.array(getattr(self, k), dtype=np.float64) for k in ("airspeeds", "K", "q_op", "comp_phi", "comp_gamma", "hawk_phi", "hawk_gamma", "ref_scales")}
+        arrays = {k: np.array(getattr(self, k), dtype=np.float64) for k in _ARRAYS}
         return {**arrays, "hawk_delay_steps": int(self.hawk_delay_steps), "arm_length": float(self.arm_length),
                 **self.scales.to_data(), "design": dict(self.design)}
 
@@ -159,7 +178,7 @@ class EmulationTables:
         """Check ``d`` (from the design or an artefact); a ValueError names the entry, UnsupportedTask a wrong spec."""
         name = "lqr_emulation"
         check_emulation(spec)
-        keys = ("airspeeds", "K", "q_op", "comp_phi", "comp_gamma", "hawk_phi", "hawk_gamma", "hawk_delay_steps", "arm_length", "ref_scales", "design")
+        keys = (*_ARRAYS, "hawk_delay_steps", "arm_length", "design")
         missing = [k for k in keys if k not in d]
         if missing:
             raise ValueError(f"{name}: missing entries {missing}")
@@ -167,10 +186,10 @@ class EmulationTables:
         if V.ndim != 1 or V.size < 1 or V[0] <= 1.0 or np.any(np.diff(V) <= 0):
             raise ValueError(f"{name}: airspeeds must be increasing and > 1 m/s, got {V.tolist() if V.ndim == 1 else V.shape}")
         nv = V.size
-        cg = table_array(d, "comp_gamma", owner=name, shape=None)
-        if cg.ndim != 2 or cg.shape[1] != 2 or not 1 <= cg.shape[0] <= 101:
-            raise ValueError(f"{name}: comp_gamma: expected shape (d + 1, 2) with d in [0, 100], got {cg.shape}")
-        nd = cg.shape[0] - 1
+        K = table_array(d, "K", owner=name, shape=None)
+        if K.ndim != 2 or K.shape[0] != nv or not len(BASE_STATES) <= K.shape[1] <= len(BASE_STATES) + 100:
+            raise ValueError(f"{name}: K: expected shape ({nv}, {len(BASE_STATES)} + d) with d in [0, 100], got {K.shape}")
+        nx = K.shape[1]
         hd = d["hawk_delay_steps"]
         if isinstance(hd, bool) or not isinstance(hd, int) or not 0 <= hd <= 100:
             raise ValueError(f"{name}: hawk_delay_steps = {hd!r}: an integer in [0, 100]")
@@ -182,9 +201,10 @@ class EmulationTables:
         rs = table_array(d, "ref_scales", owner=name, shape=(len(REF_ENTRIES),))
         if np.any(rs <= 0):
             raise ValueError(f"{name}: ref_scales must be > 0")
-        return cls(V, table_array(d, "K", owner=name, shape=(nv, len(BASE_STATES) + nd)), table_array(d, "q_op", owner=name, shape=(nv, 2)),
-                   table_array(d, "comp_phi", owner=name, shape=(2, 2)), cg, table_array(d, "hawk_phi", owner=name, shape=(2, 2)),
-                   table_array(d, "hawk_gamma", owner=name, shape=(2,)), int(hd), float(arm), rs, SignalScales.from_data(d, spec), dict(d["design"]))
+        return cls(V, K, table_array(d, "q_op", owner=name, shape=(nv, 2)), table_array(d, "hawk_phi", owner=name, shape=(2, 2)),
+                   table_array(d, "hawk_gamma", owner=name, shape=(2,)), int(hd), float(arm), rs,
+                   table_array(d, "est_rows", owner=name, shape=(nv, 6, nx)), table_array(d, "est_input", owner=name, shape=(nv, 6)),
+                   table_array(d, "kalman_gain", owner=name, shape=(nv, 6, 3)), SignalScales.from_data(d, spec), dict(d["design"]))
 
 
 @register("lqr")
@@ -195,7 +215,6 @@ class EmulationLQR(Controller):
     |---|---|---|
     | params | default rig | rig parameters of the design model |
     | link_delay_steps | 1 | telemetry delay the design accounts for, control steps |
-    | rate_filter_hz | 10.0 | the loop's rate filter, for the margins as flown |
     | max_deviation | :data:`MAX_DEVIATION` | Bryson maxima by name (``alpha_error``, ``q_error``, ``rig_pitch``), overriding entry by entry |
     | max_input | :data:`MAX_INPUT` | normalised heave input allowed at 20 m/s |
     | tables | None | a finished design (:class:`EmulationTables` or its data); the arguments above must then be left at their defaults |
@@ -203,7 +222,7 @@ class EmulationLQR(Controller):
 
     artefact_kind = "lqr_emulation"
 
-    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1, rate_filter_hz: float = 10.0,
+    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
                  max_deviation: dict[str, float] | None = None, max_input: float | None = None,
                  tables: EmulationTables | Mapping[str, Any] | None = None) -> None:
         check_emulation(spec)  # cheap, before any design
@@ -211,10 +230,9 @@ class EmulationLQR(Controller):
             # design time only: python-control, scipy, the numba model and rig_env
             from controllers.emulation_design import design_emulation_lqr
 
-            tables = design_emulation_lqr(spec, params, link_delay_steps=link_delay_steps, rate_filter_hz=rate_filter_hz,
-                                          max_deviation=max_deviation, max_input=max_input)
-        elif params is not None or link_delay_steps != 1 or rate_filter_hz != 10.0 or max_deviation is not None or max_input is not None:
-            raise ValueError("tables given: params, link_delay_steps, rate_filter_hz, max_deviation and max_input belong to the design and must not be passed too")
+            tables = design_emulation_lqr(spec, params, link_delay_steps=link_delay_steps, max_deviation=max_deviation, max_input=max_input)
+        elif params is not None or link_delay_steps != 1 or max_deviation is not None or max_input is not None:
+            raise ValueError("tables given: params, link_delay_steps, max_deviation and max_input belong to the design and must not be passed too")
         super().__init__(spec, num_envs)
         t = self.tables = tables if isinstance(tables, EmulationTables) else EmulationTables.from_data(tables, spec)
         ix, sc, n = spec.index, t.scales, self.num_envs
@@ -226,11 +244,15 @@ class EmulationLQR(Controller):
         self.nd = t.n_delay
         self.alpha_b = np.zeros(n)  # measured alpha when the input began
         self.a_ff = np.zeros(n)  # the free Hawk's alpha as last reconstructed (rad; diagnostics)
+        self.x = np.zeros((n, len(BASE_STATES) + self.nd))  # the last state vector (state_labels order)
         self.active = np.zeros(n, dtype=bool)
         self.hawk = np.zeros((n, 2))  # Hawk servo (position, rate), rad
         self.pilot = np.zeros((n, t.hawk_delay_steps + 2))  # pilot commands, newest first
-        self.flap = np.zeros((n, 2))  # compensator servo (position, rate), normalised
         self.u_past = np.zeros((n, self.nd))  # u(k-1) .. u(k-d)
+        self.est = np.zeros((n, 6))  # the estimator's prediction: rig angles - trim, rates; flap, flap rate
+        self.fresh = np.ones(n, dtype=bool)  # start the estimator from the measurement
+        self._flaps = [ix(f"flap{k}") for k in range(1, 5)]
+        self._unmix = sc.unmix[1] * sc.flap_scale / math.radians(spec.action_scale_deg)  # heave flap, normalised, per flap unit
 
     @classmethod
     def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> EmulationLQR:
@@ -242,8 +264,9 @@ class EmulationLQR(Controller):
 
     def reset(self, mask: np.ndarray | None = None) -> None:
         m = self._mask(mask)
-        for a in (self.alpha_b, self.active, self.hawk, self.pilot, self.flap, self.u_past):
+        for a in (self.alpha_b, self.active, self.hawk, self.pilot, self.u_past, self.est):
             a[m] = 0
+        self.fresh |= m
 
     def _at(self, table: np.ndarray, V: np.ndarray) -> np.ndarray:
         """Linear interpolation in airspeed of a table (nv, k) at V (n,), clamped to the grid."""
@@ -256,7 +279,8 @@ class EmulationLQR(Controller):
         return (1 - w) * table[i] + w * table[i + 1]
 
     def state(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(x (n, 11 + d) in :func:`state_labels` order, airspeed (n,)) from the observation; advances the latches and the Hawk servo model."""
+        """(x (n, 11 + d) in :func:`state_labels` order, airspeed (n,)) from the observation; advances the latches, the Hawk
+        servo model and the estimator's correction (its prediction is made in :meth:`act`, which knows the command)."""
         t, o = self.tables, obs
         sc = t.scales
         V = np.maximum(o[:, self._air] * sc.airspeed_scale, 5.0)
@@ -272,20 +296,28 @@ class EmulationLQR(Controller):
         self.pilot[:, 0] = cmd
         self.hawk = self.hawk @ t.hawk_phi.T + np.outer(self.pilot[:, t.hawk_delay_steps + 1], t.hawk_gamma)
         q_op = self._at(t.q_op, V)
-        x = np.concatenate([np.stack([th - q_op[:, 0], ph - q_op[:, 1], thd, phd, self.flap[:, 0], self.flap[:, 1], a_ff, q_ff,
-                                      self.hawk[:, 0], self.hawk[:, 1], cmd], axis=1), self.u_past], axis=1)
+        z = np.stack([th - q_op[:, 0], ph - q_op[:, 1], o[:, self._flaps] @ self._unmix], axis=1)
+        f = self.fresh
+        if np.any(f):  # start from the measured angles, the loop's filtered rates and the measured flap, at rest
+            self.est[f] = np.stack([z[:, 0], z[:, 1], thd, phd, z[:, 2], np.zeros(len(z))], axis=1)[f]
+            self.fresh[:] = False
+        Lk = self._at(t.kalman_gain.reshape(t.airspeeds.size, 18), V).reshape(-1, 6, 3)
+        est = self.est + np.einsum("nij,nj->ni", Lk, z - self.est[:, [0, 1, 4]])
+        x = np.concatenate([est, np.stack([a_ff, q_ff, self.hawk[:, 0], self.hawk[:, 1], cmd], axis=1), self.u_past], axis=1)
         return x, V
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         o = self._check_obs(obs)
         t = self.tables
         x, V = self.state(o)
+        self.x = x  # the state the gains acted on (diagnostics, logging)
         u = np.clip(-np.einsum("nj,nj->n", self._at(t.K, V), x), -1.0, 1.0)
-        # the compensator servo's states one period on, from the command history (u(k) .. u(k - d))
-        hist = np.concatenate([u[:, None], self.u_past], axis=1)
-        self.flap = self.flap @ t.comp_phi.T + hist @ t.comp_gamma
+        # the estimator's prediction one period on: its states' rows of the design model
+        nx = x.shape[1]
+        rows = self._at(t.est_rows.reshape(t.airspeeds.size, 6 * nx), V).reshape(-1, 6, nx)
+        self.est = np.einsum("nij,nj->ni", rows, x) + self._at(t.est_input, V) * u[:, None]
         if self.nd:
-            self.u_past = hist[:, :-1]
+            self.u_past = np.concatenate([u[:, None], self.u_past[:, :-1]], axis=1)
         a = np.zeros((self.num_envs, self.spec.n_actions))
         a[:, self.spec.action_index("comp_elevator")] = u
         return a

@@ -9,9 +9,9 @@ airspeed of a grid over ``spec.airspeed_range`` (:data:`controllers.emulation.V_
    (the state table of :mod:`controllers.emulation`).
 2. :func:`zoh_with_delay`: exact zero-order-hold discretisation at the control period with the loop's
    input delay (servo delay + ``link_delay_steps`` periods), the delay line appended to the state.
-3. ``control.dlqr`` with the Bryson weights of the module docstring.
-4. :func:`loop_as_flown`: the margins of the law as it flies (its own servo model and delay line, the
-   loop's rate filter, the rig with servo and delay), recorded in ``design["points"]``.
+3. ``control.dlqr`` with the Bryson weights of the module docstring; :func:`kalman_gain`, the estimator's.
+4. :func:`loop_as_flown`: the margins of the law as it flies (estimator and delay line, the rig with
+   servo and delay), recorded in ``design["points"]``.
 """
 
 from __future__ import annotations
@@ -30,6 +30,10 @@ from controllers.emulation import (
     MAX_DEVIATION,
     MAX_INPUT,
     REF_ENTRIES,
+    SIGMA_A,
+    SIGMA_F,
+    SIGMA_Z,
+    SIGMA_ZF,
     TARGETS,
     TAU_PILOT,
     V_REF,
@@ -118,9 +122,39 @@ def error_outputs(q_op: np.ndarray, airspeed: float, arm_length: float, n: int) 
     return C
 
 
+def kalman_gain(A_est: np.ndarray, dt: float, sigma_a: tuple[float, float], sigma_f: float, sigma_z: float, sigma_zf: float) -> np.ndarray:
+    """(6, 3) steady-state Kalman gain of the rig's (angles, rates) and the heave flap's (position, rate).
+
+    Model ``x+ = A_est x + (known inputs)``, ``x = (rig_pitch, model_pitch, their rates, flap, flap rate)``; process
+    noise: white accelerations of the two joints (rad/s^2, ``sigma_a``) and of the flap (normalised/s^2,
+    ``sigma_f``: the servo model's error) held over a period (``dt^2 / 2`` and ``dt`` per unit); measured: the two
+    angles (noise ``sigma_z``, rad) and the flap position (``sigma_zf``, normalised).  The a-priori covariance
+    from scipy's discrete Riccati solver; ``L = P C' (C P C' + R)^-1``, the correction applied to the prediction.
+    Measuring the flap (the plant's input, as the rig's encoders do) keeps the law's margins close to the state
+    feedback's (loop transfer recovery; an estimator driven by the commanded input alone lost some 15 deg of
+    phase margin here).
+    """
+    from scipy.linalg import solve_discrete_are
+
+    h2 = 0.5 * dt * dt
+    Gn = np.zeros((6, 3))
+    Gn[0, 0] = Gn[1, 1] = Gn[4, 2] = h2
+    Gn[2, 0] = Gn[3, 1] = Gn[5, 2] = dt
+    Qn = Gn @ np.diag([sigma_a[0] ** 2, sigma_a[1] ** 2, sigma_f**2]) @ Gn.T
+    C = np.zeros((3, 6))
+    C[0, 0] = C[1, 1] = C[2, 4] = 1.0
+    Rn = np.diag([sigma_z**2, sigma_z**2, sigma_zf**2])
+    P = solve_discrete_are(A_est.T, C.T, Qn, Rn)
+    return P @ C.T @ np.linalg.inv(C @ P @ C.T + Rn)
+
+
+EST = [0, 1, 2, 3, _S["flap"], _S["flap"] + 1]
+"""Design-model states the estimator estimates: the rig's angles and rates, the heave flap's position and rate."""
+
+
 def design_point(params: RigParams, airspeed: float, dt: float, link_delay_steps: int, md: dict[str, float], max_input: float,
-                 rate_filter_hz: float = 10.0) -> dict[str, Any]:
-    """Steps 1-3 at one airspeed: the augmented discrete model, the gain, and the margins of the loop as flown (:func:`loop_as_flown`)."""
+                 sigma_a: tuple[float, float] = SIGMA_A, sigma_f: float = SIGMA_F, sigma_z: float = SIGMA_Z, sigma_zf: float = SIGMA_ZF) -> dict[str, Any]:
+    """Steps 1-4 at one airspeed: the augmented discrete model, the gain, the estimator's gain and the margins of the loop as flown (:func:`loop_as_flown`)."""
     A, b, q_op, ref = continuous_model(params, airspeed, dt)
     P = params.to_vector()
     tau = float(P[L.P_SERVOS_COMPENSATOR_DELAY_S]) + link_delay_steps * dt
@@ -142,50 +176,38 @@ def design_point(params: RigParams, airspeed: float, dt: float, link_delay_steps
     R = np.array([[dt / u_max**2]])
     K, _, poles = control.dlqr(Ad, Bd, Q, R)
     pt = {"airspeed": float(airspeed), "K": np.asarray(K)[0], "q_op": q_op[[1, 3]], "Ad": Ad, "Bd": Bd, "poles": np.asarray(poles), "d": d,
-          "comp_phi": Phi[_S["flap"]:_S["flap"] + 2, _S["flap"]:_S["flap"] + 2], "comp_gamma": G[:, _S["flap"]:_S["flap"] + 2],
           "hawk_wn": float(ref.wn[0]), "hawk_zeta": float(ref.zeta[0]), "hawk_delay_steps": int(ref.delay_steps[0])}
-    pt["margins"] = loop_as_flown(pt, dt, rate_filter_hz)
+    pt["kalman_gain"] = kalman_gain(Ad[np.ix_(EST, EST)], dt, sigma_a, sigma_f, sigma_z, sigma_zf)
+    pt["margins"] = loop_as_flown(pt, dt)
     return pt
 
 
-def loop_as_flown(pt: dict[str, Any], dt: float, rate_filter_hz: float = 10.0) -> dict[str, float]:
+def loop_as_flown(pt: dict[str, Any], dt: float) -> dict[str, float]:
     """Margins (:func:`margins_discrete`) of the law as flown, broken at the heave command.
 
     Plant: the rig with the compensator servo and the loop's delay (the design's discrete model, the
-    reference and pilot states dropped: they do not depend on the command).  Sensors: the angles, and the
-    rates from the loop's filtered backward difference ``(a / dt) (z - 1) / (z - (1 - a))``,
-    ``a = dt / (tau + dt)`` (``rig_env.envs.sensors``), which the design's state feedback does not see.
-    Controller: ``K`` with the servo states and the delay line from the law's own command history
-    (:meth:`controllers.emulation.EmulationLQR.act`), a dynamic system of its own.  So this loop, not the
-    state-feedback one, is the one the rig closes.
+    reference and pilot states dropped: they do not depend on the command); out: the two angles and the
+    flap position.  Controller: the estimator (prediction ``p`` from the model's rows, correction
+    ``x = p + L (z - C p)``), ``K`` on its estimate and on the delay line of the law's own commands
+    (:meth:`controllers.emulation.EmulationLQR.act`): a dynamic system of its own, so this loop, not the
+    state-feedback one, is the one the rig closes (an estimator can erode an LQR's margins; Doyle,
+    "Guaranteed margins for LQG regulators", IEEE TAC 1978).
     """
-    Ad, Bd, K, d = pt["Ad"], pt["Bd"], pt["K"], pt["d"]
+    Ad, Bd, K, d, Lk = pt["Ad"], pt["Bd"], pt["K"], pt["d"], pt["kalman_gain"]
     n = len(BASE_STATES)
-    f = _S["flap"]
-    plant_idx = [0, 1, 2, 3, f, f + 1, *range(n, n + d)]
-    Ap, Bp = Ad[np.ix_(plant_idx, plant_idx)], Bd[plant_idx]
-    Cp = np.zeros((2, len(plant_idx)))
-    Cp[0, 0] = Cp[1, 1] = 1.0
-    plant = control.ss(Ap, Bp, Cp, np.zeros((2, 1)), dt)
-    a = dt / (1.0 / (2.0 * math.pi * rate_filter_hz) + dt)
-    H = control.ss(control.tf([a / dt, -a / dt], [1.0, -(1.0 - a)], dt))
-    sensors = control.append(control.ss([], [], [], np.eye(2), dt), H, H)  # inputs (th, ph, th, ph) -> (th, ph, H th, H ph)
-    fan = np.vstack([np.eye(2), np.eye(2)])
-    y = sensors * control.ss([], [], [], fan, dt) * plant
-    Kr, Kf, Ku = K[:4], K[f:f + 2], K[n:n + d]
-    Phc, G = pt["comp_phi"], pt["comp_gamma"]
-    m = 2 + d
-    Ac, Bc = np.zeros((m, m)), np.zeros((m, 4))
-    Ac[:2, :2] = Phc - np.outer(G[0], Kf)
-    Ac[:2, 2:] = -np.outer(G[0], Ku) + G[1:].T
-    Bc[:2] = -np.outer(G[0], Kr)
-    if d:
-        Ac[2, :2], Ac[2, 2:], Bc[2] = -Kf, -Ku, -Kr
-        for j in range(1, d):
-            Ac[2 + j, 1 + j] = 1.0
-    ctrl = control.ss(Ac, Bc, np.concatenate([-Kf, -Ku])[None, :], -Kr[None, :], dt)
-    L = -(ctrl * y)
-    return margins_discrete(L, dt)
+    keep = [*EST, *range(n, n + d)]  # rig, flap, delay line
+    Ap, Bp = Ad[np.ix_(keep, keep)], Bd[keep]
+    m = len(keep)
+    C = np.zeros((3, m))
+    C[0, 0] = C[1, 1] = C[2, 4] = 1.0
+    plant = control.ss(Ap, Bp, C, np.zeros((3, 1)), dt)
+    Kk = K[keep]
+    Mx, Nx = np.eye(m), np.zeros((m, 3))  # x_hat = Mx s + Nx z, controller state s = (p (6), delay line (d))
+    Mx[:6] -= Lk @ C[:, :m]
+    Nx[:6] = Lk
+    Ku_s, Ku_z = -Kk @ Mx, -Kk @ Nx  # u = Ku_s s + Ku_z z
+    ctrl = control.ss(Ap @ Mx + np.outer(Bp[:, 0], Ku_s), Ap @ Nx + np.outer(Bp[:, 0], Ku_z), Ku_s[None, :], Ku_z[None, :], dt)
+    return margins_discrete(-(ctrl * plant), dt)
 
 
 def margins_discrete(L: control.StateSpace, dt: float, n_w: int = 4000) -> dict[str, float]:
@@ -219,7 +241,7 @@ def margins_discrete(L: control.StateSpace, dt: float, n_w: int = 4000) -> dict[
     return out
 
 
-def design_emulation_lqr(spec: LoopSpec, params: RigParams | None = None, *, link_delay_steps: int = 1, rate_filter_hz: float = 10.0,
+def design_emulation_lqr(spec: LoopSpec, params: RigParams | None = None, *, link_delay_steps: int = 1,
                          max_deviation: dict[str, float] | None = None, max_input: float | None = None) -> EmulationTables:
     """Tables of :class:`controllers.emulation.EmulationLQR` (steps 1-3 over the airspeed grid)."""
     from rig_env.envs.tasks.freeflight import FreeFlightEmulation
@@ -239,15 +261,13 @@ def design_emulation_lqr(spec: LoopSpec, params: RigParams | None = None, *, lin
     if lo <= 1.0:
         raise ValueError(f"airspeed_range = {spec.airspeed_range}: the emulation design needs airspeed > 1 m/s")
     V = np.linspace(lo, hi, max(2, math.ceil((hi - lo) / V_STEP) + 1)) if hi > lo else np.array([lo])
-    if not (math.isfinite(rate_filter_hz) and rate_filter_hz > 0):
-        raise ValueError(f"rate_filter_hz = {rate_filter_hz!r}: must be finite and > 0")
     if max_deviation is not None:
         candidates = [(None, md)]
     else:  # loosest first: keep the tightest that meets the targets
         candidates = [(s, {**md, "alpha_error": s * md["alpha_error"], "q_error": s * md["q_error"]}) for s in WEIGHT_SCALES]
     chosen = None
     for scale, mdc in candidates:
-        pts = [design_point(params, float(v), spec.dt, link_delay_steps, mdc, mi, rate_filter_hz) for v in V]
+        pts = [design_point(params, float(v), spec.dt, link_delay_steps, mdc, mi) for v in V]
         ok = all(p["margins"]["gm_db"] >= TARGETS["gm_db"] and p["margins"]["pm_deg"] >= TARGETS["pm_deg"] and p["margins"]["rho"] < 1.0 for p in pts)
         if ok or chosen is None:
             chosen = (scale, mdc, pts)
@@ -261,13 +281,15 @@ def design_emulation_lqr(spec: LoopSpec, params: RigParams | None = None, *, lin
     ref_scales = np.array([float(FreeFlightEmulation.ref_scales[e]) for e in REF_ENTRIES])
     points = [{"airspeed": p["airspeed"], "phi_deg": 0.0, "poles": [[float(z.real), float(z.imag)] for z in p["poles"]],
                "rig_pitch": {k: (float(v) if math.isfinite(v) else None) for k, v in p["margins"].items()}} for p in pts]
-    design = {"airspeed_range": list(spec.airspeed_range), "link_delay_steps": int(link_delay_steps), "rate_filter_hz": float(rate_filter_hz),
-              "params_default": params_default,
+    design = {"airspeed_range": list(spec.airspeed_range), "link_delay_steps": int(link_delay_steps),
+              "sigma_a": dict(zip(("rig_pitch", "model_pitch"), map(float, SIGMA_A))), "sigma_f": float(SIGMA_F), "sigma_z": float(SIGMA_Z),
+              "sigma_zf": float(SIGMA_ZF), "params_default": params_default,
               "method": "controllers.emulation_design (explicit model following: control.dlqr on the rig and the free Hawk's short period side by side, servo and delay in)",
               "max_deviation": {k: float(v) for k, v in md.items()}, "weight_scale": scale, "targets": dict(TARGETS),
               "max_input": float(mi), "tau_pilot": float(TAU_PILOT),
               "states": list(state_labels(d)), "loop_delay_s": float(params.to_vector()[L.P_SERVOS_COMPENSATOR_DELAY_S]) + link_delay_steps * spec.dt,
               "points": points}
-    return EmulationTables(V, np.array([p["K"] for p in pts]), np.array([p["q_op"] for p in pts]), pts[0]["comp_phi"], pts[0]["comp_gamma"],
-                           hawk_phi, hawk_gamma[0], int(hawk["hawk_delay_steps"]), float(params.geometry.arm_length), ref_scales,
+    return EmulationTables(V, np.array([p["K"] for p in pts]), np.array([p["q_op"] for p in pts]), hawk_phi, hawk_gamma[0],
+                           int(hawk["hawk_delay_steps"]), float(params.geometry.arm_length), ref_scales,
+                           np.array([p["Ad"][EST] for p in pts]), np.array([p["Bd"][EST, 0] for p in pts]), np.array([p["kalman_gain"] for p in pts]),
                            signal_scales(spec), design)
