@@ -3,6 +3,8 @@
     python scripts/train.py --algo sac --task velocity_vector_roll              # the table's settings
     python scripts/train.py --algo ppo --task bank_to_bank --timesteps 300000 --seed 1 --out runs/b2b
     python scripts/train.py --algo sac --task velocity_vector_roll --ship       # also into controllers/policies/
+    python scripts/train.py --algo ppo --task pull_up_push_over --conditions nominal --env turbulence=0.02
+    python scripts/train.py --algo ppo --task bank_to_bank --seeds 0 1 2         # three seeds and their spread
 
 The batch is one :class:`rig_env.envs.sb3.RigSB3VecEnv` (no per-environment Python objects), wrapped in
 ``VecMonitor``, the training-side signals of the table (``scripts/rl_callbacks.py``: episode reset on
@@ -21,6 +23,18 @@ episodes; ``--no-stop`` trains on).  Output folder:
 | ``evaluations.npz``, ``best_model.zip`` | SB3's EvalCallback output (pickle-based zip: for training use only) |
 | ``checkpoints/`` | SB3 checkpoints (+ VecNormalize statistics) |
 | ``tb/`` | TensorBoard logs (``tensorboard --logdir OUT/tb``) when tensorboard is installed |
+
+Training conditions: the table's ``env_overrides``, then ``--conditions`` (the comparison's randomised
+conditions by name, :data:`controllers.evaluate.MODES`: airspeed 15-25 m/s, gusts, sensor noise and
+parameter spread, so that the policy meets in training what the comparison will fly it in), then each
+``--env KEY=VALUE`` (a :class:`rig_env.envs.RigEnvConfig` field; the value is read as JSON when it
+parses, e.g. ``airspeed=[15,25]``, else as a string); an unknown field or a value out of range exits
+with the configuration's error.  The result is recorded in the policy (``env_overrides``) and the final
+evaluation runs under it.
+
+``--seeds S1 S2 ...`` trains one run per seed (``OUT/s<seed>/``, default ``OUT = runs/<task>_<algo>_seeds``)
+and writes ``OUT/seeds.json`` (each seed's final metrics, their mean and standard deviation) and
+``OUT/seeds.png`` (every seed's evaluation curve): one seed is an anecdote (PEERS.md, "seeds and sweeps").
 
 The final metrics are those of the exported file, loaded back and run by numpy
 (:func:`controllers.rl_export.evaluate`, ``--final-episodes`` episodes seeded ``seed + 20000``).
@@ -106,7 +120,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--algo", required=True, choices=["ppo", "sac"])
     p.add_argument("--task", required=True, help="task name (rig_env.envs.TASKS)")
     p.add_argument("--timesteps", type=int, default=None, help="training budget (default: the table's)")
-    p.add_argument("--seed", type=int, default=0)
+    seeds = p.add_mutually_exclusive_group()
+    seeds.add_argument("--seed", type=int, default=0)
+    seeds.add_argument("--seeds", type=int, nargs="+", default=None, help="train one run per seed and summarise their spread")
+    p.add_argument("--conditions", choices=["nominal", "robust", "gusty"], default=None,
+                   help="train under the comparison's randomised conditions of that name (controllers.evaluate.MODES)")
+    p.add_argument("--env", action="append", default=[], metavar="KEY=VALUE",
+                   help="an environment setting (a RigEnvConfig field; JSON value), repeatable; applied last")
     p.add_argument("--out", type=Path, default=None, help="output folder (default runs/<task>_<algo>_s<seed>)")
     p.add_argument("--num-envs", type=int, default=None, help="environments in the training batch (default: the table's)")
     p.add_argument("--threads", type=int, default=1, help="torch and numba threads (default 1: the machine is shared)")
@@ -123,8 +143,21 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         v = getattr(a, name)
         if v is not None and v < 1:
             p.error(f"--{name.replace('_', '-')} = {v}: must be a positive integer")
-    if a.seed < 0:
-        p.error(f"--seed = {a.seed}: must be >= 0")
+    if a.seed < 0 or any(x < 0 for x in a.seeds or ()):
+        p.error(f"--seed/--seeds = {a.seeds or a.seed}: must be >= 0")
+    if a.seeds is not None and len(set(a.seeds)) != len(a.seeds):
+        p.error(f"--seeds = {a.seeds}: repeated seed")
+    if a.seeds is not None and a.ship:
+        p.error("--ship takes one --seed: pick the seed to ship from seeds.json and train it with --seed")
+    a.env_kv = {}
+    for item in a.env:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            p.error(f"--env {item!r}: expected KEY=VALUE")
+        try:
+            a.env_kv[key.strip()] = json.loads(value)
+        except json.JSONDecodeError:
+            a.env_kv[key.strip()] = value
     if not 0.0 < a.target_success <= 1.0:
         p.error(f"--target-success = {a.target_success}: allowed range (0, 1]")
     return a
@@ -146,10 +179,42 @@ def main(argv: list[str] | None = None) -> int:
     numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
     torch.set_num_threads(args.threads)
     try:
-        return _train(args, argv)
+        if args.seeds is None:
+            return _train(args, argv)
+        from scripts.seeds import summarise
+
+        root = args.out or ROOT / "runs" / f"{args.task}_{args.algo}_seeds"
+        runs = []
+        for k, seed in enumerate(args.seeds):
+            print(f"=== seed {seed} ({k + 1} of {len(args.seeds)})", flush=True)
+            one = argparse.Namespace(**{**vars(args), "seed": seed, "seeds": None, "out": root / f"s{seed}"})
+            _train(one, argv)
+            runs.append(root / f"s{seed}" / "policy.json")
+        summarise(runs, root, f"{args.algo.upper()} on {args.task}", args.target_success)
+        return 0
     finally:
         numba.set_num_threads(saved[0])
         torch.set_num_threads(saved[1])
+
+
+def training_overrides(args: argparse.Namespace, table: dict[str, Any]) -> dict[str, Any]:
+    """The environment settings of the run: the table's, then ``--conditions``, then ``--env``; checked by RigEnvConfig
+    (SystemExit naming the field and its range otherwise)."""
+    from controllers.evaluate import MODES
+    from rig_env.envs.config import RigEnvConfig
+
+    out = dict(table)
+    if args.conditions is not None:
+        out.update(MODES[args.conditions].env_fields())
+    out.update(getattr(args, "env_kv", {}))
+    if "task" in out:
+        raise SystemExit("train.py: --env task=...: the task is --task")
+    try:
+        RigEnvConfig(task=args.task).with_overrides(**out)
+    except (ValueError, TypeError) as exc:
+        raise SystemExit(f"train.py: environment settings {sorted(out)}: {exc}") from None
+    # JSON-able (the policy file records them): ranges as lists
+    return json.loads(json.dumps(out))
 
 
 def _train(args: argparse.Namespace, argv: list[str]) -> int:
@@ -181,7 +246,7 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
     eval_every = args.eval_every or hp["eval_every"]
     out = args.out or ROOT / "runs" / f"{args.task}_{args.algo}_s{args.seed}"
     out.mkdir(parents=True, exist_ok=True)
-    overrides: dict[str, Any] = dict(hp["env_overrides"])
+    overrides = training_overrides(args, hp["env_overrides"])
 
     def make_env(n: int, seed: int, training: bool) -> tuple[Any, Any]:
         base = RigSB3VecEnv(n, task=args.task, **overrides)
@@ -213,6 +278,8 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
     )
     print(f"training {args.algo} on {args.task}: {num_envs} envs, up to {timesteps} timesteps, seed {args.seed}, "
           f"{args.threads} thread(s), load average {os.getloadavg()[0]:.1f}, out {out}", flush=True)
+    if overrides:
+        print(f"environment settings: {json.dumps(overrides)}", flush=True)
     t0 = time.perf_counter()
     model.learn(total_timesteps=timesteps, callback=callbacks, progress_bar=have_bar, tb_log_name=f"{args.algo}_s{args.seed}")
     wall = time.perf_counter() - t0
