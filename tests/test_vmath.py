@@ -61,3 +61,69 @@ def test_atan2_every_quadrant_within_two_ulp():
     z = np.zeros(1)
     _atan2_all(z, z, out[:1])
     assert out[0] == 0.0
+
+
+@njit(cache=True)
+def _sincos_all(x, s, c):
+    for i in range(x.size):
+        s[i], c[i] = V.sincos(x[i])
+
+
+@njit(cache=True)
+def _exp_all(x, out, out_m1):
+    for i in range(x.size):
+        out[i] = V.exp(x[i])
+        out_m1[i] = V.expm1(x[i])
+
+
+@njit(cache=True)
+def _asin_all(x, out):
+    for i in range(x.size):
+        out[i] = V.asin(x[i])
+
+
+@pytest.mark.parametrize("hi", [1.0, 10.0, 1e3, 1e6, 1e9])
+def test_sincos_within_two_ulp_and_2e16_absolute(hi):
+    x = RNG.uniform(-hi, hi, 50_000)
+    s, c = np.empty_like(x), np.empty_like(x)
+    _sincos_all(x, s, c)
+    rs, rc = ref(math.sin, x), ref(math.cos, x)
+    assert np.max(np.abs(s - rs)) <= 2.3e-16 and np.max(np.abs(c - rc)) <= 2.3e-16
+    away = (np.abs(rs) > 1e-3) & (np.abs(rc) > 1e-3)  # relative error near a zero measures the argument's rounding
+    assert ulps(s[away], rs[away]) <= 2.0 and ulps(c[away], rc[away]) <= 2.0
+
+
+def test_sincos_at_the_octant_boundaries_and_special_values():
+    x = np.concatenate([np.arange(-400, 401) * (math.pi / 4), [0.0, -0.0, 1e-300, 2.0**30, -(2.0**30)]])
+    s, c = np.empty_like(x), np.empty_like(x)
+    _sincos_all(x, s, c)
+    assert np.max(np.abs(s - ref(math.sin, x))) <= 2.3e-16
+    assert np.max(np.abs(c - ref(math.cos, x))) <= 2.3e-16
+    x = np.array([np.nan, np.inf, -np.inf])
+    s, c = np.empty_like(x), np.empty_like(x)
+    _sincos_all(x, s, c)
+    assert np.all(np.isnan(s)) and np.all(np.isnan(c))
+
+
+def test_exp_within_two_ulp_and_expm1_within_four_over_their_range():
+    x = np.concatenate([RNG.uniform(-708.0, 709.0, 100_000), RNG.uniform(-1.0, 1.0, 50_000), RNG.uniform(-1e-8, 1e-8, 1000), [0.5, -0.5, 0.0]])
+    out, out_m1 = np.empty_like(x), np.empty_like(x)
+    _exp_all(x, out, out_m1)
+    assert ulps(out, ref(math.exp, x)) <= 2.0
+    assert ulps(out_m1, ref(math.expm1, x)) <= 4.0
+
+
+def test_exp_ends_and_special_values():
+    x = np.array([-800.0, -708.5, 709.9, 800.0, np.inf, -np.inf, np.nan, 0.0])
+    out, out_m1 = np.empty_like(x), np.empty_like(x)
+    _exp_all(x, out, out_m1)
+    assert out[0] == 0.0 and out[1] == 0.0 and out[2] == np.inf and out[3] == np.inf
+    assert out[4] == np.inf and out[5] == 0.0 and np.isnan(out[6]) and out[7] == 1.0
+    assert out_m1[0] == -1.0 and out_m1[5] == -1.0 and out_m1[4] == np.inf and np.isnan(out_m1[6]) and out_m1[7] == 0.0
+
+
+def test_asin_within_three_ulp():
+    x = np.concatenate([RNG.uniform(-1.0, 1.0, 100_000), [1.0, -1.0, 0.0, 0.5, -0.999999]])
+    out = np.empty_like(x)
+    _asin_all(x, out)
+    assert ulps(out, ref(math.asin, x)) <= 3.0

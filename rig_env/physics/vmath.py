@@ -1,32 +1,37 @@
-"""Arctangents for the physics kernels written as inlined, branch-free arithmetic, so loops over them vectorise.
+"""Elementary functions for the physics kernels as inlined, branch-free arithmetic, so loops over them vectorise.
 
-The compensator's eight strips each need an angle of incidence.  With the C library's atan inside
-it, the loop over the panels is eight scalar passes (a call cannot be vectorised, and numba has no
-vector math library here); with the functions below it has no calls and no jumps, and LLVM computes
-the four panels side by side in SIMD lanes (the compensator aerodynamics cost half of what they did).
-The algorithm is Cephes' ``atan.c`` (S. L. Moshier, *Methods and Programs for Mathematical Functions*,
-1989: its rational approximation and coefficients), with the range reduction selected rather than
-branched.
+A call into the C library cannot be vectorised (numba has no vector math library here), so any loop
+that contains one runs one element at a time.  Two loops depend on these functions: the compensator's
+four panels (:mod:`rig_env.physics.aero`, four lanes of one environment) and the lane kernel
+(:mod:`rig_env.physics.lanes`), which computes eight environments side by side and calls every
+function of the right-hand side.  The algorithms are Cephes' (S. L. Moshier, *Methods and Programs
+for Mathematical Functions*, 1989: ``sin.c``, ``exp.c``, ``unity.c`` (expm1) and ``atan.c``, their
+range reductions and coefficients), with the reductions selected rather than branched.
 
-Only where a loop vectorises does this pay: as scalar code inlined in place of a library call,
-Cephes-style exp and sin/cos measured no faster than glibc's (exp slower: glibc's is table-driven and
-has no division), so the rest of the kernel keeps the C library.
+Accuracy (tests/test_vmath.py, against the C library):
 
-Accuracy (tests/test_vmath.py, against the C library): within 1 ulp (atan) and 2 ulp (atan2).
-
-| function | domain | notes |
-|---|---|---|
-| ``atan(x)`` | all x | +-pi/2 at +-inf, NaN in, NaN out |
-| ``atan2(y, x)`` | finite (y, x) | quadrant from the signs; atan2(0, 0) = 0, atan2(+-0, x < 0) = +pi |
+| function | domain | accuracy | notes |
+|---|---|---|---|
+| ``sincos(x)`` | abs(x) <= 2^30 rad | 2 ulp, 2.3e-16 absolute | three-part Cody-Waite reduction; larger arguments lose bits (never met: joint angles are bounded by the runaway check); NaN, inf -> NaN |
+| ``exp(x)`` | all x | 2 ulp | 0 below -708.39 (subnormal range), inf above 709.78 |
+| ``expm1(x)`` | all x | 4 ulp | Cephes' rational form for abs(x) <= 0.5, exp(x) - 1 outside |
+| ``atan(x)`` | all x | 1 ulp | +-pi/2 at +-inf, NaN in, NaN out |
+| ``atan2(y, x)`` | finite (y, x) | 2 ulp | quadrant from the signs; atan2(0, 0) = 0, atan2(+-0, x < 0) = +pi |
+| ``asin(x)`` | abs(x) <= 1 | 3 ulp | as atan2(x, sqrt((1 - x)(1 + x))) |
 """
 
 from __future__ import annotations
 
 import math
 
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
 
-from rig_env.physics.vec import FASTMATH
+FASTMATH = {"contract", "nsz", "arcp", "reassoc"}
+"""LLVM fast-math flags of every physics kernel: fused multiply-adds, reassociation, reciprocals and the
+sign of zero may change results in the last bits.  Never "nnan"/"ninf"/"fast": the blow-up detection
+relies on NaN and inf propagating and on np.isfinite."""
 
 _JIT = dict(cache=True, inline="always", error_model="numpy", fastmath=FASTMATH, _nrt=False)
 
@@ -75,3 +80,106 @@ def atan2(y, x):
     if x < 0.0:
         r = r + (math.pi if y >= 0.0 else -math.pi)
     return r
+
+
+@njit(**_JIT)
+def asin(x):
+    """arcsin x (rad) for abs(x) <= 1, in [-pi/2, pi/2]."""
+    return atan2(x, math.sqrt((1.0 - x) * (1.0 + x)))
+
+
+# ---------------------------------------------------------------- sin, cos (Cephes sin.c)
+_PIO4_INV = 1.27323954473516268615  # 4 / pi
+_DP1 = 7.85398125648498535156e-1  # pi/4 in three parts, each exact in few bits (Cody-Waite)
+_DP2 = 3.77489470793079817668e-8
+_DP3 = 2.69515142907905952645e-15
+_S0, _S1, _S2, _S3, _S4, _S5 = (
+    1.58962301576546568060e-10, -2.50507477628578072866e-8, 2.75573136213857245213e-6,
+    -1.98412698295895385996e-4, 8.33333333332211858878e-3, -1.66666666666666307295e-1,
+)  # fmt: skip
+_C0, _C1, _C2, _C3, _C4, _C5 = (
+    -1.13585365213876817300e-11, 2.08757008419747316778e-9, -2.75573141792967388112e-7,
+    2.48015872888517045348e-5, -1.38888888888730564116e-3, 4.16666666666665929218e-2,
+)  # fmt: skip
+SINCOS_MAX = 1073741824.0
+"""Up to this abs(x) (2^30 rad) :func:`sincos` is accurate to 2 ulp."""
+
+
+@njit(**_JIT)
+def sincos(x):
+    """(sin x, cos x); x in rad."""
+    a = abs(x)
+    y = math.floor(a * _PIO4_INV)  # octant of a, rounded up to even below so the reduced z is in [-pi/4, pi/4]
+    j = int(y if y < 4.0 * SINCOS_MAX else 0.0)  # a NaN or huge octant is not converted (z carries the NaN)
+    odd = j & 1
+    j += odd
+    y += odd
+    z = ((a - y * _DP1) - y * _DP2) - y * _DP3
+    zz = z * z
+    ps = z + z * zz * ((((((_S0 * zz + _S1) * zz + _S2) * zz + _S3) * zz + _S4) * zz + _S5))
+    pc = 1.0 - 0.5 * zz + zz * zz * ((((((_C0 * zz + _C1) * zz + _C2) * zz + _C3) * zz + _C4) * zz + _C5))
+    j &= 7
+    swap = (j & 2) != 0  # octants 2, 6: sin and cos exchange
+    s = pc if swap else ps
+    c = ps if swap else pc
+    s = -s if j >= 4 else s
+    c = -c if (j == 2) | (j == 4) else c
+    s = -s if x < 0.0 else s
+    finite = a < math.inf  # False for inf and NaN
+    return (s if finite else math.nan), (c if finite else math.nan)
+
+
+# ---------------------------------------------------------------- exp (Cephes exp.c), expm1 (unity.c)
+_LOG2E = 1.4426950408889634073599
+_LN2_HI = 6.93145751953125e-1
+_LN2_LO = 1.42860682030941723212e-6
+_P0, _P1, _P2 = 1.26177193074810590878e-4, 3.02994407707441961300e-2, 9.99999999999999999910e-1
+_Q0, _Q1, _Q2, _Q3 = 3.00198505138664455042e-6, 2.52448340349684104192e-3, 2.27265548208155028766e-1, 2.00000000000000000009e0
+EXP_MIN = -708.3964185322641
+"""Below this x, :func:`exp` returns 0 (exp(x) would be subnormal)."""
+EXP_MAX = 709.782712893384
+"""Above this x, :func:`exp` returns inf."""
+
+
+@intrinsic
+def _float_from_bits(typingctx, bits):
+    """The float64 whose IEEE 754 bit pattern is the int64 ``bits`` (a register move, no conversion)."""
+    sig = types.float64(types.int64)
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.DoubleType())
+
+    return sig, codegen
+
+
+@njit(**_JIT)
+def _pade(r):
+    """2 r P(r^2) / (Q(r^2) - r P(r^2)) = e^r - 1 for abs(r) <= 0.5 (Cephes' rational approximation)."""
+    rr = r * r
+    px = r * ((_P0 * rr + _P1) * rr + _P2)
+    e = px / ((((_Q0 * rr + _Q1) * rr + _Q2) * rr + _Q3) - px)
+    return e + e
+
+
+@njit(**_JIT)
+def exp(x):
+    """e^x."""
+    xc = x if x > EXP_MIN else EXP_MIN  # keeps 2^n a normal number (NaN -> EXP_MIN); the ends are selected below
+    xc = xc if xc < EXP_MAX else EXP_MAX
+    n = math.floor(xc * _LOG2E + 0.5)
+    r = (xc - n * _LN2_HI) - n * _LN2_LO  # |r| <= ln2 / 2
+    e = 1.0 + _pade(r)
+    # times 2^n, built from its exponent bits (n in [-1022, 1024]; 2^1024 only at xc = EXP_MAX, written as 2 * 2^1023)
+    ni = int(n)
+    two_n = _float_from_bits((min(ni, 1023) + 1023) << 52)
+    e = e * two_n * (2.0 if ni > 1023 else 1.0)
+    e = 0.0 if x < EXP_MIN else e
+    e = math.inf if x > EXP_MAX else e
+    return x if x != x else e  # NaN in, NaN out
+
+
+@njit(**_JIT)
+def expm1(x):
+    """e^x - 1, without the cancellation of exp(x) - 1 near 0."""
+    small = abs(x) <= 0.5
+    return _pade(x if small else 0.0) if small else exp(x) - 1.0
