@@ -65,15 +65,6 @@ def interp(x, xs, ys):
 
 
 @njit(**_JIT)
-def incidence(z, x):
-    """atan2(z, x) (rad), computed as atan(z / x) when x > 0 (flow from ahead): the same angle, and
-    glibc's atan costs about half its atan2."""
-    if x > 0.0:
-        return math.atan(z / x)
-    return math.atan2(z, x)
-
-
-@njit(**_JIT)
 def mix(da, de, dr, i):
     """Flap i (0-3) deflection from compensator aileron, elevator and rudder (rad)."""
     return da + MIX_ELEVATOR[i] * de + MIX_RUDDER[i] * dr
@@ -90,12 +81,10 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
     """
     vb = mtv(A, sub(v_cg, v_air))
     V = norm(vb)
-    if V < MIN_AIRSPEED:
-        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
     wb = mtv(A, omega)
-    alpha = incidence(vb[2], vb[0])
+    alpha = vmath.atan2(vb[2], vb[0])
     sb = vb[1] / V
-    beta = math.asin(min(1.0, max(-1.0, sb)))
+    beta = vmath.asin(min(1.0, max(-1.0, sb)))
     S = p[L.P_HAWK_AERO_S]
     c = p[L.P_HAWK_AERO_C]
     b = p[L.P_HAWK_AERO_B]
@@ -140,6 +129,9 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
         k * (-CL * ca - CD * vb[2] / V),
     )
     mb = (k * b * Cl, k * c * CM, k * b * Cn)
+    if V < MIN_AIRSPEED:  # wind off: no load (the values above are computed anyway and dropped, so that
+        fb = (0.0, 0.0, 0.0)  # the lane kernel has nothing to branch on)
+        mb = (0.0, 0.0, 0.0)
     return mv(A, fb), mv(A, mb)
 
 
@@ -223,11 +215,13 @@ def strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_o
 
 
 @njit(**_INLINE)
-def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn):
+def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn, unrolled=False):
     """Compensator force (world, N) and moment about its aerodynamic reference point (world, N m).
 
     A: arm rotation; v_ref: velocity of the reference point (world); omega: arm angular velocity
-    (world); v_air: air velocity (world); flaps: 4 flap deflections (rad, after mixing and servos).
+    (world); v_air: air velocity (world); flaps: 4 flap deflections (rad, after mixing and servos); unrolled: the four panels written out, for
+    the lane kernel, whose loop over environments must contain no loop of its own (a compile-time
+    constant there); otherwise one loop over the panels, which LLVM vectorises across the panels.
     Each panel i (span e_r, normal n = x_arm cross e_r) carries Table 4 coefficients per unit area of
     half the reference area; its lift acts along n for positive local incidence or flap.
     """
@@ -256,6 +250,17 @@ def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn):
     wb = mtv(A, omega)
     if nonlinear:
         fx, fy, fz, mx, my, mz = strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, tab_alpha, tab_cn)
+    elif unrolled:
+        f0 = panel(0, vb0, wb, flaps[0], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
+        f1 = panel(1, vb0, wb, flaps[1], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
+        f2 = panel(2, vb0, wb, flaps[2], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
+        f3 = panel(3, vb0, wb, flaps[3], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
+        fx = f0[0] + f1[0] + f2[0] + f3[0]
+        fy = f0[1] + f1[1] + f2[1] + f3[1]
+        fz = f0[2] + f1[2] + f2[2] + f3[2]
+        mx = f0[3] + f1[3] + f2[3] + f3[3]
+        my = f0[4] + f1[4] + f2[4] + f3[4]
+        mz = f0[5] + f1[5] + f2[5] + f3[5]
     else:
         # one loop over the four panels, the same body for each and no library calls or jumps in it, so
         # that LLVM computes them side by side in SIMD lanes

@@ -8,16 +8,17 @@ tau_f opposes the joint motion (it enters the joint's generalised force with a m
 bristle equation is stiff (time constant S / (sigma0 |v|), 0.2 ms at 1 rad/s with Table 2), so it is
 advanced with its exact solution at frozen v over half a physics step on each side of the mechanical
 step (Strang splitting, second order), never inside the explicit stages.
+
+exp and expm1 are :mod:`rig_env.physics.vmath`'s (no library calls: the lane kernel vectorises them).
 """
 
 from __future__ import annotations
 
-import math
-
 from numba import njit
 
 from rig_env.physics import layout as L
-from rig_env.physics.vec import FASTMATH
+from rig_env.physics import vmath
+from rig_env.physics.vmath import FASTMATH
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
 
@@ -37,35 +38,33 @@ def stribeck(p, j, v):
     """S(v) of eq. (20) for joint j."""
     b = FRICTION_BASE[j]
     fc = p[b + _FC]
-    return fc + (p[b + _FS] - fc) * math.exp(-p[b + _ALPHA] * abs(v))
+    return fc + (p[b + _FS] - fc) * vmath.exp(-p[b + _ALPHA] * abs(v))
 
 
 @njit(**_JIT)
 def torque(p, j, v, z):
     """Friction torque tau_f of eq. (21) for joint j at rate v (rad/s) and bristle state z (rad)."""
-    if v == 0.0 and z == 0.0:  # a locked joint, or a free one at rest and relaxed
-        return 0.0
     b = FRICTION_BASE[j]
     s0 = p[b + _S0]
     zdot = v - s0 * abs(v) * z / stribeck(p, j, v)
     vd = p[b + _VD]
-    return p[b + _S1] * math.exp(-(v / vd) ** 2) * zdot + s0 * z + p[b + _S2] * v
+    tau = p[b + _S1] * vmath.exp(-(v / vd) ** 2) * zdot + s0 * z + p[b + _S2] * v
+    return 0.0 if (v == 0.0) & (z == 0.0) else tau  # a locked joint, or a free one at rest and relaxed (selected, not branched)
 
 
 @njit(**_JIT)
 def bristle_decay(p, j, v, dt):
     """(a, e) of eq. (19) at rate v held over dt: decay rate a = sigma0 |v| / S(v) (1/s), e = 1 - exp(-a dt)."""
     a = p[FRICTION_BASE[j] + _S0] * abs(v) / stribeck(p, j, v)
-    return a, -math.expm1(-a * dt)
+    return a, -vmath.expm1(-a * dt)
 
 
 @njit(**_JIT)
 def advance_bristle_decay(v, z, dt, a, e):
     """Exact solution of eq. (19) over dt with v held constant, from its (a, e) of :func:`bristle_decay`."""
-    if a * dt < 1e-12:
-        return z + v * dt
-    # z -> z_ss + (z - z_ss) exp(-a dt), z_ss = v / a, written without cancellation
-    return z + (v - a * z) * e / a
+    # z -> z_ss + (z - z_ss) exp(-a dt), z_ss = v / a, written without cancellation; at a dt < 1e-12 (no
+    # decay, a locked or resting joint) z + v dt, selected rather than branched
+    return z + v * dt if a * dt < 1e-12 else z + (v - a * z) * e / a
 
 
 @njit(**_JIT)

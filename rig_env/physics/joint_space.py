@@ -31,6 +31,7 @@ from numba import njit, prange
 from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
+from rig_env.physics import vmath
 from rig_env.physics.aero import comp_aero, hawk_aero
 from rig_env.physics.vec import FASTMATH, add, col, cross, dot, inertia_world, mm, mtv, mv, rot_zy, rot_zyx, scale
 
@@ -45,7 +46,8 @@ STOP_BASE = (-1, L.P_STOPS_RIG_PITCH_LOWER_DEG, L.P_STOPS_RIG_YAW_LOWER_DEG, L.P
 @njit(**_JIT)
 def pitch_axis(psi):
     """Rig-pitch axis (world): Rz(psi) e_y."""
-    return (-math.sin(psi), math.cos(psi), 0.0)
+    s, c = vmath.sincos(psi)
+    return (-s, c, 0.0)
 
 
 @njit(**_INLINE)
@@ -101,10 +103,13 @@ def madd(a, b):
 
 
 @njit(**_INLINE)
-def mass_matrix_and_bias(q, qd, p, M, hvec, jv):
-    """Fill M (5x5) and h (5) of M qdd + h = Q (jv: unused scratch, kept for callers).
+def mass_matrix_terms(q, qd, p):
+    """(M, h, kin) of M qdd + h = Q at joint angles q and rates qd, as values (no arrays, so that a loop over
+    environments vectorises).
 
-    Every arm joint turns all three bodies about an axis through the pivot and every model joint
+    M: the 15 entries of its upper triangle by rows (m00, m01, .., m04, m11, .., m14, m22, .., m44);
+    h: 5 bias forces; kin: the kinematics (As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a) for the force
+    terms.  Every arm joint turns all three bodies about an axis through the pivot and every model joint
     turns the Hawk about an axis through the model gimbal, so with J_v = a x r, J_w = a:
 
         M_jk = a_j . I_pivot a_k                       (j, k arm joints)
@@ -115,7 +120,6 @@ def mass_matrix_and_bias(q, qd, p, M, hvec, jv):
     with I_pivot, I_gimbal the inertias about the pivot and the gimbal (parallel-axis terms), r_a the
     Hawk c.g. from the pivot, rho from the gimbal, b_v, b_w the bias accelerations.  This is
     J^T M_body J and J^T (M_body b + gyroscopic) written without forming J.
-    Returns the kinematics (As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a) for the force terms.
     """
     As, Aa, axes, G, rho, r_s, r_r, r_ref = frames(q, p)
     w_s, w_a, b_s, b_a = velocities(axes, qd)
@@ -139,23 +143,17 @@ def mass_matrix_and_bias(q, qd, p, M, hvec, jv):
         I_a[3] - m_a * rho[1] * r_a[0], I_a[4] + m_a * (ra_rho - rho[1] * r_a[1]), I_a[5] - m_a * rho[1] * r_a[2],
         I_a[6] - m_a * rho[2] * r_a[0], I_a[7] - m_a * rho[2] * r_a[1], I_a[8] + m_a * (ra_rho - rho[2] * r_a[2]),
     )  # fmt: skip
-    for j in range(3):
-        Ij = mv(I_piv, axes[j])
-        for k in range(j, 3):
-            v = dot(Ij, axes[k])
-            M[j, k] = v
-            M[k, j] = v
-        Kj = mtv(K, axes[j])  # a_j^T K
-        for k in range(3, 5):
-            v = dot(Kj, axes[k])
-            M[j, k] = v
-            M[k, j] = v
-    for j in range(3, 5):
-        Ij = mv(I_gim, axes[j])
-        for k in range(j, 5):
-            v = dot(Ij, axes[k])
-            M[j, k] = v
-            M[k, j] = v
+    a0, a1, a2, a3, a4 = axes
+    I0, I1, I2 = mv(I_piv, a0), mv(I_piv, a1), mv(I_piv, a2)
+    K0, K1, K2 = mtv(K, a0), mtv(K, a1), mtv(K, a2)  # a_j^T K
+    G3, G4 = mv(I_gim, a3), mv(I_gim, a4)
+    Mt = (
+        dot(I0, a0), dot(I0, a1), dot(I0, a2), dot(K0, a3), dot(K0, a4),
+        dot(I1, a1), dot(I1, a2), dot(K1, a3), dot(K1, a4),
+        dot(I2, a2), dot(K2, a3), dot(K2, a4),
+        dot(G3, a3), dot(G3, a4),
+        dot(G4, a4),
+    )  # fmt: skip
     # bias (velocity-product) generalised forces
     a_a = add(point_bias(b_s, w_s, G), point_bias(b_a, w_a, rho))
     f_a = scale(a_a, m_a)
@@ -164,11 +162,26 @@ def mass_matrix_and_bias(q, qd, p, M, hvec, jv):
         add(cross(r_s, scale(point_bias(b_s, w_s, r_s), m_s)), cross(r_r, scale(point_bias(b_s, w_s, r_r), m_r))),
         add(add(mv(I_s, b_s), cross(w_s, mv(I_s, w_s))), add(t_hawk, cross(G, f_a))),
     )
-    for k in range(3):
-        hvec[k] = dot(axes[k], t_arm)
-    for k in range(3, 5):
-        hvec[k] = dot(axes[k], t_hawk)
-    return As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a
+    ht = (dot(a0, t_arm), dot(a1, t_arm), dot(a2, t_arm), dot(a3, t_hawk), dot(a4, t_hawk))
+    return Mt, ht, (As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a)
+
+
+# (row, column) of the 15 upper-triangle entries of mass_matrix_terms' M
+M_UPPER = ((0, 0), (0, 1), (0, 2), (0, 3), (0, 4), (1, 1), (1, 2), (1, 3), (1, 4), (2, 2), (2, 3), (2, 4), (3, 3), (3, 4), (4, 4))
+
+
+@njit(**_INLINE)
+def mass_matrix_and_bias(q, qd, p, M, hvec, jv):
+    """Fill M (5x5) and h (5) of M qdd + h = Q from :func:`mass_matrix_terms` (jv: unused scratch, kept for
+    callers).  Returns the kinematics (As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a) for the force terms."""
+    Mt, ht, kin = mass_matrix_terms(q, qd, p)
+    for e in range(15):
+        j, k = M_UPPER[e]
+        M[j, k] = Mt[e]
+        M[k, j] = Mt[e]
+    for k in range(5):
+        hvec[k] = ht[k]
+    return kin
 
 
 @njit(**_JIT)
@@ -188,27 +201,33 @@ def air_velocity(u):
 
 @njit(**_INLINE)
 def joint_torque(j, q, qd, z, p, flags):
-    """Friction and stop torque on joint j (N m, acting on the joint's positive direction)."""
-    tau = 0.0
-    if flags & L.F_FRICTION:
-        tau -= fr.torque(p, j, qd[j], z[j])
-    if flags & L.F_STOPS:
-        b = STOP_BASE[j]
-        if b >= 0:
-            lo = p[b]
-            hi = p[b + 1]
-            k = p[b + 2]
-            c = p[b + 3]
-            if q[j] > hi:
-                tau += min(0.0, -k * (q[j] - hi) - c * qd[j])
-            elif q[j] < lo:
-                tau += max(0.0, -k * (q[j] - lo) - c * qd[j])
+    """Friction and stop torque on joint j (N m, acting on the joint's positive direction).
+
+    Every term is computed and the ones that do not apply are selected away (no branches: the lane
+    kernel computes eight environments side by side)."""
+    tau_f = -fr.torque(p, j, qd[j], z[j])
+    tau = tau_f if flags & L.F_FRICTION else 0.0
+    b = STOP_BASE[j]
+    if b >= 0:  # j is a constant wherever this is inlined: decided at compile time
+        lo = p[b]
+        hi = p[b + 1]
+        k = p[b + 2]
+        c = p[b + 3]
+        above = min(0.0, -k * (q[j] - hi) - c * qd[j])
+        below = max(0.0, -k * (q[j] - lo) - c * qd[j])
+        stop = above if q[j] > hi else (below if q[j] < lo else 0.0)
+        tau += stop if flags & L.F_STOPS else 0.0
     return tau
 
 
 @njit(**_INLINE)
-def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q):
-    """Fill Q (5) with gravity, aerodynamic, friction and stop generalised forces."""
+def forces(q, qd, z, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
+    """Generalised forces Q (5-tuple, N m) of gravity, aerodynamics, friction and stops.
+
+    nonlinear: the stall tables (flags' F_NONLINEAR), unrolled: the compensator's panels written out
+    (the lane kernel) rather than looped over (the per-environment kernel vectorises that loop); both
+    are compile-time constants wherever the lane kernel inlines this.
+    """
     As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a = kin
     g = p[L.P_ENVIRONMENT_GRAVITY]
     m_a = p[L.P_MASS_HAWK_MASS]
@@ -219,21 +238,29 @@ def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q):
     t_arm = add(cross(r_s, (0.0, 0.0, p[L.P_MASS_ARM_MASS] * g)), cross(r_r, (0.0, 0.0, p[L.P_MASS_COMP_MASS] * g)))
     if flags & L.F_AERO:
         v_air = air_velocity(u)
-        nonlin = (flags & L.F_NONLINEAR) != 0
         v_a = add(cross(w_s, G), cross(w_a, rho))
-        fa, ta = hawk_aero(p, Aa, v_a, w_a, v_air, flaps[4], flaps[5], flaps[6], nonlin, tabs[0], tabs[1], tabs[2])
+        fa, ta = hawk_aero(p, Aa, v_a, w_a, v_air, flaps[4], flaps[5], flaps[6], nonlinear, tabs[0], tabs[1], tabs[2])
         f_a = add(f_a, fa)
         t_a = ta
-        fc, tc = comp_aero(p, As, cross(w_s, r_ref), w_s, v_air, flaps, nonlin, tabs[3], tabs[4])
+        fc, tc = comp_aero(p, As, cross(w_s, r_ref), w_s, v_air, flaps, nonlinear, tabs[3], tabs[4], unrolled)
         t_arm = add(t_arm, add(cross(r_ref, fc), tc))
-    t_hawk_pivot = add(cross(r_a, f_a), t_a)
-    t_hawk_gimbal = add(cross(rho, f_a), t_a)
+    t_pivot = add(t_arm, add(cross(r_a, f_a), t_a))
+    t_gimbal = add(cross(rho, f_a), t_a)
+    return (
+        dot(axes[0], t_pivot) + joint_torque(0, q, qd, z, p, flags),
+        dot(axes[1], t_pivot) + joint_torque(1, q, qd, z, p, flags),
+        dot(axes[2], t_pivot) + joint_torque(2, q, qd, z, p, flags),
+        dot(axes[3], t_gimbal) + joint_torque(3, q, qd, z, p, flags),
+        dot(axes[4], t_gimbal) + joint_torque(4, q, qd, z, p, flags),
+    )
+
+
+@njit(**_INLINE)
+def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q):
+    """Fill Q (5) with :func:`forces`."""
+    Qt = forces(q, qd, z, flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
     for k in range(5):
-        if k < 3:
-            Q[k] = dot(axes[k], add(t_arm, t_hawk_pivot))
-        else:
-            Q[k] = dot(axes[k], t_hawk_gimbal)
-        Q[k] += joint_torque(k, q, qd, z, p, flags)
+        Q[k] = Qt[k]
 
 
 @njit(**_JIT)
@@ -244,66 +271,91 @@ def is_free(j, free_idx, n):
     return False
 
 
-@njit(**_INLINE)
-def factor_free(M, free_idx, n):
-    """Cholesky factor of M[free, free] in place (lower triangle; 1 / L_aa on the diagonal).
+@njit(**_JIT)
+def free_mask(free_idx, n):
+    """(5,) tuple: True for the joints listed in free_idx[:n]."""
+    return (is_free(0, free_idx, n), is_free(1, free_idx, n), is_free(2, free_idx, n), is_free(3, free_idx, n), is_free(4, free_idx, n))
 
-    Locked rows and columns are replaced by the identity, so the fixed 5x5 Cholesky below needs no
-    index indirection.  A matrix that is not positive definite gives NaN, which the caller reports as
-    a blow-up of that environment.  The reciprocal pivots let the triangular solves multiply.
+
+@njit(**_INLINE)
+def solve_free(Mt, r, free):
+    """qdd (5-tuple) of M[free, free] qdd[free] = r[free], qdd[locked] = 0, by Cholesky.
+
+    Mt: M's upper triangle as :func:`mass_matrix_terms` gives it; r: 5 right-hand sides; free: 5 bools.
+    Locked rows and columns are replaced by the identity (and r by 0), so one fixed 5x5 factorisation
+    serves every lock set with no index indirection or branch.  A matrix that is not positive definite
+    gives NaN, which the caller reports as a blow-up of that environment.  The pivots are kept as
+    reciprocals, so the triangular solves multiply.
     """
-    for j in range(5):
-        if not is_free(j, free_idx, n):
-            for k in range(5):
-                M[j, k] = 0.0
-                M[k, j] = 0.0
-            M[j, j] = 1.0
-    for a in range(5):
-        s = M[a, a]
-        for c in range(a):
-            s -= M[a, c] * M[a, c]
-        # 1 / sqrt(s) as sqrt(s) * (1 / s): the square root and the division run side by side rather
-        # than one after the other (this chain of five pivots is the right-hand side's critical path)
-        inv = math.sqrt(s) * (1.0 / s) if s > 0.0 else np.nan
-        M[a, a] = inv
-        for b in range(a + 1, 5):
-            t = M[b, a]
-            for c in range(a):
-                t -= M[b, c] * M[a, c]
-            M[b, a] = t * inv
-
-
-@njit(**_INLINE)
-def solve_factored(M, rhs, free_idx, n, out):
-    """out = M^-1 rhs from the factor of :func:`factor_free`; out[locked] = 0 (rhs[locked] set to 0)."""
-    for j in range(5):
-        if not is_free(j, free_idx, n):
-            rhs[j] = 0.0
-    for a in range(5):
-        t = rhs[a]
-        for c in range(a):
-            t -= M[a, c] * out[c]
-        out[a] = t * M[a, a]
-    for a in range(4, -1, -1):
-        t = out[a]
-        for c in range(a + 1, 5):
-            t -= M[c, a] * out[c]
-        out[a] = t * M[a, a]
+    f0, f1, f2, f3, f4 = free
+    # M with locked rows and columns set to the identity
+    m00 = Mt[0] if f0 else 1.0
+    m01 = Mt[1] if f0 & f1 else 0.0
+    m02 = Mt[2] if f0 & f2 else 0.0
+    m03 = Mt[3] if f0 & f3 else 0.0
+    m04 = Mt[4] if f0 & f4 else 0.0
+    m11 = Mt[5] if f1 else 1.0
+    m12 = Mt[6] if f1 & f2 else 0.0
+    m13 = Mt[7] if f1 & f3 else 0.0
+    m14 = Mt[8] if f1 & f4 else 0.0
+    m22 = Mt[9] if f2 else 1.0
+    m23 = Mt[10] if f2 & f3 else 0.0
+    m24 = Mt[11] if f2 & f4 else 0.0
+    m33 = Mt[12] if f3 else 1.0
+    m34 = Mt[13] if f3 & f4 else 0.0
+    m44 = Mt[14] if f4 else 1.0
+    # 1 / sqrt(s) as sqrt(s) * (1 / s): the square root and the division run side by side rather than one
+    # after the other (this chain of five pivots is the right-hand side's critical path)
+    s = m00
+    i0 = math.sqrt(s) * (1.0 / s) if s > 0.0 else np.nan
+    l10 = m01 * i0
+    l20 = m02 * i0
+    l30 = m03 * i0
+    l40 = m04 * i0
+    s = m11 - l10 * l10
+    i1 = math.sqrt(s) * (1.0 / s) if s > 0.0 else np.nan
+    l21 = (m12 - l20 * l10) * i1
+    l31 = (m13 - l30 * l10) * i1
+    l41 = (m14 - l40 * l10) * i1
+    s = m22 - l20 * l20 - l21 * l21
+    i2 = math.sqrt(s) * (1.0 / s) if s > 0.0 else np.nan
+    l32 = (m23 - l30 * l20 - l31 * l21) * i2
+    l42 = (m24 - l40 * l20 - l41 * l21) * i2
+    s = m33 - l30 * l30 - l31 * l31 - l32 * l32
+    i3 = math.sqrt(s) * (1.0 / s) if s > 0.0 else np.nan
+    l43 = (m34 - l40 * l30 - l41 * l31 - l42 * l32) * i3
+    s = m44 - l40 * l40 - l41 * l41 - l42 * l42 - l43 * l43
+    i4 = math.sqrt(s) * (1.0 / s) if s > 0.0 else np.nan
+    # L y = r, then L^T x = y
+    y0 = (r[0] if f0 else 0.0) * i0
+    y1 = ((r[1] if f1 else 0.0) - l10 * y0) * i1
+    y2 = ((r[2] if f2 else 0.0) - l20 * y0 - l21 * y1) * i2
+    y3 = ((r[3] if f3 else 0.0) - l30 * y0 - l31 * y1 - l32 * y2) * i3
+    y4 = ((r[4] if f4 else 0.0) - l40 * y0 - l41 * y1 - l42 * y2 - l43 * y3) * i4
+    x4 = y4 * i4
+    x3 = (y3 - l43 * x4) * i3
+    x2 = (y2 - l32 * x3 - l42 * x4) * i2
+    x1 = (y1 - l21 * x2 - l31 * x3 - l41 * x4) * i1
+    x0 = (y0 - l10 * x1 - l20 * x2 - l30 * x3 - l40 * x4) * i0
+    return x0, x1, x2, x3, x4
 
 
 @njit(**_INLINE)
 def accelerations(q, qd, z, flaps, u, p, flags, free_idx, n_free, tabs, M, hvec, Q, jv, qdd):
-    """Joint accelerations qdd (5; zero for locked joints) of the joint-space model.
-
-    M is factored before the forces are evaluated: the factorisation (a chain of square roots and
-    divisions) then overlaps with the force terms in the processor instead of following them.
-    """
-    kin = mass_matrix_and_bias(q, qd, p, M, hvec, jv)
-    factor_free(M, free_idx, n_free)
-    generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q)
+    """Joint accelerations qdd (5; zero for locked joints) of the joint-space model, with M, h and Q of
+    M qdd + h = Q written to M, hvec and Q (jv: unused scratch, kept for callers)."""
+    Mt, ht, kin = mass_matrix_terms(q, qd, p)
+    Qt = forces(q, qd, z, flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
+    r = (Qt[0] - ht[0], Qt[1] - ht[1], Qt[2] - ht[2], Qt[3] - ht[3], Qt[4] - ht[4])
+    x = solve_free(Mt, r, free_mask(free_idx, n_free))
+    for e in range(15):
+        j, k = M_UPPER[e]
+        M[j, k] = Mt[e]
+        M[k, j] = Mt[e]
     for k in range(5):
-        Q[k] -= hvec[k]
-    solve_factored(M, Q, free_idx, n_free, qdd)
+        hvec[k] = ht[k]
+        Q[k] = Qt[k]
+        qdd[k] = x[k]
 
 
 @njit(**_JIT)

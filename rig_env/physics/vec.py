@@ -1,7 +1,8 @@
 """Allocation-free 3-vector and 3x3 rotation helpers for the numba kernels.
 
 Vectors are 3-tuples of float64, matrices are 9-tuples in row-major order.  Keeping them as tuples
-lets LLVM hold them in registers: the hot loops allocate nothing.
+lets LLVM hold them in registers: the hot loops allocate nothing.  Rotations take their sines and
+cosines from :func:`rig_env.physics.vmath.sincos` (no library call, so a loop over environments vectorises).
 """
 
 from __future__ import annotations
@@ -10,10 +11,7 @@ import math
 
 from numba import njit
 
-FASTMATH = {"contract", "nsz", "arcp", "reassoc"}
-"""LLVM fast-math flags of every physics kernel: fused multiply-adds, reassociation, reciprocals and the
-sign of zero may change results in the last bits.  Never "nnan"/"ninf"/"fast": the blow-up detection
-relies on NaN and inf propagating and on np.isfinite."""
+from rig_env.physics.vmath import FASTMATH, sincos
 
 _JIT = dict(cache=True, inline="always", error_model="numpy", fastmath=FASTMATH, _nrt=False)
 
@@ -91,27 +89,27 @@ def col(m, j):
 
 @njit(**_JIT)
 def rot_x(a):
-    c, s = math.cos(a), math.sin(a)
+    s, c = sincos(a)
     return (1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
 
 
 @njit(**_JIT)
 def rot_y(a):
-    c, s = math.cos(a), math.sin(a)
+    s, c = sincos(a)
     return (c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
 
 
 @njit(**_JIT)
 def rot_z(a):
-    c, s = math.cos(a), math.sin(a)
+    s, c = sincos(a)
     return (c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
 
 
 @njit(**_JIT)
 def rot_zy(yaw, pitch):
     """Rz(yaw) @ Ry(pitch), written out (the zero entries of the factors left out of the product)."""
-    cz, sz = math.cos(yaw), math.sin(yaw)
-    cy, sy = math.cos(pitch), math.sin(pitch)
+    sz, cz = sincos(yaw)
+    sy, cy = sincos(pitch)
     return (cz * cy, -sz, cz * sy, sz * cy, cz, sz * sy, -sy, 0.0, cy)
 
 
@@ -119,7 +117,7 @@ def rot_zy(yaw, pitch):
 def rot_zyx(yaw, pitch, roll):
     """Rz(yaw) @ Ry(pitch) @ Rx(roll), written out as :func:`rot_zy` times Rx."""
     b = rot_zy(yaw, pitch)
-    cx, sx = math.cos(roll), math.sin(roll)
+    sx, cx = sincos(roll)
     return (
         b[0], b[1] * cx + b[2] * sx, b[2] * cx - b[1] * sx,
         b[3], b[4] * cx + b[5] * sx, b[5] * cx - b[4] * sx,
