@@ -1,0 +1,274 @@
+"""The joint-space integrator with eight environments side by side in SIMD lanes.
+
+Same model, same integration scheme and same interface as :mod:`rig_env.physics.integrator` (Strang
+splitting of the LuGre bristles around one classical RK4 step per physics step, servo limits after
+it, per-environment delay lines, blow-up detection and freezing), computed for a block of ``W = 8``
+environments at a time so that LLVM turns every floating-point operation into one 512-bit vector
+operation over the eight.  The right-hand side is the one :mod:`rig_env.physics.joint_space` gives
+(:func:`~rig_env.physics.joint_space.mass_matrix_terms`, :func:`~rig_env.physics.joint_space.forces`,
+:func:`~rig_env.physics.joint_space.solve_free`): no second copy of the dynamics.
+
+Why the layout is what it is (``benchmarks/bench_lanes.py`` and ``benchmarks/RESULTS.md`` show each
+rule's effect): LLVM vectorises a loop over environments only when
+
+1. every memory access in it is ``row[k * W + lane]`` of one flat array with constant ``k`` (two arrays,
+   or a strided view, need run-time pointer checks and the cost model then declines), so each block's
+   state, parameters, inputs and RK stages live in one row of the scratch ``S`` (lanes innermost);
+2. it calls no library function (sines, exponentials and arctangents come from
+   :mod:`rig_env.physics.vmath`) and contains no loop of its own (the compensator's panels are written
+   out: ``forces(..., unrolled=True)``);
+3. it branches on nothing but values (every per-environment choice is a select; the model's flags are
+   the same for every lane).
+
+The high-incidence tables (``F_NONLINEAR``) need a table search per evaluation, which no lane can
+share: :func:`supports` says False for them and callers use the per-environment kernel.
+
+Results equal :mod:`rig_env.physics.integrator`'s to rounding (``tests/test_lanes.py``: 1e-12 rad
+after 100 control steps with every term on, every lock set), not bit for bit: the order of some
+floating-point operations differs.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from numba import njit, prange, types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+from rig_env.physics import friction as fr
+from rig_env.physics import layout as L
+from rig_env.physics import servo as sv
+from rig_env.physics.integrator import N_Y, RK_C, RK_W, push_demands
+from rig_env.physics.joint_space import forces, free_mask, mass_matrix_terms, solve_free
+from rig_env.physics.vmath import FASTMATH
+
+W = 8
+"""Environments per block: the lanes of a 512-bit register of float64."""
+
+_JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
+_INLINE = dict(_JIT, inline="always")
+_JIT_BATCH = dict(cache=True, error_model="numpy", fastmath=FASTMATH)
+_GENERATED = dict(_INLINE, cache=False)  # source made by exec has no file to cache against; inlined into cached callers
+
+# one block's row of the scratch S: each quantity k of lane l at row[OFF_... + k * W + l]
+OFF_X = 0  # state (layout.X_...), N_STATE
+OFF_P = OFF_X + L.N_STATE * W  # parameters, N_PARAMS
+OFF_U = OFF_P + L.N_PARAMS * W  # inputs, N_INPUTS
+OFF_UD = OFF_U + L.N_INPUTS * W  # delayed, limited actuator demands of the physics step, 7
+OFF_Y0 = OFF_UD + 7 * W  # RK state at the start of the physics step, N_Y
+OFF_K = OFF_Y0 + N_Y * W  # the last stage's derivative, N_Y
+OFF_ACC = OFF_K + N_Y * W  # the stages' weighted sum, N_Y
+BLOCK = OFF_ACC + N_Y * W
+_ZERO_Y = (0.0,) * N_Y
+
+
+def supports(flags: int) -> bool:
+    """Whether the lane kernel can run a model with these flags (all but the high-incidence tables)."""
+    return not flags & L.F_NONLINEAR
+
+
+def new_work(n_envs: int) -> np.ndarray:
+    """Scratch of a batch: one row of BLOCK floats per block of W environments."""
+    return np.zeros(((n_envs + W - 1) // W, BLOCK))
+
+
+def _loader(n: int):
+    """``load(row, off, lane)``: the n-tuple row[off + k * W + lane], k < n (written out: a tuple of
+    loads, of which LLVM keeps only the ones used)."""
+    ns: dict = {}
+    exec("def load(row, off, lane):\n    return (" + ", ".join(f"row[off + {k * W} + lane]" for k in range(n)) + ",)\n", ns)
+    return njit(**_GENERATED)(ns["load"])
+
+
+def _storer(n: int):
+    """``store(row, off, lane, t)``: row[off + k * W + lane] = t[k], k < n."""
+    ns: dict = {}
+    exec("def store(row, off, lane, t):\n" + "".join(f"    row[off + {k * W} + lane] = t[{k}]\n" for k in range(n)), ns)
+    return njit(**_GENERATED)(ns["store"])
+
+
+load5, load7, load10, load24, load_params = _loader(5), _loader(7), _loader(10), _loader(N_Y), _loader(L.N_PARAMS)
+store5, store7, store10, store24 = _storer(5), _storer(7), _storer(10), _storer(N_Y)
+
+
+@intrinsic
+def _pointer(typingctx, address):
+    """The integer ``address`` as a void pointer (for numba.carray)."""
+
+    def codegen(context, builder, signature, args):
+        return builder.inttoptr(args[0], cgutils.voidptr_t)
+
+    return types.voidptr(address), codegen
+
+
+@njit(**_INLINE)
+def rhs_values(y, z, ud, u, p, flags, free, tabs):
+    """Time derivative (N_Y-tuple) of the RK state y (q 5, qd 5, servo positions 7, servo rates 7), with the
+    bristle states z and the delayed demands ud held; locked joints do not move."""
+    q = y[0:5]
+    qd = y[5:10]
+    flaps = y[10:17] if flags & L.F_SERVO else ud
+    Mt, ht, kin = mass_matrix_terms(q, qd, p)
+    Qt = forces(q, qd, z, flaps, u, p, flags, tabs, kin, False, True)
+    qdd = solve_free(Mt, (Qt[0] - ht[0], Qt[1] - ht[1], Qt[2] - ht[2], Qt[3] - ht[3], Qt[4] - ht[4]), free)
+    servo = (flags & L.F_SERVO) != 0
+    return (
+        qd[0] if free[0] else 0.0, qd[1] if free[1] else 0.0, qd[2] if free[2] else 0.0,
+        qd[3] if free[3] else 0.0, qd[4] if free[4] else 0.0,
+        qdd[0], qdd[1], qdd[2], qdd[3], qdd[4],
+        y[17] if servo else 0.0, y[18] if servo else 0.0, y[19] if servo else 0.0, y[20] if servo else 0.0,
+        y[21] if servo else 0.0, y[22] if servo else 0.0, y[23] if servo else 0.0,
+        sv.accel(p, 0, ud[0], y[10], y[17]) if servo else 0.0,
+        sv.accel(p, 1, ud[1], y[11], y[18]) if servo else 0.0,
+        sv.accel(p, 2, ud[2], y[12], y[19]) if servo else 0.0,
+        sv.accel(p, 3, ud[3], y[13], y[20]) if servo else 0.0,
+        sv.accel(p, 4, ud[4], y[14], y[21]) if servo else 0.0,
+        sv.accel(p, 5, ud[5], y[15], y[22]) if servo else 0.0,
+        sv.accel(p, 6, ud[6], y[16], y[23]) if servo else 0.0,
+    )  # fmt: skip
+
+
+@njit(**_INLINE)
+def half_bristle_step(row, lane, p, free, friction, h):
+    """Bristle states of the free joints over h/2 at the lane's joint rates (exact, eq. 19), in place;
+    unchanged without friction."""
+    qd = load5(row, OFF_X + L.X_QD * W, lane)
+    z = load5(row, OFF_X + L.X_Z * W, lane)
+    dt = 0.5 * h
+    store5(row, OFF_X + L.X_Z * W, lane, (
+        fr.advance_bristle(p, 0, qd[0], z[0], dt) if free[0] & friction else z[0],
+        fr.advance_bristle(p, 1, qd[1], z[1], dt) if free[1] & friction else z[1],
+        fr.advance_bristle(p, 2, qd[2], z[2], dt) if free[2] & friction else z[2],
+        fr.advance_bristle(p, 3, qd[3], z[3], dt) if free[3] & friction else z[3],
+        fr.advance_bristle(p, 4, qd[4], z[4], dt) if free[4] & friction else z[4],
+    ))  # fmt: skip
+
+
+@njit(**_INLINE)
+def axpy24(a, x, y):
+    """y + a x for 24-tuples."""
+    return (
+        y[0] + a * x[0], y[1] + a * x[1], y[2] + a * x[2], y[3] + a * x[3], y[4] + a * x[4], y[5] + a * x[5],
+        y[6] + a * x[6], y[7] + a * x[7], y[8] + a * x[8], y[9] + a * x[9], y[10] + a * x[10], y[11] + a * x[11],
+        y[12] + a * x[12], y[13] + a * x[13], y[14] + a * x[14], y[15] + a * x[15], y[16] + a * x[16],
+        y[17] + a * x[17], y[18] + a * x[18], y[19] + a * x[19], y[20] + a * x[20], y[21] + a * x[21],
+        y[22] + a * x[22], y[23] + a * x[23],
+    )  # fmt: skip
+
+
+@njit(**_JIT)
+def physics_step(row, flags, free, tabs, h):
+    """Every lane of one block over one physics step h (in place); row[OFF_UD] holds the delayed demands.
+
+    The stages' derivatives are accumulated with the RK4 weights as they come (in the order
+    integrator.physics_step sums them), so every access of the loops below is at a constant offset."""
+    friction = (flags & L.F_FRICTION) != 0
+    servo = (flags & L.F_SERVO) != 0
+    for lane in range(W):  # bristles over h/2, then the RK start state
+        half_bristle_step(row, lane, load_params(row, OFF_P, lane), free, friction, h)
+        store24(row, OFF_Y0, lane, load10(row, OFF_X, lane) + load7(row, OFF_X + L.X_SERVO * W, lane) + load7(row, OFF_X + L.X_SERVO_RATE * W, lane))
+    for s in range(4):  # the four stages, each a loop over the lanes (one copy of the right-hand side in the code)
+        c = RK_C[s] * h
+        wgt = RK_W[s]
+        first = s == 0
+        for lane in range(W):
+            y0 = load24(row, OFF_Y0, lane)
+            yt = y0 if first else axpy24(c, load24(row, OFF_K, lane), y0)
+            k = rhs_values(
+                yt, load5(row, OFF_X + L.X_Z * W, lane), load7(row, OFF_UD, lane), load10(row, OFF_U, lane),
+                load_params(row, OFF_P, lane), flags, free, tabs,
+            )  # fmt: skip
+            store24(row, OFF_K, lane, k)
+            acc = load24(row, OFF_ACC, lane)
+            store24(row, OFF_ACC, lane, axpy24(wgt, k, _ZERO_Y if first else acc))
+    for lane in range(W):  # the RK4 step, bristles over the second h/2, servo limits
+        p = load_params(row, OFF_P, lane)
+        y = axpy24(h, load24(row, OFF_ACC, lane), load24(row, OFF_Y0, lane))
+        store10(row, OFF_X, lane, y[0:10])
+        half_bristle_step(row, lane, p, free, friction, h)
+        ud = load7(row, OFF_UD, lane)
+        s0, s1, s2, s3 = sv.project(p, 0, y[10], y[17]), sv.project(p, 1, y[11], y[18]), sv.project(p, 2, y[12], y[19]), sv.project(p, 3, y[13], y[20])
+        s4, s5, s6 = sv.project(p, 4, y[14], y[21]), sv.project(p, 5, y[15], y[22]), sv.project(p, 6, y[16], y[23])
+        store7(row, OFF_X + L.X_SERVO * W, lane, (
+            s0[0] if servo else ud[0], s1[0] if servo else ud[1], s2[0] if servo else ud[2], s3[0] if servo else ud[3],
+            s4[0] if servo else ud[4], s5[0] if servo else ud[5], s6[0] if servo else ud[6],
+        ))  # fmt: skip
+        store7(row, OFF_X + L.X_SERVO_RATE * W, lane, (
+            s0[1] if servo else 0.0, s1[1] if servo else 0.0, s2[1] if servo else 0.0, s3[1] if servo else 0.0,
+            s4[1] if servo else 0.0, s5[1] if servo else 0.0, s6[1] if servo else 0.0,
+        ))  # fmt: skip
+
+
+@njit(**_JIT_BATCH)  # with NRT: numba.carray's implementation returns an array
+def advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S):
+    """Block b's environments over one control step: packed into the block's row, stepped, checked and
+    written back.  Lanes past the end of the batch repeat the block's first environment and are
+    discarded; environments already flagged are stepped and discarded (they stay frozen)."""
+    n = X.shape[0]
+    n_buf = dbuf.shape[1]
+    # row b of S as an array whose strides LLVM sees as constants (a view S[b] keeps them as run-time values,
+    # and the loops over the lanes are then not vectorised)
+    row = numba.carray(_pointer(S.ctypes.data + b * BLOCK * 8), (BLOCK,), np.float64)
+    i0 = b * W
+    for lane in range(W):
+        i = i0 + lane if i0 + lane < n else i0
+        for k in range(L.N_STATE):
+            row[OFF_X + k * W + lane] = X[i, k]
+        for k in range(L.N_PARAMS):
+            row[OFF_P + k * W + lane] = P[i, k]
+        for k in range(L.N_INPUTS):
+            row[OFF_U + k * W + lane] = U[i, k]
+    for s in range(n_sub):
+        k = k0 + s
+        for lane in range(W):  # the delay lines: lane-dependent indices, a scalar loop of its own
+            i = i0 + lane
+            if i < n:
+                push_demands(dbuf[i], k % n_buf, U[i], P[i])
+                for a in range(7):
+                    d = delay_steps[i, 0] if a < 4 else delay_steps[i, 1]
+                    row[OFF_UD + a * W + lane] = dbuf[i, (k - d) % n_buf, a]
+            else:
+                for a in range(7):
+                    row[OFF_UD + a * W + lane] = row[OFF_UD + a * W]
+        physics_step(row, flags, free, tabs, h)
+    for lane in range(W):
+        i = i0 + lane
+        if i >= n or status[i] != L.S_OK:
+            continue
+        st = L.S_OK
+        for k in range(L.N_STATE):
+            if not np.isfinite(row[OFF_X + k * W + lane]):
+                st = L.S_NONFINITE
+        if st == L.S_OK:
+            for j in range(5):
+                if abs(row[OFF_X + (L.X_QD + j) * W + lane]) > L.RUNAWAY_RATE:
+                    st = L.S_RUNAWAY
+        if st == L.S_OK:
+            for k in range(L.N_STATE):
+                X[i, k] = row[OFF_X + k * W + lane]
+        else:
+            status[i] = st  # X[i] keeps its state from the start of the control step (written only when healthy)
+
+
+# serial twin: a separate function (numba's disk cache names an entry after the function, see integrator)
+
+
+@njit(parallel=True, **_JIT_BATCH)
+def step_lanes(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S):
+    """Advance all environments by one control step of n_sub physics steps, blocks of W in parallel.
+
+    Arguments as :func:`rig_env.physics.integrator.step_batch`, with S the scratch of :func:`new_work`
+    in place of its W, MW.
+    """
+    free = free_mask(free_idx, n_free)
+    for b in prange(S.shape[0]):
+        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S)
+
+
+@njit(**_JIT_BATCH)
+def step_lanes_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S):
+    """Serial twin of :func:`step_lanes` (one block, or batches too small for a parallel launch)."""
+    free = free_mask(free_idx, n_free)
+    for b in range(S.shape[0]):
+        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S)

@@ -1,0 +1,121 @@
+"""The lane kernel (eight environments per SIMD register) against the per-environment kernel: same
+trajectories to rounding for every term and lock set, the same blow-up handling, and vectorised code."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rig_env.params import RigParams, param_batch
+from rig_env.physics import integrator as I
+from rig_env.physics import lanes as LN
+from rig_env.physics import layout as L
+from rig_env.simulate import flags_of
+
+ALL = L.F_AERO | L.F_FRICTION | L.F_STOPS | L.F_SERVO
+LOCK_SETS = [(0, 1, 2, 3, 4), (0, 3), (1, 3), (2, 4), (0, 2, 3, 4), (3,)]
+
+
+def batch(n: int, free: tuple[int, ...], seed: int):
+    """Random healthy states, per-environment parameters, delays and the arrays both kernels take."""
+    rng = np.random.default_rng(seed)
+    P = param_batch(
+        RigParams.default(), n,
+        {"mass.hawk_mass": rng.uniform(0.8, 1.5, n), "hawk_aero.CMalpha": rng.uniform(-0.7, -0.4, n),
+         "friction.rig_roll.Fc": rng.uniform(0.02, 0.05, n), "geometry.hawk_cg_x": rng.uniform(-0.02, 0.02, n)},
+    )  # fmt: skip
+    X = np.zeros((n, L.N_STATE))
+    X[:, L.X_Q : L.X_Q + 5] = rng.uniform(-0.3, 0.3, (n, 5))
+    X[:, L.X_QD : L.X_QD + 5] = rng.uniform(-1.0, 1.0, (n, 5))
+    X[:, L.X_Z : L.X_Z + 5] = rng.uniform(-1e-4, 1e-4, (n, 5))
+    locked = [j for j in range(5) if j not in free]
+    X[:, [L.X_QD + j for j in locked]] = 0.0
+    X[:, [L.X_Z + j for j in locked]] = 0.0
+    delay = rng.integers(0, 4, (n, 2)).astype(np.int64)
+    dbuf = np.zeros((n, 8, 7))
+    return X, P, delay, dbuf, np.array(free, dtype=np.int64)
+
+
+def run_both(X, P, delay, dbuf, free_idx, flags, steps, rng, h=0.0025, n_sub=5):
+    n = X.shape[0]
+    Xa, Xb, da, db = X.copy(), X.copy(), dbuf.copy(), dbuf.copy()
+    sa, sb = np.zeros(n, np.int8), np.zeros(n, np.int8)
+    Wk, MW = I.new_work(n)
+    S = LN.new_work(n)
+    tabs = RigParams.default().tables()
+    for k in range(steps):
+        U = np.zeros((n, L.N_INPUTS))
+        U[:, :6] = rng.uniform(-0.5, 0.5, (n, 6))  # surface commands, rad
+        U[:, L.U_GUST : L.U_GUST + 3] = rng.normal(0.0, 0.5, (n, 3))
+        U[:, L.U_AIRSPEED] = rng.uniform(15.0, 25.0, n)
+        I.step_serial(Xa, da, k * n_sub, delay, P, U, flags, free_idx, len(free_idx), tabs, h, n_sub, sa, Wk, MW)
+        LN.step_lanes(Xb, db, k * n_sub, delay, P, U, flags, free_idx, len(free_idx), tabs, h, n_sub, sb, S)
+    return Xa, Xb, sa, sb, da, db
+
+
+@pytest.mark.parametrize("free", LOCK_SETS)
+def test_lanes_follow_the_per_environment_kernel_with_every_term_on(free):
+    """19 environments (two full blocks and a partial one), random commands, gusts and airspeeds every
+    control step, 100 control steps (1.25 s): every state equal to 1e-10."""
+    X, P, delay, dbuf, free_idx = batch(19, free, seed=sum(free))
+    Xa, Xb, sa, sb, da, db = run_both(X, P, delay, dbuf, free_idx, ALL, 100, np.random.default_rng(1))
+    assert np.all(sa == 0) and np.all(sb == 0)
+    moved = np.abs(Xa - X).max()
+    assert moved > 0.1  # the rig moved
+    assert np.abs(Xb - Xa).max() < 1e-10
+    assert np.array_equal(da, db)  # the same demands entered the delay lines
+    locked = [j for j in range(5) if j not in free]
+    assert np.array_equal(Xb[:, locked], X[:, locked])  # locked joints stay put
+
+
+@pytest.mark.parametrize("flags", [0, L.F_AERO, L.F_FRICTION | L.F_STOPS, L.F_AERO | L.F_SERVO, ALL & ~L.F_SERVO])
+def test_lanes_follow_the_per_environment_kernel_with_terms_off(flags):
+    X, P, delay, dbuf, free_idx = batch(11, (0, 1, 3), seed=flags)
+    Xa, Xb, sa, sb, *_ = run_both(X, P, delay, dbuf, free_idx, flags, 60, np.random.default_rng(2))
+    assert np.all(sa == 0) and np.all(sb == 0)
+    assert np.abs(Xb - Xa).max() < 1e-10
+
+
+def test_a_blown_up_environment_is_flagged_and_frozen_the_others_carry_on():
+    X, P, delay, dbuf, free_idx = batch(12, (0, 1, 2, 3, 4), seed=7)
+    P[3, L.P_MASS_HAWK_MASS] = np.nan  # non-finite from the first step
+    X[9, L.X_QD + 2] = 2.0 * L.RUNAWAY_RATE  # a runaway rate, which the friction and aero terms turn into NaN within the step
+    Xa, Xb, sa, sb, *_ = run_both(X, P, delay, dbuf, free_idx, ALL, 20, np.random.default_rng(3))
+    assert sa[3] == sb[3] == L.S_NONFINITE and sb[9] != L.S_OK and sa[9] == sb[9]
+    assert np.array_equal(Xb[[3, 9]], X[[3, 9]])  # frozen at the last healthy state
+    healthy = [i for i in range(12) if i not in (3, 9)]
+    assert np.all(sb[healthy] == 0) and np.abs(Xb[healthy] - Xa[healthy]).max() < 1e-10
+
+
+def test_support_excludes_only_the_high_incidence_tables():
+    assert LN.supports(ALL) and LN.supports(0)
+    assert not LN.supports(ALL | L.F_NONLINEAR)
+    assert LN.supports(flags_of(True, True, True, True, False))
+
+
+def test_the_lane_loops_are_vectorised(tmp_path):
+    """The point of the kernel: its loops over the lanes compiled to packed (vector) instructions.  A change
+    that brings a library call, a loop or an unanalysable memory access into them falls back to scalar
+    code silently; this catches it (rig_env.physics.lanes lists the rules).  Reads the machine code of
+    step_lanes_serial (everything it calls linked in) from numba's disk cache, where it is an ELF object."""
+    objdump = shutil.which("objdump")
+    if objdump is None:
+        pytest.skip("needs objdump (Debian package binutils)")
+    X, P, delay, dbuf, free_idx = batch(8, (0, 3), seed=0)
+    S, U, st = LN.new_work(8), np.zeros((8, L.N_INPUTS)), np.zeros(8, np.int8)
+    LN.step_lanes_serial(X, dbuf, 0, delay, P, U, ALL, free_idx, 2, RigParams.default().tables(), 0.0025, 5, st, S)
+    cached = sorted(Path(LN.step_lanes_serial._cache._cache_path).glob("lanes.step_lanes_serial-*.nbc"), key=lambda f: f.stat().st_mtime)
+    assert cached, "step_lanes_serial was not cached"
+    data = cached[-1].read_bytes()
+    obj = tmp_path / "step_lanes_serial.o"
+    obj.write_bytes(data[data.index(b"\x7fELF") :])
+    asm = subprocess.run([objdump, "-d", str(obj)], capture_output=True, text=True, check=True).stdout
+    packed = len(re.findall(r"\bv\w+pd\s+[^\n]*%[yz]mm", asm))  # double-precision ops on 256/512-bit registers
+    scalar = len(re.findall(r"\bv\w+sd\s+[^\n]*%xmm", asm))  # ... on one double
+    assert packed > 2000, (packed, scalar)  # measured 5115 packed, 403 scalar (packing, delay lines, checks)
+    assert packed > 5 * scalar, (packed, scalar)
