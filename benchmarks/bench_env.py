@@ -4,8 +4,8 @@
 
 All three in the same run (the machines are shared and noisy: compare ratios).  Compile and cache
 load happen before timing (their time is printed apart).  Steps/s counts environment control steps (80 Hz, 5 physics
-substeps each) per wall-clock second.  The raw batch is ``integrator.step_batch``/``step_serial`` on the
-environment's own arrays: the cost of the physics alone; "env overhead" is the wall time per batch step of
+substeps each) per wall-clock second.  The raw batch is ``RigVectorEnv.advance_physics`` (the lane kernel,
+``rig_env.physics.lanes``) on the environment's own arrays: the cost of the physics alone; "env overhead" is the wall time per batch step of
 RigVectorEnv minus that of the raw batch (the environment's own bookkeeping: sensors, noise, task, metrics).
 """
 
@@ -45,11 +45,7 @@ def bench(n: int, seconds: float, sync_max: int) -> dict[str, float]:
     out["RigVectorEnv"] = _rate(lambda: venv.step(a), n, seconds)
     v: RigVectorEnv = venv
 
-    def raw() -> None:
-        v._kernel(v.X, v.dbuf, v._k0, v.delay_steps, v.P, v.U, v.flags, v.free_idx, len(v.free_idx), v.tabs, v.h, v.n_sub, v.status, v.W, v.MW)
-        v._k0 += v.n_sub
-
-    out["raw physics"] = _rate(raw, n, seconds)
+    out["raw physics"] = _rate(v.advance_physics, n, seconds)
     if n <= sync_max:
         sync = gym.vector.SyncVectorEnv([lambda: RigEnv() for _ in range(n)], autoreset_mode=gym.vector.AutoresetMode.SAME_STEP)
         sync.reset(seed=0)

@@ -3,8 +3,10 @@
 One env-step = one 80 Hz control step = 5 physics steps of 2.5 ms, all physics on (aero at 20 m/s,
 LuGre friction, stops, servos), all five joints free.  Measured:
 
-* the joint-space kernel (``rig_env.physics.integrator.step_batch``) and, when present, the DAE
-  kernel (``rig_env.physics.dae.step_batch_dae``), called directly (no Python bookkeeping per step)
+* the joint-space model in SIMD lanes (``rig_env.physics.lanes.step_lanes``, eight environments per
+  register: what the environments run), the same model one environment per ``prange`` iteration
+  (``rig_env.physics.integrator.step_batch``, "joint") and, when present, the DAE kernel
+  (``rig_env.physics.dae.step_batch_dae``), called directly (no Python bookkeeping per step)
   at batch sizes 1, 64, 1024, 4096, 16384 (``--quick``: up to 4096, shorter windows), each through
   the serial twin below ``integrator.PARALLEL_MIN_ENVS`` environments as rig_env itself does; the
   best wall rate of three windows, and the rate per CPU-second (``env_steps_per_cpu_s``, which other
@@ -31,7 +33,7 @@ LuGre friction, stops, servos), all five joints free.  Measured:
   of simulated time from one state near trim, ``--quick`` 16), rate = env-steps / wall time.  Their
   cost depends on the state (stiff bristles while the joints slide, a fraction of it once the rig
   has come to rest after about 20 s), hence one fixed segment for all of them;
-* ``speedup_vs_scipy`` = joint-kernel rate at 4096 envs over the best numpy-RHS solve_ivp rate,
+* ``speedup_vs_scipy`` = lane-kernel rate at 4096 envs over the best numpy-RHS solve_ivp rate,
   ``speedup_vs_scipy_compiled_rhs`` over the best compiled-RHS one, ``speedup_vs_mujoco`` over the
   best MuJoCo + Python aero rate.
 
@@ -114,6 +116,21 @@ def joint_stepper(a: dict):
 
     def step() -> None:
         kernel(a["X"], a["dbuf"], k[0], a["delay_steps"], a["P"], a["U"], FLAGS, a["free_idx"], 5, a["tabs"], H, N_SUB, a["status"], a["W"], a["MW"])
+        k[0] += N_SUB
+
+    return step
+
+
+def lanes_stepper(a: dict):
+    """The same env-step with the lane kernel (eight environments per SIMD register), as the environments use it."""
+    from rig_env.physics import lanes
+
+    S = lanes.new_work(a["X"].shape[0])
+    kernel = lanes.step_lanes if a["X"].shape[0] >= integ.PARALLEL_MIN_ENVS else lanes.step_lanes_serial
+    k = [0]
+
+    def step() -> None:
+        kernel(a["X"], a["dbuf"], k[0], a["delay_steps"], a["P"], a["U"], FLAGS, a["free_idx"], 5, a["tabs"], H, N_SUB, a["status"], S)
         k[0] += N_SUB
 
     return step
@@ -216,7 +233,7 @@ def main(argv: list[str] | None = None) -> dict:
     cpu_results: dict[str, dict[str, float]] = {}
     notes: dict[str, str] = {}
     failed: dict[str, dict[str, int]] = {}
-    for name, make in (("joint", joint_stepper), ("dae", dae_stepper)):
+    for name, make in (("lanes", lanes_stepper), ("joint", joint_stepper), ("dae", dae_stepper)):
         results[name] = {}
         cpu_results[name] = {}
         failed[name] = {}
@@ -266,7 +283,7 @@ def main(argv: list[str] | None = None) -> dict:
     except ImportError as exc:
         notes["mujoco"] = f"not available: {exc}"
 
-    ref = results["joint"].get("4096")
+    ref = results["lanes"].get("4096")
     best_scipy = max(scipy_numpy.values())
     best_scipy_compiled = max(scipy_compiled.values())
     aero_peers = [v for k, v in mujoco_rates.items() if k.startswith("python_aero")]

@@ -1,8 +1,9 @@
 """``RigVectorEnv``: a batch of rig environments over one physics batch (Gymnasium VectorEnv, same-step autoreset).
 
 The environment owns the batch arrays of :mod:`rig_env.physics` (state ``X``, parameters ``P``,
-inputs ``U``, servo delay lines, status) and advances them with ``integrator.step_batch`` (or
-``step_serial`` below ``integrator.PARALLEL_MIN_ENVS`` environments).  The task
+inputs ``U``, servo delay lines, status) and advances them with ``lanes.step_lanes`` (eight
+environments per SIMD register), or with ``integrator.step_batch`` when the model has the
+high-incidence tables (``step_serial`` twins below a parallel launch's worth of environments).  The task
 (:mod:`rig_env.envs.tasks`) supplies references, rewards, initial states and success; the sensor model
 (:mod:`rig_env.envs.sensors`) turns the state into what the real-time loop measures.
 
@@ -50,6 +51,7 @@ from rig_env.envs.sensors import Sensors
 from rig_env.envs.tasks import TASKS
 from rig_env.params import JOINTS, PARAM_INDEX, RigParams, param_batch
 from rig_env.physics import integrator as integ
+from rig_env.physics import lanes
 from rig_env.physics import layout as L
 from rig_env.simulate import flags_of, rates
 
@@ -156,14 +158,21 @@ class RigVectorEnv(VectorEnv):
         self.tabs = self.params.tables()
         self.nonlinear_aero = task_cls.default_nonlinear_aero if cfg.nonlinear_aero is None else cfg.nonlinear_aero
         self.flags = flags_of(True, True, True, True, self.nonlinear_aero)
-        self.delay_steps = np.rint(self.P[:, _DELAY_COLS] / self.h).astype(np.int64)
+        self.delay_steps = np.ascontiguousarray(np.rint(self.P[:, _DELAY_COLS] / self.h).astype(np.int64))  # C order: one kernel specialisation
         n_buf = int(np.rint(np.concatenate([corners[:, _DELAY_COLS], self.base_row[None, _DELAY_COLS]]) / self.h).max()) + 1
         self.X = np.zeros((n, L.N_STATE))
         self.U = np.zeros((n, L.N_INPUTS))
         self.dbuf = np.zeros((n, n_buf, L.N_SERVOS))
         self.status = np.zeros(n, dtype=np.int8)
-        self.W, self.MW = integ.new_work(n)
-        self._kernel = integ.step_batch if n >= integ.PARALLEL_MIN_ENVS else integ.step_serial
+        # the physics: eight environments per SIMD register (rig_env.physics.lanes) unless the model has the
+        # high-incidence tables, which only the per-environment kernel runs; chosen by the model alone, not
+        # by the batch size, so a RigEnv (the batch of one) steps exactly as environment i of a batch
+        if lanes.supports(self.flags):
+            self._work: tuple[np.ndarray, ...] = (lanes.new_work(n),)
+            self._kernel = lanes.step_lanes if n >= integ.PARALLEL_MIN_ENVS else lanes.step_lanes_serial
+        else:
+            self._work = integ.new_work(n)
+            self._kernel = integ.step_batch if n >= integ.PARALLEL_MIN_ENVS else integ.step_serial
         self._k0 = 0
 
         self.task = task_cls(n, self.free_dofs, self.dt, self.episode_seconds, **cfg.task_options)
@@ -292,6 +301,13 @@ class RigVectorEnv(VectorEnv):
             raise ValueError(f"actions: non-finite value(s) in environment(s) {np.flatnonzero(bad)[:10].tolist()}; actions must be finite numbers in [-1, 1]")
         return out
 
+    def advance_physics(self) -> None:
+        """Advance the physics batch by one control step with the inputs in ``U`` (no task, sensors or
+        bookkeeping: the environment's own step calls this; benchmarks time it alone)."""
+        self._kernel(self.X, self.dbuf, self._k0, self.delay_steps, self.P, self.U, self.flags, self.free_idx,
+                     len(self.free_idx), self.tabs, self.h, self.n_sub, self.status, *self._work)
+        self._k0 += self.n_sub
+
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if self.keys is None:
             raise RuntimeError("call reset() before step()")
@@ -306,9 +322,7 @@ class RigVectorEnv(VectorEnv):
             sig = self.config.turbulence * self.airspeed[:, None]
             self.gust = self._phi * self.gust + np.sqrt(1.0 - self._phi**2) * sig * nz
             self.U[:, L.U_GUST : L.U_GUST + 3] = self.gust
-        self._kernel(self.X, self.dbuf, self._k0, self.delay_steps, self.P, self.U, self.flags, self.free_idx,
-                     len(self.free_idx), self.tabs, self.h, self.n_sub, self.status, self.W, self.MW)
-        self._k0 += self.n_sub
+        self.advance_physics()
         self.steps += 1
         self.t = self.steps * self.dt
         q, qd = self.X[:, L.X_Q : L.X_Q + 5], self.X[:, L.X_QD : L.X_QD + 5]
