@@ -23,9 +23,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 _JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
+_JIT_PAR = {"cache": True, "error_model": "numpy", "parallel": True}  # numba parallelises prange only with NRT
+PARALLEL_MIN = 256
+"""From this many environments the draws are computed on all numba threads (the same numbers: each element
+is computed alone); below it a parallel launch costs more than it saves."""
 
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
 _M2 = np.uint64(0x94D049BB133111EB)
@@ -80,6 +84,16 @@ def _mix1(x):
 
 
 @njit(**_JIT)
+def _uniform_row(keys, episode, step, stream_code, j0, out, flip, i):
+    """Row i of :func:`_uniform_kernel`."""
+    h = _mix1(keys[i] ^ (episode[i] * _C_EP) ^ (step[i] * _C_STEP) ^ stream_code)
+    for c in range(out.shape[1]):
+        x = _mix1(h + np.uint64(j0 + c + 1) * _GOLD)
+        u = np.float64(x >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+        out[i, c] = 1.0 - u if flip else u
+
+
+@njit(**_JIT)
 def _uniform_kernel(keys, episode, step, stream_code, j0, out, flip):
     """out[i, c] = uniform number j0 + c of environment i, in [0, 1) (53 bits); 1 - that with ``flip``.
 
@@ -87,22 +101,35 @@ def _uniform_kernel(keys, episode, step, stream_code, j0, out, flip):
     Uniform j (0-based) of an environment is ``mix(mix(key ^ ep C_EP ^ step C_STEP ^ stream C_STREAM)
     + (j + 1) GOLD) >> 11`` times 2^-53.
     """
-    m, k = out.shape
-    for i in range(m):
-        h = _mix1(keys[i] ^ (episode[i] * _C_EP) ^ (step[i] * _C_STEP) ^ stream_code)
-        for c in range(k):
-            x = _mix1(h + np.uint64(j0 + c + 1) * _GOLD)
-            u = np.float64(x >> np.uint64(11)) * (1.0 / 9007199254740992.0)
-            out[i, c] = 1.0 - u if flip else u
+    for i in range(out.shape[0]):
+        _uniform_row(keys, episode, step, stream_code, j0, out, flip, i)
+
+
+@njit(**_JIT_PAR)
+def _uniform_kernel_parallel(keys, episode, step, stream_code, j0, out, flip):
+    """:func:`_uniform_kernel` on all numba threads."""
+    for i in prange(out.shape[0]):
+        _uniform_row(keys, episode, step, stream_code, j0, out, flip, i)
+
+
+@njit(**_JIT)
+def _box_muller_row(log_u1, u2, out, i):
+    for c in range(out.shape[1]):
+        out[i, c] = math.sqrt(-2.0 * log_u1[i, c]) * math.cos(2.0 * math.pi * u2[i, c])
 
 
 @njit(**_JIT)
 def _box_muller_kernel(log_u1, u2, out):
     """out = sqrt(-2 log_u1) cos(2 pi u2), elementwise over (m, k) arrays (log_u1 = log of a (0, 1] uniform)."""
-    m, k = out.shape
-    for i in range(m):
-        for c in range(k):
-            out[i, c] = math.sqrt(-2.0 * log_u1[i, c]) * math.cos(2.0 * math.pi * u2[i, c])
+    for i in range(out.shape[0]):
+        _box_muller_row(log_u1, u2, out, i)
+
+
+@njit(**_JIT_PAR)
+def _box_muller_kernel_parallel(log_u1, u2, out):
+    """:func:`_box_muller_kernel` on all numba threads."""
+    for i in prange(out.shape[0]):
+        _box_muller_row(log_u1, u2, out, i)
 
 
 def _counters(keys: np.ndarray, episode: np.ndarray | int, step: np.ndarray | int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -122,7 +149,7 @@ def uniform(keys: np.ndarray, episode: np.ndarray, step: np.ndarray | int, strea
     out = np.empty((keys.shape[0], k))
     with np.errstate(over="ignore"):
         code = np.uint64(stream) * _C_STREAM
-    _uniform_kernel(keys, ep, st, code, 0, out, False)
+    (_uniform_kernel_parallel if keys.shape[0] >= PARALLEL_MIN else _uniform_kernel)(keys, ep, st, code, 0, out, False)
     return out
 
 
@@ -133,8 +160,10 @@ def normal(keys: np.ndarray, episode: np.ndarray, step: np.ndarray | int, stream
     with np.errstate(over="ignore"):
         code = np.uint64(stream) * _C_STREAM
     log_u1, out = np.empty((m, k)), np.empty((m, k))
-    _uniform_kernel(keys, ep, st, code, 0, log_u1, True)  # 1 - u in (0, 1]
-    _uniform_kernel(keys, ep, st, code, k, out, False)
+    par = m >= PARALLEL_MIN
+    uniform_kernel = _uniform_kernel_parallel if par else _uniform_kernel
+    uniform_kernel(keys, ep, st, code, 0, log_u1, True)  # 1 - u in (0, 1]
+    uniform_kernel(keys, ep, st, code, k, out, False)
     np.log(log_u1, out=log_u1)
-    _box_muller_kernel(log_u1, out, out)
+    (_box_muller_kernel_parallel if par else _box_muller_kernel)(log_u1, out, out)
     return out

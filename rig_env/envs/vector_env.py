@@ -167,7 +167,9 @@ class RigVectorEnv(VectorEnv):
         # the physics: eight environments per SIMD register (rig_env.physics.lanes) unless the model has the
         # high-incidence tables, which only the per-environment kernel runs; chosen by the model alone, not
         # by the batch size, so a RigEnv (the batch of one) steps exactly as environment i of a batch
-        if lanes.supports(self.flags):
+        self._lanes = lanes.supports(self.flags)
+        self._params_changed = True  # P not yet packed into the lane kernel's scratch
+        if self._lanes:
             self._work: tuple[np.ndarray, ...] = (lanes.new_work(n),)
             self._kernel = lanes.step_lanes if n >= integ.PARALLEL_MIN_ENVS else lanes.step_lanes_serial
         else:
@@ -246,6 +248,7 @@ class RigVectorEnv(VectorEnv):
             rows = np.repeat(self.base_row[None], idx.size, axis=0)
             rows[:, self._rand_cols] = self._rand_lo + (self._rand_hi - self._rand_lo) * u
             self.P[idx] = rows
+            self._params_changed = True
             self.delay_steps[idx] = np.rint(rows[:, _DELAY_COLS] / self.h).astype(np.int64)
         u = rs.uniform(keys, ep, 0, rs.S_INITIAL, 1)
         lo, hi = self.airspeed_range
@@ -304,8 +307,13 @@ class RigVectorEnv(VectorEnv):
     def advance_physics(self) -> None:
         """Advance the physics batch by one control step with the inputs in ``U`` (no task, sensors or
         bookkeeping: the environment's own step calls this; benchmarks time it alone)."""
-        self._kernel(self.X, self.dbuf, self._k0, self.delay_steps, self.P, self.U, self.flags, self.free_idx,
-                     len(self.free_idx), self.tabs, self.h, self.n_sub, self.status, *self._work)
+        if self._lanes:  # the lane kernel keeps the parameters packed between steps: repacked after a reset wrote P
+            self._kernel(self.X, self.dbuf, self._k0, self.delay_steps, self.P, self.U, self.flags, self.free_idx,
+                         len(self.free_idx), self.tabs, self.h, self.n_sub, self.status, *self._work, self._params_changed)
+            self._params_changed = False
+        else:
+            self._kernel(self.X, self.dbuf, self._k0, self.delay_steps, self.P, self.U, self.flags, self.free_idx,
+                         len(self.free_idx), self.tabs, self.h, self.n_sub, self.status, *self._work)
         self._k0 += self.n_sub
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:

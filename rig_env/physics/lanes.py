@@ -201,10 +201,11 @@ def physics_step(row, flags, free, tabs, h):
 
 
 @njit(**_JIT_BATCH)  # with NRT: numba.carray's implementation returns an array
-def advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S):
+def advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S, pack_params):
     """Block b's environments over one control step: packed into the block's row, stepped, checked and
     written back.  Lanes past the end of the batch repeat the block's first environment and are
-    discarded; environments already flagged are stepped and discarded (they stay frozen)."""
+    discarded; environments already flagged are stepped and discarded (they stay frozen).  The
+    parameters are packed only with ``pack_params`` (they stay in the row from one step to the next)."""
     n = X.shape[0]
     n_buf = dbuf.shape[1]
     # row b of S as an array whose strides LLVM sees as constants (a view S[b] keeps them as run-time values,
@@ -215,19 +216,22 @@ def advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub
         i = i0 + lane if i0 + lane < n else i0
         for k in range(L.N_STATE):
             row[OFF_X + k * W + lane] = X[i, k]
-        for k in range(L.N_PARAMS):
-            row[OFF_P + k * W + lane] = P[i, k]
+        if pack_params:
+            for k in range(L.N_PARAMS):
+                row[OFF_P + k * W + lane] = P[i, k]
         for k in range(L.N_INPUTS):
             row[OFF_U + k * W + lane] = U[i, k]
     for s in range(n_sub):
         k = k0 + s
+        slot = k % n_buf  # the same for every environment: one integer division, not one per lane and surface
         for lane in range(W):  # the delay lines: lane-dependent indices, a scalar loop of its own
             i = i0 + lane
             if i < n:
-                push_demands(dbuf[i], k % n_buf, U[i], P[i])
+                push_demands(dbuf[i], slot, U[i], P[i])
+                read_comp = (k - delay_steps[i, 0]) % n_buf
+                read_hawk = (k - delay_steps[i, 1]) % n_buf
                 for a in range(7):
-                    d = delay_steps[i, 0] if a < 4 else delay_steps[i, 1]
-                    row[OFF_UD + a * W + lane] = dbuf[i, (k - d) % n_buf, a]
+                    row[OFF_UD + a * W + lane] = dbuf[i, read_comp if a < 4 else read_hawk, a]
             else:
                 for a in range(7):
                     row[OFF_UD + a * W + lane] = row[OFF_UD + a * W]
@@ -255,20 +259,22 @@ def advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub
 
 
 @njit(parallel=True, **_JIT_BATCH)
-def step_lanes(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S):
+def step_lanes(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params=True):
     """Advance all environments by one control step of n_sub physics steps, blocks of W in parallel.
 
     Arguments as :func:`rig_env.physics.integrator.step_batch`, with S the scratch of :func:`new_work`
-    in place of its W, MW.
+    in place of its W, MW.  pack_params: copy P into S (the default); False reuses the parameters S
+    holds from the previous call, for a caller that knows P has not changed since (RigVectorEnv: P
+    changes only at a reset).
     """
     free = free_mask(free_idx, n_free)
     for b in prange(S.shape[0]):
-        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S)
+        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S, pack_params)
 
 
 @njit(**_JIT_BATCH)
-def step_lanes_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S):
+def step_lanes_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params=True):
     """Serial twin of :func:`step_lanes` (one block, or batches too small for a parallel launch)."""
     free = free_mask(free_idx, n_free)
     for b in range(S.shape[0]):
-        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S)
+        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S, pack_params)
