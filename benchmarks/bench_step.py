@@ -11,8 +11,8 @@ LuGre friction, stops, servos), all five joints free.  Measured:
   the serial twin below ``integrator.PARALLEL_MIN_ENVS`` environments as rig_env itself does; the
   best wall rate of three windows, and the rate per CPU-second (``env_steps_per_cpu_s``, which other
   jobs on a shared machine do not inflate);
-* JIT compile time of the joint kernel in a fresh subprocess with an empty numba cache directory,
-  and the load time from that cache in a second subprocess;
+* JIT compile time of the lane kernel and of the per-environment kernel, each in a fresh subprocess
+  with an empty numba cache directory, and the load time from that cache in a second subprocess;
 * the peers, in the same run:
 
   - **scipy solve_ivp + numpy RHS** (what a researcher would otherwise write; the issue's reference):
@@ -130,7 +130,7 @@ def lanes_stepper(a: dict):
     k = [0]
 
     def step() -> None:
-        kernel(a["X"], a["dbuf"], k[0], a["delay_steps"], a["P"], a["U"], FLAGS, a["free_idx"], 5, a["tabs"], H, N_SUB, a["status"], S)
+        kernel(a["X"], a["dbuf"], k[0], a["delay_steps"], a["P"], a["U"], FLAGS, a["free_idx"], 5, a["tabs"], H, N_SUB, a["status"], S, k[0] == 0)
         k[0] += N_SUB
 
     return step
@@ -182,14 +182,14 @@ def rate(step, n: int, seconds: float, min_calls: int = 3, repeats: int = 3) -> 
 
 
 _COMPILE_SNIPPET = """
-import json, time
+import json, sys, time
 t0 = time.perf_counter()
 import numpy as np
 from rig_env import RigParams
 import benchmarks.bench_step as b
 t1 = time.perf_counter()
 a = b.setup(RigParams.default(), 64)  # the parallel kernel, as at 4096 envs
-step = b.joint_stepper(a)
+step = getattr(b, sys.argv[1])(a)
 t2 = time.perf_counter()
 step()
 t3 = time.perf_counter()
@@ -199,13 +199,13 @@ print(json.dumps({"import_s": t1 - t0, "first_call_s": t3 - t2, "second_call_s":
 """
 
 
-def compile_times() -> dict:
-    """First-call time of the joint kernel in fresh interpreters: empty numba cache, then warm cache."""
+def compile_times(stepper: str = "lanes_stepper") -> dict:
+    """First-call time of a kernel in fresh interpreters: empty numba cache, then warm cache."""
     out = {}
     with tempfile.TemporaryDirectory(prefix="rig_bench_numba_") as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
         for label in ("cold", "cached"):
-            r = subprocess.run([sys.executable, "-c", _COMPILE_SNIPPET], env=env, cwd=ROOT, capture_output=True, text=True, timeout=600)
+            r = subprocess.run([sys.executable, "-c", _COMPILE_SNIPPET, stepper], env=env, cwd=ROOT, capture_output=True, text=True, timeout=900)
             if r.returncode != 0:
                 raise RuntimeError(f"compile subprocess failed: {r.stderr[-2000:]}")
             out[label] = json.loads(r.stdout.strip().splitlines()[-1])
@@ -256,8 +256,10 @@ def main(argv: list[str] | None = None) -> dict:
                 del results[name]
                 del cpu_results[name]
 
-    compile_info = compile_times()
-    log(f"joint kernel JIT: compile {compile_info['compile_s']:.2f} s cold, {compile_info['cached_load_s']:.2f} s from cache")
+    compile_info = compile_times("lanes_stepper")
+    log(f"lane kernel JIT: compile {compile_info['compile_s']:.2f} s cold, {compile_info['cached_load_s']:.2f} s from cache")
+    joint_compile = compile_times("joint_stepper")
+    log(f"per-environment kernel JIT: compile {joint_compile['compile_s']:.2f} s cold, {joint_compile['cached_load_s']:.2f} s from cache")
 
     from rig_env.reference import env_steps_per_s_scipy, env_steps_per_s_scipy_numpy
 
@@ -292,6 +294,7 @@ def main(argv: list[str] | None = None) -> dict:
         "env_steps_per_cpu_s": cpu_results,
         "compile_s": compile_info["compile_s"],
         "cached_load_s": compile_info["cached_load_s"],
+        "compile_s_per_env_kernel": joint_compile["compile_s"],
         "speedup_vs_scipy": ref / best_scipy if ref else None,
         "speedup_vs_scipy_compiled_rhs": ref / best_scipy_compiled if ref else None,
         "speedup_vs_mujoco": ref / max(aero_peers) if ref and aero_peers else None,

@@ -108,7 +108,7 @@ def test_the_lane_loops_are_vectorised(tmp_path):
         pytest.skip("needs objdump (Debian package binutils)")
     X, P, delay, dbuf, free_idx = batch(8, (0, 3), seed=0)
     S, U, st = LN.new_work(8), np.zeros((8, L.N_INPUTS)), np.zeros(8, np.int8)
-    LN.step_lanes_serial(X, dbuf, 0, delay, P, U, ALL, free_idx, 2, RigParams.default().tables(), 0.0025, 5, st, S)
+    LN.step_lanes_serial(X, dbuf, 0, delay, P, U, ALL, free_idx, 2, RigParams.default().tables(), 0.0025, 5, st, S, True)
     cached = sorted(Path(LN.step_lanes_serial._cache._cache_path).glob("lanes.step_lanes_serial-*.nbc"), key=lambda f: f.stat().st_mtime)
     assert cached, "step_lanes_serial was not cached"
     data = cached[-1].read_bytes()

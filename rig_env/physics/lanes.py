@@ -259,11 +259,11 @@ def advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub
 
 
 @njit(parallel=True, **_JIT_BATCH)
-def step_lanes(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params=True):
+def step_lanes(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params):
     """Advance all environments by one control step of n_sub physics steps, blocks of W in parallel.
 
     Arguments as :func:`rig_env.physics.integrator.step_batch`, with S the scratch of :func:`new_work`
-    in place of its W, MW.  pack_params: copy P into S (the default); False reuses the parameters S
+    in place of its W, MW.  pack_params: copy P into S; False reuses the parameters S
     holds from the previous call, for a caller that knows P has not changed since (RigVectorEnv: P
     changes only at a reset).
     """
@@ -273,7 +273,7 @@ def step_lanes(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h,
 
 
 @njit(**_JIT_BATCH)
-def step_lanes_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params=True):
+def step_lanes_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params):
     """Serial twin of :func:`step_lanes` (one block, or batches too small for a parallel launch)."""
     free = free_mask(free_idx, n_free)
     for b in range(S.shape[0]):
