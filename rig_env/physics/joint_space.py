@@ -171,16 +171,22 @@ M_UPPER = ((0, 0), (0, 1), (0, 2), (0, 3), (0, 4), (1, 1), (1, 2), (1, 3), (1, 4
 
 
 @njit(**_INLINE)
-def mass_matrix_and_bias(q, qd, p, M, hvec, jv):
-    """Fill M (5x5) and h (5) of M qdd + h = Q from :func:`mass_matrix_terms` (jv: unused scratch, kept for
-    callers).  Returns the kinematics (As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a) for the force terms."""
-    Mt, ht, kin = mass_matrix_terms(q, qd, p)
+def store_mass_matrix(Mt, ht, M, hvec):
+    """M (5x5, symmetric) and hvec (5) from :func:`mass_matrix_terms`' values."""
     for e in range(15):
         j, k = M_UPPER[e]
         M[j, k] = Mt[e]
         M[k, j] = Mt[e]
     for k in range(5):
         hvec[k] = ht[k]
+
+
+@njit(**_INLINE)
+def mass_matrix_and_bias(q, qd, p, M, hvec, jv):
+    """Fill M (5x5) and h (5) of M qdd + h = Q from :func:`mass_matrix_terms` (jv: unused scratch, kept for
+    callers).  Returns the kinematics (As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a) for the force terms."""
+    Mt, ht, kin = mass_matrix_terms(q, qd, p)
+    store_mass_matrix(Mt, ht, M, hvec)
     return kin
 
 
@@ -348,12 +354,8 @@ def accelerations(q, qd, z, flaps, u, p, flags, free_idx, n_free, tabs, M, hvec,
     Qt = forces(q, qd, z, flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
     r = (Qt[0] - ht[0], Qt[1] - ht[1], Qt[2] - ht[2], Qt[3] - ht[3], Qt[4] - ht[4])
     x = solve_free(Mt, r, free_mask(free_idx, n_free))
-    for e in range(15):
-        j, k = M_UPPER[e]
-        M[j, k] = Mt[e]
-        M[k, j] = Mt[e]
+    store_mass_matrix(Mt, ht, M, hvec)
     for k in range(5):
-        hvec[k] = ht[k]
         Q[k] = Qt[k]
         qdd[k] = x[k]
 
