@@ -8,6 +8,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import llvmlite.binding as llvm
 import numpy as np
 import pytest
 
@@ -106,6 +107,8 @@ def test_the_lane_loops_are_vectorised(tmp_path):
     objdump = shutil.which("objdump")
     if objdump is None:
         pytest.skip("needs objdump (Debian package binutils)")
+    if "+avx2" not in llvm.get_host_cpu_features().flatten():
+        pytest.skip("no 256-bit vectors on this processor (AVX2): the lane kernel runs scalar here")
     X, P, delay, dbuf, free_idx = batch(8, (0, 3), seed=0)
     S, U, st = LN.new_work(8), np.zeros((8, L.N_INPUTS)), np.zeros(8, np.int8)
     LN.step_lanes_serial(X, dbuf, 0, delay, P, U, ALL, free_idx, 2, RigParams.default().tables(), 0.0025, 5, st, S, True)

@@ -8,8 +8,8 @@ operation over the eight.  The right-hand side is the one :mod:`rig_env.physics.
 (:func:`~rig_env.physics.joint_space.mass_matrix_terms`, :func:`~rig_env.physics.joint_space.forces`,
 :func:`~rig_env.physics.joint_space.solve_free`): no second copy of the dynamics.
 
-Why the layout is what it is (``benchmarks/bench_lanes.py`` and ``benchmarks/RESULTS.md`` show each
-rule's effect): LLVM vectorises a loop over environments only when
+Why the layout is what it is (each rule was found by making a probe's loop fail without it;
+``benchmarks/RESULTS.md``): LLVM vectorises a loop over environments only when
 
 1. every memory access in it is ``row[k * W + lane]`` of one flat array with constant ``k`` (two arrays,
    or a strided view, need run-time pointer checks and the cost model then declines), so each block's
@@ -23,9 +23,10 @@ rule's effect): LLVM vectorises a loop over environments only when
 The high-incidence tables (``F_NONLINEAR``) need a table search per evaluation, which no lane can
 share: :func:`supports` says False for them and callers use the per-environment kernel.
 
-Results equal :mod:`rig_env.physics.integrator`'s to rounding (``tests/test_lanes.py``: 1e-12 rad
+Results equal :mod:`rig_env.physics.integrator`'s to rounding (``tests/test_lanes.py``: 2e-13 rad
 after 100 control steps with every term on, every lock set), not bit for bit: the order of some
-floating-point operations differs.
+floating-point operations differs.  On a processor without AVX-512 the same code runs in two 256-bit
+halves (AVX2) or scalar: correct either way, fast only with vectors.
 """
 
 from __future__ import annotations
