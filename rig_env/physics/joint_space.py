@@ -26,11 +26,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
-from rig_env.physics import servo as sv
 from rig_env.physics import vmath
 from rig_env.physics.aero import comp_aero, hawk_aero
 from rig_env.physics.vec import FASTMATH, add, col, cross, dot, inertia_world, mm, mtv, mv, rot_zy, rot_zyx, scale
