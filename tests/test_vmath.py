@@ -63,6 +63,22 @@ def test_atan2_every_quadrant_within_two_ulp():
     assert out[0] == 0.0
 
 
+def test_atan2_over_the_whole_exponent_range_and_special_values():
+    # reduced from abs(y), abs(x) directly: no overflow or underflow of y / x at extreme ratios
+    y = RNG.standard_normal(50_000) * 10.0 ** RNG.uniform(-300, 300, 50_000)
+    x = RNG.standard_normal(50_000) * 10.0 ** RNG.uniform(-300, 300, 50_000)
+    out = np.empty_like(x)
+    _atan2_all(y, x, out)
+    assert ulps(out, ref(math.atan2, y, x)) <= 2.0
+    y = np.array([np.nan, 1.0, np.nan, 0.0, -0.0, 0.0, 1e-320, 5.0])
+    x = np.array([1.0, np.nan, np.nan, -2.0, -2.0, 0.0, 1e-320, 5.0 / V._T3P8])
+    out = np.empty_like(x)
+    _atan2_all(y, x, out)
+    assert np.all(np.isnan(out[:3]))
+    assert out[3] == math.pi and out[4] == math.pi and out[5] == 0.0  # documented: atan2(+-0, x < 0) = +pi
+    assert ulps(out[6:], ref(math.atan2, y[6:], x[6:])) <= 2.0
+
+
 @njit(cache=True)
 def _sincos_all(x, s, c):
     for i in range(x.size):
@@ -127,3 +143,23 @@ def test_asin_within_three_ulp():
     out = np.empty_like(x)
     _asin_all(x, out)
     assert ulps(out, ref(math.asin, x)) <= 3.0
+
+
+@njit(cache=True)
+def _log_all(x, out):
+    for i in range(x.size):
+        out[i] = V.log(x[i])
+
+
+def test_log_within_one_ulp_and_special_values():
+    x = np.concatenate([
+        RNG.uniform(0.0, 1.0, 100_000), 1.0 - np.arange(1, 1000) * 2.0**-53, 2.0 ** -np.arange(0.0, 54.0),
+        10.0 ** RNG.uniform(-300, 300, 100_000), [1.0, 0.5, 2.0, V._SQRTH, np.nextafter(V._SQRTH, 0.0), np.finfo(float).tiny],
+    ])  # fmt: skip
+    out = np.empty_like(x)
+    _log_all(x, out)
+    assert ulps(out, ref(math.log, x)) <= 1.0
+    x = np.array([0.0, -0.0, -1.0, np.inf, -np.inf, np.nan])
+    out = np.empty_like(x)
+    _log_all(x, out)
+    assert out[0] == -np.inf and out[1] == -np.inf and np.isnan(out[2]) and out[3] == np.inf and np.isnan(out[4]) and np.isnan(out[5])

@@ -5,7 +5,7 @@ that contains one runs one element at a time.  Two loops depend on these functio
 four panels (:mod:`rig_env.physics.aero`, four lanes of one environment) and the lane kernel
 (:mod:`rig_env.physics.lanes`), which computes eight environments side by side and calls every
 function of the right-hand side.  The algorithms are Cephes' (S. L. Moshier, *Methods and Programs
-for Mathematical Functions*, 1989: ``sin.c``, ``exp.c``, ``unity.c`` (expm1) and ``atan.c``, their
+for Mathematical Functions*, 1989: ``sin.c``, ``exp.c``, ``log.c``, ``unity.c`` (expm1) and ``atan.c``, their
 range reductions and coefficients), with the reductions selected rather than branched.
 
 Accuracy (tests/test_vmath.py, against the C library):
@@ -16,8 +16,9 @@ Accuracy (tests/test_vmath.py, against the C library):
 | ``exp(x)`` | all x | 2 ulp | 0 below -708.39 (subnormal range), inf above 709.78 |
 | ``expm1(x)`` | all x | 4 ulp | Cephes' rational form for abs(x) <= 0.5, exp(x) - 1 outside |
 | ``atan(x)`` | all x | 1 ulp | +-pi/2 at +-inf, NaN in, NaN out |
-| ``atan2(y, x)`` | finite (y, x) | 2 ulp | quadrant from the signs; atan2(0, 0) = 0, atan2(+-0, x < 0) = +pi |
+| ``atan2(y, x)`` | finite (y, x) | 2 ulp | reduced from abs(y), abs(x) directly (no y / x: two divisions in all); quadrant from the signs; atan2(0, 0) = 0, atan2(+-0, x < 0) = +pi |
 | ``asin(x)`` | abs(x) <= 1 | 3 ulp | as atan2(x, sqrt((1 - x)(1 + x))) |
+| ``log(x)`` | normal x > 0 | 1 ulp | -inf at 0, NaN below 0, inf at inf; subnormal x not reduced (never met: the random streams' uniforms are >= 2^-53) |
 """
 
 from __future__ import annotations
@@ -52,6 +53,16 @@ _PIO4 = 7.85398163397448309616e-1
 
 
 @njit(**_JIT)
+def _atan_reduced(num, den, y0, extra):
+    """y0 + atan(num / den) (+ extra, the low bits of y0) for abs(num / den) <= tan(pi/8): Cephes' rational form."""
+    t = num / den
+    z = t * t
+    p = (((_AP0 * z + _AP1) * z + _AP2) * z + _AP3) * z + _AP4
+    q = ((((z + _AQ0) * z + _AQ1) * z + _AQ2) * z + _AQ3) * z + _AQ4
+    return y0 + ((t * (z * p / q) + t) + extra)
+
+
+@njit(**_JIT)
 def atan(x):
     """arctan x (rad), in [-pi/2, pi/2]."""
     a = abs(x)
@@ -60,26 +71,31 @@ def atan(x):
     # reduced argument: -1/a beyond tan(3pi/8), (a-1)/(a+1) between 0.66 and it, a below
     num = -1.0 if big else (a - 1.0 if mid else a)
     den = a if big else (a + 1.0 if mid else 1.0)
-    t = num / den
     y0 = _PIO2 if big else (_PIO4 if mid else 0.0)
     extra = _MOREBITS if big else (0.5 * _MOREBITS if mid else 0.0)
-    z = t * t
-    p = (((_AP0 * z + _AP1) * z + _AP2) * z + _AP3) * z + _AP4
-    q = ((((z + _AQ0) * z + _AQ1) * z + _AQ2) * z + _AQ3) * z + _AQ4
-    r = y0 + ((t * (z * p / q) + t) + extra)
+    r = _atan_reduced(num, den, y0, extra)
     return -r if x < 0.0 else r
 
 
 @njit(**_JIT)
 def atan2(y, x):
-    """The angle of the point (x, y) (rad), in [-pi, pi]: atan(y / x) moved to the quadrant of (x, y)."""
-    if x == 0.0:
-        r = _PIO2 if y > 0.0 else (-_PIO2 if y < 0.0 else 0.0)
-        return y if y != y else r  # NaN in, NaN out
-    r = atan(y / x)
-    if x < 0.0:
-        r = r + (math.pi if y >= 0.0 else -math.pi)
-    return r
+    """The angle of the point (x, y) (rad), in [-pi, pi].
+
+    atan's reduction applied to a = abs(y) / abs(x) without forming that quotient: the reduced argument
+    is -abs(x) / abs(y), (abs(y) - abs(x)) / (abs(y) + abs(x)) or abs(y) / abs(x), one division (two in
+    all, with the rational form's), no overflow for any finite pair; then moved to the quadrant."""
+    a = abs(y)
+    b = abs(x)
+    big = a > _T3P8 * b
+    mid = a > 0.66 * b
+    num = -b if big else (a - b if mid else a)
+    den = a if big else (a + b if mid else (b if b > 0.0 else 1.0))  # atan2(0, 0) = 0
+    y0 = _PIO2 if big else (_PIO4 if mid else 0.0)
+    extra = _MOREBITS if big else (0.5 * _MOREBITS if mid else 0.0)
+    r = _atan_reduced(num, den, y0, extra)  # atan(a / b) in [0, pi/2]
+    r = (math.pi - r) if x < 0.0 else r
+    r = -r if y < 0.0 else r
+    return r if (x == x) & (y == y) else x + y  # NaN in, NaN out
 
 
 @njit(**_JIT)
@@ -142,6 +158,17 @@ EXP_MAX = 709.782712893384
 
 
 @intrinsic
+def _bits_from_float(typingctx, x):
+    """The int64 holding the IEEE 754 bit pattern of the float64 ``x`` (a register move, no conversion)."""
+    sig = types.int64(types.float64)
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.IntType(64))
+
+    return sig, codegen
+
+
+@intrinsic
 def _float_from_bits(typingctx, bits):
     """The float64 whose IEEE 754 bit pattern is the int64 ``bits`` (a register move, no conversion)."""
     sig = types.float64(types.int64)
@@ -180,6 +207,52 @@ def exp(x):
 
 @njit(**_JIT)
 def expm1(x):
-    """e^x - 1, without the cancellation of exp(x) - 1 near 0."""
+    """e^x - 1, without the cancellation of exp(x) - 1 near 0: Cephes' rational form of e^r - 1 at r = x for
+    abs(x) <= 0.5, and 2^n (1 + (e^r - 1)) - 1 after exp's reduction x = n ln2 + r outside (one rational
+    form, whichever side is selected)."""
     small = abs(x) <= 0.5
-    return _pade(x if small else 0.0) if small else exp(x) - 1.0
+    xc = x if x > EXP_MIN else EXP_MIN
+    xc = xc if xc < EXP_MAX else EXP_MAX
+    n = 0.0 if small else math.floor(xc * _LOG2E + 0.5)
+    r = (xc - n * _LN2_HI) - n * _LN2_LO  # x itself when small (n = 0)
+    em = _pade(r)
+    ni = int(n)
+    two_n = _float_from_bits((min(ni, 1023) + 1023) << 52)
+    e = em if small else (1.0 + em) * two_n * (2.0 if ni > 1023 else 1.0) - 1.0
+    e = -1.0 if x < EXP_MIN else e
+    e = math.inf if x > EXP_MAX else e
+    return x if x != x else e  # NaN in, NaN out
+
+
+# ---------------------------------------------------------------- log (Cephes log.c)
+_LP0, _LP1, _LP2, _LP3, _LP4, _LP5 = (
+    1.01875663804580931796e-4, 4.97494994976747001425e-1, 4.70579119878881725854e0,
+    1.44989225341610930846e1, 1.79368678507819816313e1, 7.70838733755885391666e0,
+)  # fmt: skip
+_LQ0, _LQ1, _LQ2, _LQ3, _LQ4 = (
+    1.12873587189167450590e1, 4.52279145837532221105e1, 8.29875266912776603211e1,
+    7.11544750618563894466e1, 2.31251620126765340583e1,
+)  # fmt: skip
+_SQRTH = 0.70710678118654752440  # sqrt(1/2)
+
+
+@njit(**_JIT)
+def log(x):
+    """ln x: x = m 2^e with m in [sqrt(1/2), sqrt(2)) from the exponent bits, ln(1 + z) at z = m - 1 by
+    Cephes' rational form z - z^2/2 + z^3 P(z)/Q(z), plus e ln2 in two parts."""
+    bits = _bits_from_float(x)
+    e = ((bits >> 52) & 0x7FF) - 1022  # x = m 2^e, m in [0.5, 1)
+    m = _float_from_bits((bits & 0x000FFFFFFFFFFFFF) | (1022 << 52))
+    low = m < _SQRTH
+    e = e - 1 if low else e
+    m = m + m if low else m
+    z = m - 1.0
+    zz = z * z
+    p = ((((_LP0 * z + _LP1) * z + _LP2) * z + _LP3) * z + _LP4) * z + _LP5
+    q = ((((z + _LQ0) * z + _LQ1) * z + _LQ2) * z + _LQ3) * z + _LQ4
+    fe = float(e)
+    y = z * zz * p / q + fe * _LN2_LO
+    r = (z + (y - 0.5 * zz)) + fe * _LN2_HI
+    r = r if (x > 0.0) & (x < math.inf) else x  # inf -> inf, NaN -> NaN
+    r = -math.inf if x == 0.0 else r
+    return math.nan if x < 0.0 else r
