@@ -23,7 +23,7 @@ from numba import njit
 
 from rig_env.physics import layout as L
 from rig_env.physics import vmath
-from rig_env.physics.vec import FASTMATH, mtv, mv, norm, sub
+from rig_env.physics.vec import FASTMATH, mtv, mv, sub
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
 _INLINE = dict(_JIT, inline="always")  # inlined into the right-hand side (see joint_space._INLINE)
@@ -80,18 +80,20 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
     CM = CM0 + CMa (a - a0) + (CMq + CMadot) q c/2V + CMde de; plus CY, Cl, Cn in beta, p, r, da, dr.
     """
     vb = mtv(A, sub(v_cg, v_air))
-    V = norm(vb)
+    vxz2 = vb[0] * vb[0] + vb[2] * vb[2]
+    vxz = math.sqrt(vxz2)  # speed in the body x-z plane
+    V = math.sqrt(vxz2 + vb[1] * vb[1])
+    iV = 1.0 / V
     wb = mtv(A, omega)
     alpha = vmath.atan2(vb[2], vb[0])
-    sb = vb[1] / V
-    beta = vmath.asin(min(1.0, max(-1.0, sb)))
+    beta = vmath.atan2(vb[1], vxz)  # = asin(v / V), without its square root and division
     S = p[L.P_HAWK_AERO_S]
     c = p[L.P_HAWK_AERO_C]
     b = p[L.P_HAWK_AERO_B]
     qbar = 0.5 * p[L.P_ENVIRONMENT_AIR_DENSITY] * V * V
-    ph = wb[0] * b / (2.0 * V)
-    qh = wb[1] * c / (2.0 * V)
-    rh = wb[2] * b / (2.0 * V)
+    ph = wb[0] * b * (0.5 * iV)
+    qh = wb[1] * c * (0.5 * iV)
+    rh = wb[2] * b * (0.5 * iV)
     a0 = p[L.P_HAWK_AERO_ALPHA0]
     if nonlinear:
         cl_static = interp(alpha, tab_alpha, tab_cl)
@@ -100,8 +102,8 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
         cl_static = p[L.P_HAWK_AERO_CL0] + p[L.P_HAWK_AERO_CLALPHA] * (alpha - a0)
         cm_static = p[L.P_HAWK_AERO_CM0] + p[L.P_HAWK_AERO_CMALPHA] * (alpha - a0)
     CL = cl_static + p[L.P_HAWK_AERO_CLQ] * qh + p[L.P_HAWK_AERO_CLDE] * de
-    AR = b * b / S
-    CD = p[L.P_HAWK_AERO_CD0] + CL * CL / (math.pi * p[L.P_HAWK_AERO_E_OSWALD] * AR)
+    k_ind = S / (math.pi * p[L.P_HAWK_AERO_E_OSWALD] * b * b)  # 1 / (pi e AR), AR = b^2 / S
+    CD = p[L.P_HAWK_AERO_CD0] + k_ind * CL * CL
     CM = cm_static + p[L.P_HAWK_AERO_CMQ] * qh + p[L.P_HAWK_AERO_CMDE] * de
     CY = p[L.P_HAWK_AERO_CYBETA] * beta + p[L.P_HAWK_AERO_CYDR] * dr
     Cl = (
@@ -118,15 +120,16 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
         + p[L.P_HAWK_AERO_CNDA] * da
         + p[L.P_HAWK_AERO_CNDR] * dr
     )
-    vxz = math.sqrt(vb[0] * vb[0] + vb[2] * vb[2])
-    sa = vb[2] / vxz if vxz > 0.0 else 0.0
-    ca = vb[0] / vxz if vxz > 0.0 else 1.0
+    ixz = 1.0 / vxz
+    sa = vb[2] * ixz if vxz > 0.0 else 0.0
+    ca = vb[0] * ixz if vxz > 0.0 else 1.0
     k = qbar * S
     # lift normal to the velocity in the body x-z plane, drag against it, side force along body y
+    kd = CD * iV
     fb = (
-        k * (CL * sa - CD * vb[0] / V),
-        k * (CY - CD * vb[1] / V),
-        k * (-CL * ca - CD * vb[2] / V),
+        k * (CL * sa - kd * vb[0]),
+        k * (CY - kd * vb[1]),
+        k * (-CL * ca - kd * vb[2]),
     )
     mb = (k * b * Cl, k * c * CM, k * b * Cn)
     if V < MIN_AIRSPEED:  # wind off: no load (the values above are computed anyway and dropped, so that
@@ -147,9 +150,12 @@ def strip(vb0, wb, ce, sg, r, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cm
     v1 = vb0[1] - wb[0] * sg * r
     v2 = vb0[2] + wb[0] * ce * r
     wn = -(v1 * -sg + v2 * ce)  # -v.n
-    V = math.sqrt(u * u + wn * wn)
+    V = math.sqrt(u * u + wn * wn)  # in-plane speed
+    vabs = math.sqrt(u * u + v1 * v1 + v2 * v2)  # full speed, with the spanwise component
+    # 1 / V and 1 / vabs from one division (at V = 0 they are not finite: the strip's load is selected away below)
+    inv = 1.0 / (V * vabs)
     alpha = vmath.atan2(wn, u)  # branch-free: the panels vectorise
-    qhat = qp * c / (2.0 * V)
+    qhat = qp * c * (0.5 * vabs * inv)
     if nonlinear:
         cl_static = interp(alpha, tab_alpha, tab_cn)
         cm_static = cl_static * (cma / cla) if cla != 0.0 else cma * alpha
@@ -163,11 +169,10 @@ def strip(vb0, wb, ce, sg, r, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cm
     # lift normal to the in-plane velocity (u e_x - wn n); drag against the full strip velocity (so that
     # the panels' drag sums to a force along the free stream, as Table 4's CD does).  The lift's qS / V
     # is written as 0.5 rho V dS: no division
-    vabs = math.sqrt(u * u + v1 * v1 + v2 * v2)
     lk = 0.5 * rho * V * dS * CL
     lift_x = lk * wn
     lift_n = lk * u
-    dk = qS * CD / vabs
+    dk = qS * CD * (V * inv)
     fx = lift_x - dk * u
     fy = lift_n * -sg - dk * v1
     fz = lift_n * ce - dk * v2
@@ -234,8 +239,7 @@ def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn, un
     dr_g = GAUSS * (r1 - r0)
     dS = 0.25 * S  # two strips per panel, each a quarter of S (a panel is half the reference area)
     rho = p[L.P_ENVIRONMENT_AIR_DENSITY]
-    AR = span * span / S
-    k_ind = 1.0 / (math.pi * p[L.P_COMP_AERO_E_OSWALD] * AR)
+    k_ind = S / (math.pi * p[L.P_COMP_AERO_E_OSWALD] * span * span)  # 1 / (pi e AR), AR = span^2 / S
     cla = p[L.P_COMP_AERO_CLALPHA]
     cma = p[L.P_COMP_AERO_CMALPHA]
     a0 = p[L.P_COMP_AERO_ALPHA0]

@@ -46,9 +46,12 @@ def torque(p, j, v, z):
     """Friction torque tau_f of eq. (21) for joint j at rate v (rad/s) and bristle state z (rad)."""
     b = FRICTION_BASE[j]
     s0 = p[b + _S0]
-    zdot = v - s0 * abs(v) * z / stribeck(p, j, v)
+    sv = stribeck(p, j, v)
     vd = p[b + _VD]
-    tau = p[b + _S1] * vmath.exp(-(v / vd) ** 2) * zdot + s0 * z + p[b + _S2] * v
+    inv = 1.0 / (sv * vd)  # 1 / S(v) and 1 / v_d from one division
+    zdot = v - s0 * abs(v) * z * (vd * inv)
+    w = v * (sv * inv)  # v / v_d
+    tau = p[b + _S1] * vmath.exp(-(w * w)) * zdot + s0 * z + p[b + _S2] * v
     return 0.0 if (v == 0.0) & (z == 0.0) else tau  # a locked joint, or a free one at rest and relaxed (selected, not branched)
 
 

@@ -284,13 +284,14 @@ def free_mask(free_idx, n):
 
 @njit(**_INLINE)
 def solve_free(Mt, r, free):
-    """qdd (5-tuple) of M[free, free] qdd[free] = r[free], qdd[locked] = 0, by Cholesky.
+    """qdd (5-tuple) of M[free, free] qdd[free] = r[free], qdd[locked] = 0, by LDL^T factorisation.
 
     Mt: M's upper triangle as :func:`mass_matrix_terms` gives it; r: 5 right-hand sides; free: 5 bools.
     Locked rows and columns are replaced by the identity (and r by 0), so one fixed 5x5 factorisation
-    serves every lock set with no index indirection or branch.  A matrix that is not positive definite
-    gives NaN, which the caller reports as a blow-up of that environment.  The pivots are kept as
-    reciprocals, so the triangular solves multiply.
+    serves every lock set with no index indirection or branch.  LDL^T (Golub and Van Loan, Matrix
+    Computations, sec. 4.1) rather than Cholesky: five divisions and no square roots, which are the
+    slowest vector instructions of the right-hand side and lie on its critical path.  A pivot d_j <= 0
+    (M not positive definite) gives NaN, which the caller reports as a blow-up of that environment.
     """
     f0, f1, f2, f3, f4 = free
     # M with locked rows and columns set to the identity
@@ -309,39 +310,44 @@ def solve_free(Mt, r, free):
     m33 = Mt[12] if f3 else 1.0
     m34 = Mt[13] if f3 & f4 else 0.0
     m44 = Mt[14] if f4 else 1.0
-    # 1 / sqrt(s) as sqrt(s) * (1 / s): the square root and the division run side by side rather than one
-    # after the other (this chain of five pivots is the right-hand side's critical path)
-    s = m00
-    i0 = math.sqrt(s) * (1.0 / s) if s > 0.0 else np.nan
+    # M = L D L^T, L unit lower triangular; e_ij = l_ij d_j; i_j = 1 / d_j
+    d = m00
+    i0 = 1.0 / d if d > 0.0 else np.nan
     l10 = m01 * i0
     l20 = m02 * i0
     l30 = m03 * i0
     l40 = m04 * i0
-    s = m11 - l10 * l10
-    i1 = math.sqrt(s) * (1.0 / s) if s > 0.0 else np.nan
-    l21 = (m12 - l20 * l10) * i1
-    l31 = (m13 - l30 * l10) * i1
-    l41 = (m14 - l40 * l10) * i1
-    s = m22 - l20 * l20 - l21 * l21
-    i2 = math.sqrt(s) * (1.0 / s) if s > 0.0 else np.nan
-    l32 = (m23 - l30 * l20 - l31 * l21) * i2
-    l42 = (m24 - l40 * l20 - l41 * l21) * i2
-    s = m33 - l30 * l30 - l31 * l31 - l32 * l32
-    i3 = math.sqrt(s) * (1.0 / s) if s > 0.0 else np.nan
-    l43 = (m34 - l40 * l30 - l41 * l31 - l42 * l32) * i3
-    s = m44 - l40 * l40 - l41 * l41 - l42 * l42 - l43 * l43
-    i4 = math.sqrt(s) * (1.0 / s) if s > 0.0 else np.nan
-    # L y = r, then L^T x = y
-    y0 = (r[0] if f0 else 0.0) * i0
-    y1 = ((r[1] if f1 else 0.0) - l10 * y0) * i1
-    y2 = ((r[2] if f2 else 0.0) - l20 * y0 - l21 * y1) * i2
-    y3 = ((r[3] if f3 else 0.0) - l30 * y0 - l31 * y1 - l32 * y2) * i3
-    y4 = ((r[4] if f4 else 0.0) - l40 * y0 - l41 * y1 - l42 * y2 - l43 * y3) * i4
+    d = m11 - l10 * m01
+    i1 = 1.0 / d if d > 0.0 else np.nan
+    e21 = m12 - l20 * m01
+    e31 = m13 - l30 * m01
+    e41 = m14 - l40 * m01
+    l21 = e21 * i1
+    l31 = e31 * i1
+    l41 = e41 * i1
+    d = m22 - l20 * m02 - l21 * e21
+    i2 = 1.0 / d if d > 0.0 else np.nan
+    e32 = m23 - l30 * m02 - l31 * e21
+    e42 = m24 - l40 * m02 - l41 * e21
+    l32 = e32 * i2
+    l42 = e42 * i2
+    d = m33 - l30 * m03 - l31 * e31 - l32 * e32
+    i3 = 1.0 / d if d > 0.0 else np.nan
+    e43 = m34 - l40 * m03 - l41 * e31 - l42 * e32
+    l43 = e43 * i3
+    d = m44 - l40 * m04 - l41 * e41 - l42 * e42 - l43 * e43
+    i4 = 1.0 / d if d > 0.0 else np.nan
+    # L y = r, then L^T x = D^-1 y
+    y0 = r[0] if f0 else 0.0
+    y1 = (r[1] if f1 else 0.0) - l10 * y0
+    y2 = (r[2] if f2 else 0.0) - l20 * y0 - l21 * y1
+    y3 = (r[3] if f3 else 0.0) - l30 * y0 - l31 * y1 - l32 * y2
+    y4 = (r[4] if f4 else 0.0) - l40 * y0 - l41 * y1 - l42 * y2 - l43 * y3
     x4 = y4 * i4
-    x3 = (y3 - l43 * x4) * i3
-    x2 = (y2 - l32 * x3 - l42 * x4) * i2
-    x1 = (y1 - l21 * x2 - l31 * x3 - l41 * x4) * i1
-    x0 = (y0 - l10 * x1 - l20 * x2 - l30 * x3 - l40 * x4) * i0
+    x3 = y3 * i3 - l43 * x4
+    x2 = y2 * i2 - l32 * x3 - l42 * x4
+    x1 = y1 * i1 - l21 * x2 - l31 * x3 - l41 * x4
+    x0 = y0 * i0 - l10 * x1 - l20 * x2 - l30 * x3 - l40 * x4
     return x0, x1, x2, x3, x4
 
 
