@@ -60,7 +60,8 @@ OFF_UD = OFF_U + L.N_INPUTS * W  # delayed, limited actuator demands of the phys
 OFF_Y0 = OFF_UD + 7 * W  # RK state at the start of the physics step, N_Y
 OFF_K = OFF_Y0 + N_Y * W  # the last stage's derivative, N_Y
 OFF_ACC = OFF_K + N_Y * W  # the stages' weighted sum, N_Y
-BLOCK = OFF_ACC + N_Y * W
+OFF_DECAY = OFF_ACC + N_Y * W  # each joint's bristle decay (a, e) over h/2 at the rates of the last half step, 10
+BLOCK = OFF_DECAY + 10 * W
 _ZERO_Y = (0.0,) * N_Y
 
 
@@ -131,18 +132,31 @@ def rhs_values(y, z, ud, u, p, flags, free, tabs):
 
 
 @njit(**_INLINE)
-def half_bristle_step(row, lane, p, free, friction, h):
+def half_bristle_step(row, lane, p, free, friction, h, reuse):
     """Bristle states of the free joints over h/2 at the lane's joint rates (exact, eq. 19), in place;
-    unchanged without friction."""
+    unchanged without friction.
+
+    The decay (a, e) depends on the joint rate only, and the rate at the end of one physics step is the
+    rate at the start of the next, bit for bit: with ``reuse`` (a compile-time constant wherever this is
+    inlined) the decay the previous half step stored in the row is taken rather than recomputed, as
+    :func:`rig_env.physics.integrator.half_bristle_step` does.  Without it the decay is computed and stored.
+    """
     qd = load5(row, OFF_X + L.X_QD * W, lane)
     z = load5(row, OFF_X + L.X_Z * W, lane)
     dt = 0.5 * h
+    if reuse:
+        d = load10(row, OFF_DECAY, lane)
+    else:
+        d0, d1, d2 = fr.bristle_decay(p, 0, qd[0], dt), fr.bristle_decay(p, 1, qd[1], dt), fr.bristle_decay(p, 2, qd[2], dt)
+        d3, d4 = fr.bristle_decay(p, 3, qd[3], dt), fr.bristle_decay(p, 4, qd[4], dt)
+        d = (d0[0], d0[1], d1[0], d1[1], d2[0], d2[1], d3[0], d3[1], d4[0], d4[1])
+        store10(row, OFF_DECAY, lane, d)
     store5(row, OFF_X + L.X_Z * W, lane, (
-        fr.advance_bristle(p, 0, qd[0], z[0], dt) if free[0] & friction else z[0],
-        fr.advance_bristle(p, 1, qd[1], z[1], dt) if free[1] & friction else z[1],
-        fr.advance_bristle(p, 2, qd[2], z[2], dt) if free[2] & friction else z[2],
-        fr.advance_bristle(p, 3, qd[3], z[3], dt) if free[3] & friction else z[3],
-        fr.advance_bristle(p, 4, qd[4], z[4], dt) if free[4] & friction else z[4],
+        fr.advance_bristle_decay(qd[0], z[0], dt, d[0], d[1]) if free[0] & friction else z[0],
+        fr.advance_bristle_decay(qd[1], z[1], dt, d[2], d[3]) if free[1] & friction else z[1],
+        fr.advance_bristle_decay(qd[2], z[2], dt, d[4], d[5]) if free[2] & friction else z[2],
+        fr.advance_bristle_decay(qd[3], z[3], dt, d[6], d[7]) if free[3] & friction else z[3],
+        fr.advance_bristle_decay(qd[4], z[4], dt, d[8], d[9]) if free[4] & friction else z[4],
     ))  # fmt: skip
 
 
@@ -159,16 +173,23 @@ def axpy24(a, x, y):
 
 
 @njit(**_JIT)
-def physics_step(row, flags, free, tabs, h):
+def physics_step(row, flags, free, tabs, h, reuse_decay):
     """Every lane of one block over one physics step h (in place); row[OFF_UD] holds the delayed demands.
+    reuse_decay: the row holds the bristle decay of the previous physics step's end (False on the first
+    physics step of a control step: the caller may have changed states or parameters since).
 
     The stages' derivatives are accumulated with the RK4 weights as they come (in the order
     integrator.physics_step sums them), so every access of the loops below is at a constant offset."""
     friction = (flags & L.F_FRICTION) != 0
     servo = (flags & L.F_SERVO) != 0
-    for lane in range(W):  # bristles over h/2, then the RK start state
-        half_bristle_step(row, lane, load_params(row, OFF_P, lane), free, friction, h)
-        store24(row, OFF_Y0, lane, load10(row, OFF_X, lane) + load7(row, OFF_X + L.X_SERVO * W, lane) + load7(row, OFF_X + L.X_SERVO_RATE * W, lane))
+    if reuse_decay:  # branched here, outside the loops over the lanes, so that each loop has none
+        for lane in range(W):  # bristles over h/2, then the RK start state
+            half_bristle_step(row, lane, load_params(row, OFF_P, lane), free, friction, h, True)
+            store24(row, OFF_Y0, lane, load10(row, OFF_X, lane) + load7(row, OFF_X + L.X_SERVO * W, lane) + load7(row, OFF_X + L.X_SERVO_RATE * W, lane))
+    else:
+        for lane in range(W):
+            half_bristle_step(row, lane, load_params(row, OFF_P, lane), free, friction, h, False)
+            store24(row, OFF_Y0, lane, load10(row, OFF_X, lane) + load7(row, OFF_X + L.X_SERVO * W, lane) + load7(row, OFF_X + L.X_SERVO_RATE * W, lane))
     for s in range(4):  # the four stages, each a loop over the lanes (one copy of the right-hand side in the code)
         c = RK_C[s] * h
         wgt = RK_W[s]
@@ -187,7 +208,7 @@ def physics_step(row, flags, free, tabs, h):
         p = load_params(row, OFF_P, lane)
         y = axpy24(h, load24(row, OFF_ACC, lane), load24(row, OFF_Y0, lane))
         store10(row, OFF_X, lane, y[0:10])
-        half_bristle_step(row, lane, p, free, friction, h)
+        half_bristle_step(row, lane, p, free, friction, h, False)
         ud = load7(row, OFF_UD, lane)
         s0, s1, s2, s3 = sv.project(p, 0, y[10], y[17]), sv.project(p, 1, y[11], y[18]), sv.project(p, 2, y[12], y[19]), sv.project(p, 3, y[13], y[20])
         s4, s5, s6 = sv.project(p, 4, y[14], y[21]), sv.project(p, 5, y[15], y[22]), sv.project(p, 6, y[16], y[23])
@@ -236,7 +257,7 @@ def advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub
             else:
                 for a in range(7):
                     row[OFF_UD + a * W + lane] = row[OFF_UD + a * W]
-        physics_step(row, flags, free, tabs, h)
+        physics_step(row, flags, free, tabs, h, s > 0)
     for lane in range(W):
         i = i0 + lane
         if i >= n or status[i] != L.S_OK:
