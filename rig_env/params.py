@@ -153,7 +153,9 @@ class LuGre:
     """LuGre friction of one joint, eqs. (19)-(21); N m, rad, s."""
 
     Fs: float = _f(0.0, 10.0, "N m")
-    Fc: float = _f(0.0, 10.0, "N m")
+    # Fc > 0: eq. (19) divides by S(v) >= Fc, and S(v) -> Fc at speed (with Fc = 0 the bristle state is
+    # not finite from the first sliding step); a joint without friction is friction=False, not Fc = 0
+    Fc: float = _f(1e-6, 10.0, "N m")
     alpha_f: float = _f(0.0, 1e4, "s/rad")
     v_d: float = _f(1e-4, 100.0, "rad/s")
     sigma0: float = _f(1e-3, 1e7, "N m/rad")

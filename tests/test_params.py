@@ -55,6 +55,7 @@ def test_replace_and_batch_overrides(params):
         ("mass.hawk_mass", -1.0, r"mass.hawk_mass = -1.0 kg is outside the allowed range \[0.1, 10.0\]"),
         ("mass.hawk_Izz", 0.5, "triangle inequality"),
         ("friction.model_pitch.Fs", 1e-4, "must be >= friction.model_pitch.Fc"),
+        ("friction.rig_roll.Fc", 0.0, r"friction.rig_roll.Fc = 0.0 N m is outside the allowed range \[1e-06, 10.0\]"),
         ("stops.rig_pitch.upper_deg", 95.0, "stops.rig_pitch.upper_deg"),
         ("hawk_aero.CLalpha", float("nan"), "must be finite"),
         ("no.such", 1.0, "unknown parameter"),
