@@ -144,8 +144,8 @@ def _normal_block(keys, episode, step, stream_code, outT, hbuf, i0, i1):
 
 @njit(**_JIT_VEC)
 def _normal_kernel(keys, episode, step, stream_code, outT, hbuf):
-    """outT (k, m): the k standard normals of each of m environments (see :func:`normal`); hbuf: (n_blocks,
-    NORMAL_BLOCK) uint64 scratch (one row per block; only the first used here)."""
+    """outT (k, m): the k standard normals of each of m environments (see :func:`normal`); hbuf: (1,
+    NORMAL_BLOCK) uint64 scratch, reused by every block."""
     m = outT.shape[1]
     for b in range((m + NORMAL_BLOCK - 1) // NORMAL_BLOCK):
         _normal_block(keys, episode, step, stream_code, outT, hbuf[0], b * NORMAL_BLOCK, min(m, (b + 1) * NORMAL_BLOCK))
@@ -153,7 +153,7 @@ def _normal_kernel(keys, episode, step, stream_code, outT, hbuf):
 
 @njit(**_JIT_VEC_PAR)
 def _normal_kernel_parallel(keys, episode, step, stream_code, outT, hbuf):
-    """:func:`_normal_kernel` with the blocks on all numba threads."""
+    """:func:`_normal_kernel` with the blocks on all numba threads; hbuf: (n_blocks, NORMAL_BLOCK), a row per block."""
     m = outT.shape[1]
     for b in prange((m + NORMAL_BLOCK - 1) // NORMAL_BLOCK):
         _normal_block(keys, episode, step, stream_code, outT, hbuf[b], b * NORMAL_BLOCK, min(m, (b + 1) * NORMAL_BLOCK))
@@ -187,5 +187,8 @@ def normal(keys: np.ndarray, episode: np.ndarray, step: np.ndarray | int, stream
     with np.errstate(over="ignore"):
         code = np.uint64(stream) * _C_STREAM
     outT = np.empty((k, m))
-    (_normal_kernel_parallel if m >= NORMAL_PARALLEL_MIN else _normal_kernel)(keys, ep, st, code, outT, np.empty(((m + NORMAL_BLOCK - 1) // NORMAL_BLOCK, NORMAL_BLOCK), dtype=np.uint64))
+    if m >= NORMAL_PARALLEL_MIN:  # one row of hash scratch per block (the blocks run at once)
+        _normal_kernel_parallel(keys, ep, st, code, outT, np.empty(((m + NORMAL_BLOCK - 1) // NORMAL_BLOCK, NORMAL_BLOCK), dtype=np.uint64))
+    else:
+        _normal_kernel(keys, ep, st, code, outT, np.empty((1, NORMAL_BLOCK), dtype=np.uint64))
     return np.ascontiguousarray(outT.T)

@@ -172,6 +172,15 @@ def axpy24(a, x, y):
     )  # fmt: skip
 
 
+@njit(**_INLINE)
+def start_step(row, free, friction, h, reuse_decay):
+    """Every lane: bristles over h/2, then the RK start state (reuse_decay: see :func:`half_bristle_step`;
+    a compile-time constant at each call site, so the loop has no branch)."""
+    for lane in range(W):
+        half_bristle_step(row, lane, load_params(row, OFF_P, lane), free, friction, h, reuse_decay)
+        store24(row, OFF_Y0, lane, load10(row, OFF_X, lane) + load7(row, OFF_X + L.X_SERVO * W, lane) + load7(row, OFF_X + L.X_SERVO_RATE * W, lane))
+
+
 @njit(**_JIT)
 def physics_step(row, flags, free, tabs, h, reuse_decay):
     """Every lane of one block over one physics step h (in place); row[OFF_UD] holds the delayed demands.
@@ -183,13 +192,9 @@ def physics_step(row, flags, free, tabs, h, reuse_decay):
     friction = (flags & L.F_FRICTION) != 0
     servo = (flags & L.F_SERVO) != 0
     if reuse_decay:  # branched here, outside the loops over the lanes, so that each loop has none
-        for lane in range(W):  # bristles over h/2, then the RK start state
-            half_bristle_step(row, lane, load_params(row, OFF_P, lane), free, friction, h, True)
-            store24(row, OFF_Y0, lane, load10(row, OFF_X, lane) + load7(row, OFF_X + L.X_SERVO * W, lane) + load7(row, OFF_X + L.X_SERVO_RATE * W, lane))
+        start_step(row, free, friction, h, True)
     else:
-        for lane in range(W):
-            half_bristle_step(row, lane, load_params(row, OFF_P, lane), free, friction, h, False)
-            store24(row, OFF_Y0, lane, load10(row, OFF_X, lane) + load7(row, OFF_X + L.X_SERVO * W, lane) + load7(row, OFF_X + L.X_SERVO_RATE * W, lane))
+        start_step(row, free, friction, h, False)
     for s in range(4):  # the four stages, each a loop over the lanes (one copy of the right-hand side in the code)
         c = RK_C[s] * h
         wgt = RK_W[s]

@@ -189,17 +189,29 @@ def _pade(r):
 
 
 @njit(**_JIT)
-def exp(x):
-    """e^x."""
-    xc = x if x > EXP_MIN else EXP_MIN  # keeps 2^n a normal number (NaN -> EXP_MIN); the ends are selected below
+def _reduced(x, small):
+    """(e^r - 1, n) with x = n ln2 + r, abs(r) <= ln2 / 2, x clamped to [EXP_MIN, EXP_MAX] (NaN -> EXP_MIN: the
+    callers select the ends); n = 0 and r = x where ``small``."""
+    xc = x if x > EXP_MIN else EXP_MIN  # keeps 2^n a normal number
     xc = xc if xc < EXP_MAX else EXP_MAX
-    n = math.floor(xc * _LOG2E + 0.5)
-    r = (xc - n * _LN2_HI) - n * _LN2_LO  # |r| <= ln2 / 2
-    e = 1.0 + _pade(r)
-    # times 2^n, built from its exponent bits (n in [-1022, 1024]; 2^1024 only at xc = EXP_MAX, written as 2 * 2^1023)
+    n = 0.0 if small else math.floor(xc * _LOG2E + 0.5)
+    r = (xc - n * _LN2_HI) - n * _LN2_LO
+    return _pade(r), n
+
+
+@njit(**_JIT)
+def _times_two_to(e, n):
+    """e 2^n, 2^n built from its exponent bits (n in [-1022, 1024]; 2^1024 only at EXP_MAX, written as 2 * 2^1023)."""
     ni = int(n)
     two_n = _float_from_bits((min(ni, 1023) + 1023) << 52)
-    e = e * two_n * (2.0 if ni > 1023 else 1.0)
+    return e * two_n * (2.0 if ni > 1023 else 1.0)
+
+
+@njit(**_JIT)
+def exp(x):
+    """e^x."""
+    em, n = _reduced(x, False)
+    e = _times_two_to(1.0 + em, n)
     e = 0.0 if x < EXP_MIN else e
     e = math.inf if x > EXP_MAX else e
     return x if x != x else e  # NaN in, NaN out
@@ -208,17 +220,11 @@ def exp(x):
 @njit(**_JIT)
 def expm1(x):
     """e^x - 1, without the cancellation of exp(x) - 1 near 0: Cephes' rational form of e^r - 1 at r = x for
-    abs(x) <= 0.5, and 2^n (1 + (e^r - 1)) - 1 after exp's reduction x = n ln2 + r outside (one rational
-    form, whichever side is selected)."""
+    abs(x) <= 0.5, and 2^n (1 + (e^r - 1)) - 1 after exp's reduction outside (one rational form, whichever
+    side is selected)."""
     small = abs(x) <= 0.5
-    xc = x if x > EXP_MIN else EXP_MIN
-    xc = xc if xc < EXP_MAX else EXP_MAX
-    n = 0.0 if small else math.floor(xc * _LOG2E + 0.5)
-    r = (xc - n * _LN2_HI) - n * _LN2_LO  # x itself when small (n = 0)
-    em = _pade(r)
-    ni = int(n)
-    two_n = _float_from_bits((min(ni, 1023) + 1023) << 52)
-    e = em if small else (1.0 + em) * two_n * (2.0 if ni > 1023 else 1.0) - 1.0
+    em, n = _reduced(x, small)
+    e = em if small else _times_two_to(1.0 + em, n) - 1.0
     e = -1.0 if x < EXP_MIN else e
     e = math.inf if x > EXP_MAX else e
     return x if x != x else e  # NaN in, NaN out
