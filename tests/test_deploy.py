@@ -364,7 +364,12 @@ def test_blackout_safe_within_three_frames_and_latched_until_rearmed(tmp_path, l
     t_blackout, t_rearm = 2.0, 3.5
 
     def rearm(loop):
-        time.sleep(t_rearm + 0.3)  # the loop starts ~0.3 s after the sim rig's frames (connect + phase)
+        # re-arm on the rig's own clock, as an operator would after seeing frames come back: a wall-clock
+        # sleep depended on how long the sim rig took to start (0.3 s on a quiet machine, about 0.9 s in
+        # one CI run, which left only 34 frames before the re-arm)
+        end = time.monotonic() + 20.0
+        while not (loop.state == FAULT and loop.rig_time >= t_rearm) and time.monotonic() < end:
+            time.sleep(0.002)
         loop.arm()
 
     loop, rig, rec, log = fly(tmp_path, law_file, 5.0, ("--blackout", str(t_blackout), "0.5"), during=rearm)
