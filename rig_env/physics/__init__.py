@@ -1,4 +1,6 @@
-"""numba kernels of the rig model.  Import-time side effect: a source-keyed numba cache directory.
+"""numba kernels of the rig model.  Import-time side effects: a source-keyed numba cache directory, and
+a compile-time fix for numba's IR inliner (:mod:`rig_env.physics.fast_inline`; ``RIG_ENV_FAST_INLINE=0``
+turns it off).
 
 numba's on-disk cache (``cache=True``) checks only the source file of the function it compiled, not
 the files of the functions it inlined: after an edit to ``aero.py`` a cached ``integrator.step_batch``
@@ -15,6 +17,8 @@ from pathlib import Path
 
 import numba
 
+from rig_env.physics import fast_inline
+
 
 def _cache_dir() -> str:
     digest = hashlib.sha256()
@@ -28,3 +32,6 @@ def _cache_dir() -> str:
 
 if not os.environ.get("NUMBA_CACHE_DIR"):
     numba.config.CACHE_DIR = _cache_dir()
+
+if os.environ.get("RIG_ENV_FAST_INLINE", "1") != "0":
+    fast_inline.install()
