@@ -205,13 +205,26 @@ def air_velocity(u):
 
 
 @njit(**_INLINE)
-def joint_torque(j, q, qd, z, p, flags):
-    """Friction and stop torque on joint j (N m, acting on the joint's positive direction).
+def friction_torque(j, v, z, p, flags):
+    """Friction on joint j at rate v and bristle state z (N m, on the joint's positive direction): -tau_f
+    of eq. (21), or 0 without friction (computed, then selected: no branch for the lane kernel)."""
+    tau_f = -fr.torque(p, j, v, z)
+    return tau_f if flags & L.F_FRICTION else 0.0
 
-    Every term is computed and the ones that do not apply are selected away (no branches: the lane
-    kernel computes eight environments side by side)."""
-    tau_f = -fr.torque(p, j, qd[j], z[j])
-    tau = tau_f if flags & L.F_FRICTION else 0.0
+
+@njit(**_INLINE)
+def friction_torques(qd, z, p, flags):
+    """:func:`friction_torque` of the five joints (a 5-tuple, N m)."""
+    return (
+        friction_torque(0, qd[0], z[0], p, flags), friction_torque(1, qd[1], z[1], p, flags),
+        friction_torque(2, qd[2], z[2], p, flags), friction_torque(3, qd[3], z[3], p, flags),
+        friction_torque(4, qd[4], z[4], p, flags),
+    )  # fmt: skip
+
+
+@njit(**_INLINE)
+def stop_torque(j, q, qd, p, flags):
+    """Joint-stop torque on joint j (N m; 0 for the unlimited joints, or within the stops, or without stops)."""
     b = STOP_BASE[j]
     if b >= 0:  # j is a constant wherever this is inlined: decided at compile time
         lo = p[b]
@@ -221,13 +234,25 @@ def joint_torque(j, q, qd, z, p, flags):
         above = min(0.0, -k * (q[j] - hi) - c * qd[j])
         below = max(0.0, -k * (q[j] - lo) - c * qd[j])
         stop = above if q[j] > hi else (below if q[j] < lo else 0.0)
-        tau += stop if flags & L.F_STOPS else 0.0
-    return tau
+        return stop if flags & L.F_STOPS else 0.0
+    return 0.0
 
 
 @njit(**_INLINE)
-def forces(q, qd, z, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
+def joint_torque(j, q, qd, z, p, flags):
+    """Friction and stop torque on joint j (N m, acting on the joint's positive direction).
+
+    Every term is computed and the ones that do not apply are selected away (no branches: the lane
+    kernel computes eight environments side by side)."""
+    return friction_torque(j, qd[j], z[j], p, flags) + stop_torque(j, q, qd, p, flags)
+
+
+@njit(**_INLINE)
+def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
     """Generalised forces Q (5-tuple, N m) of gravity, aerodynamics, friction and stops.
+
+    fric: the joints' friction torques (:func:`friction_torques`; the lane kernel computes them in loops
+    of their own, for the free joints only).
 
     nonlinear: the stall tables (flags' F_NONLINEAR), unrolled: the compensator's panels written out
     (the lane kernel) rather than looped over (the per-environment kernel vectorises that loop); both
@@ -252,18 +277,18 @@ def forces(q, qd, z, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
     t_pivot = add(t_arm, add(cross(r_a, f_a), t_a))
     t_gimbal = add(cross(rho, f_a), t_a)
     return (
-        dot(axes[0], t_pivot) + joint_torque(0, q, qd, z, p, flags),
-        dot(axes[1], t_pivot) + joint_torque(1, q, qd, z, p, flags),
-        dot(axes[2], t_pivot) + joint_torque(2, q, qd, z, p, flags),
-        dot(axes[3], t_gimbal) + joint_torque(3, q, qd, z, p, flags),
-        dot(axes[4], t_gimbal) + joint_torque(4, q, qd, z, p, flags),
+        dot(axes[0], t_pivot) + (fric[0] + stop_torque(0, q, qd, p, flags)),
+        dot(axes[1], t_pivot) + (fric[1] + stop_torque(1, q, qd, p, flags)),
+        dot(axes[2], t_pivot) + (fric[2] + stop_torque(2, q, qd, p, flags)),
+        dot(axes[3], t_gimbal) + (fric[3] + stop_torque(3, q, qd, p, flags)),
+        dot(axes[4], t_gimbal) + (fric[4] + stop_torque(4, q, qd, p, flags)),
     )
 
 
 @njit(**_INLINE)
 def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q):
     """Fill Q (5) with :func:`forces`."""
-    Qt = forces(q, qd, z, flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
+    Qt = forces(q, qd, friction_torques(qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
     for k in range(5):
         Q[k] = Qt[k]
 
@@ -356,7 +381,7 @@ def accelerations(q, qd, z, flaps, u, p, flags, free_idx, n_free, tabs, M, hvec,
     """Joint accelerations qdd (5; zero for locked joints) of the joint-space model, with M, h and Q of
     M qdd + h = Q written to M, hvec and Q (jv: unused scratch, kept for callers)."""
     Mt, ht, kin = mass_matrix_terms(q, qd, p)
-    Qt = forces(q, qd, z, flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
+    Qt = forces(q, qd, friction_torques(qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
     r = (Qt[0] - ht[0], Qt[1] - ht[1], Qt[2] - ht[2], Qt[3] - ht[3], Qt[4] - ht[4])
     x = solve_free(Mt, r, free_mask(free_idx, n_free))
     store_mass_matrix(Mt, ht, M, hvec)

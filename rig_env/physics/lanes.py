@@ -20,6 +20,13 @@ Why the layout is what it is (each rule was found by making a probe's loop fail 
 3. it branches on nothing but values (every per-environment choice is a select; the model's flags are
    the same for every lane).
 
+A choice that is the same for every lane still costs both sides inside such a loop (the vectoriser
+turns it into a select).  So the joints' friction and bristle updates, the costliest part of the
+right-hand side per joint (NUMERICS_NOTES: friction's exponentials), run in loops of their own, one per
+joint, entered only for the free joints (:func:`stage_friction`, :func:`bristles`): a locked joint's
+friction is never computed.  With two free joints (velocity-vector roll) that made the lane kernel
+about 12 % faster (median of four alternating A/B runs, ``benchmarks/RESULTS.md``).
+
 The high-incidence tables (``F_NONLINEAR``) need a table search per evaluation, which no lane can
 share: :func:`supports` says False for them and callers use the per-environment kernel.
 
@@ -41,7 +48,7 @@ from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.integrator import N_Y, RK_C, RK_W, push_demands
-from rig_env.physics.joint_space import forces, free_mask, mass_matrix_terms, solve_free
+from rig_env.physics.joint_space import forces, free_mask, friction_torque, mass_matrix_terms, solve_free
 from rig_env.physics.vmath import FASTMATH
 
 W = 8
@@ -61,7 +68,8 @@ OFF_Y0 = OFF_UD + 7 * W  # RK state at the start of the physics step, N_Y
 OFF_K = OFF_Y0 + N_Y * W  # the last stage's derivative, N_Y
 OFF_ACC = OFF_K + N_Y * W  # the stages' weighted sum, N_Y
 OFF_DECAY = OFF_ACC + N_Y * W  # each joint's bristle decay (a, e) over h/2 at the rates of the last half step, 10
-BLOCK = OFF_DECAY + 10 * W
+OFF_FRIC = OFF_DECAY + 10 * W  # each joint's friction torque at the current RK stage, 5
+BLOCK = OFF_FRIC + 5 * W
 _ZERO_Y = (0.0,) * N_Y
 
 
@@ -91,7 +99,7 @@ def _storer(n: int):
 
 
 load5, load7, load10, load24, load_params = _loader(5), _loader(7), _loader(10), _loader(N_Y), _loader(L.N_PARAMS)
-store5, store7, store10, store24 = _storer(5), _storer(7), _storer(10), _storer(N_Y)
+store7, store10, store24 = _storer(7), _storer(10), _storer(N_Y)
 
 
 @intrinsic
@@ -105,14 +113,15 @@ def _pointer(typingctx, address):
 
 
 @njit(**_INLINE)
-def rhs_values(y, z, ud, u, p, flags, free, tabs):
+def rhs_values(y, fric, ud, u, p, flags, free, tabs):
     """Time derivative (N_Y-tuple) of the RK state y (q 5, qd 5, servo positions 7, servo rates 7), with the
-    bristle states z and the delayed demands ud held; locked joints do not move."""
+    joints' friction torques fric (at y's rates and the held bristle states) and the delayed demands ud
+    held; locked joints do not move."""
     q = y[0:5]
     qd = y[5:10]
     flaps = y[10:17] if flags & L.F_SERVO else ud
     Mt, ht, kin = mass_matrix_terms(q, qd, p)
-    Qt = forces(q, qd, z, flaps, u, p, flags, tabs, kin, False, True)
+    Qt = forces(q, qd, fric, flaps, u, p, flags, tabs, kin, False, True)
     qdd = solve_free(Mt, (Qt[0] - ht[0], Qt[1] - ht[1], Qt[2] - ht[2], Qt[3] - ht[3], Qt[4] - ht[4]), free)
     servo = (flags & L.F_SERVO) != 0
     return (
@@ -132,32 +141,69 @@ def rhs_values(y, z, ud, u, p, flags, free, tabs):
 
 
 @njit(**_INLINE)
-def half_bristle_step(row, lane, p, free, friction, h, reuse):
-    """Bristle states of the free joints over h/2 at the lane's joint rates (exact, eq. 19), in place;
-    unchanged without friction.
+def joint_bristles(row, j, dt, reuse):
+    """Every lane: joint j's bristle state over dt = h/2 at the lane's joint rate (exact, eq. 19), in place.
 
     The decay (a, e) depends on the joint rate only, and the rate at the end of one physics step is the
     rate at the start of the next, bit for bit: with ``reuse`` (a compile-time constant wherever this is
     inlined) the decay the previous half step stored in the row is taken rather than recomputed, as
     :func:`rig_env.physics.integrator.half_bristle_step` does.  Without it the decay is computed and stored.
     """
-    qd = load5(row, OFF_X + L.X_QD * W, lane)
-    z = load5(row, OFF_X + L.X_Z * W, lane)
+    for lane in range(W):
+        v = row[OFF_X + (L.X_QD + j) * W + lane]
+        z = row[OFF_X + (L.X_Z + j) * W + lane]
+        if reuse:
+            a = row[OFF_DECAY + 2 * j * W + lane]
+            e = row[OFF_DECAY + (2 * j + 1) * W + lane]
+        else:
+            a, e = fr.bristle_decay(load_params(row, OFF_P, lane), j, v, dt)
+            row[OFF_DECAY + 2 * j * W + lane] = a
+            row[OFF_DECAY + (2 * j + 1) * W + lane] = e
+        row[OFF_X + (L.X_Z + j) * W + lane] = fr.advance_bristle_decay(v, z, dt, a, e)
+
+
+@njit(**_INLINE)
+def bristles(row, free, h, reuse):
+    """The free joints' bristle states over h/2 (call with friction on only).  One loop over the lanes per
+    free joint, chosen outside the loops: a locked joint costs nothing (inside a loop over the lanes a
+    choice, even one that is the same for every lane, becomes a select that computes both sides)."""
     dt = 0.5 * h
-    if reuse:
-        d = load10(row, OFF_DECAY, lane)
-    else:
-        d0, d1, d2 = fr.bristle_decay(p, 0, qd[0], dt), fr.bristle_decay(p, 1, qd[1], dt), fr.bristle_decay(p, 2, qd[2], dt)
-        d3, d4 = fr.bristle_decay(p, 3, qd[3], dt), fr.bristle_decay(p, 4, qd[4], dt)
-        d = (d0[0], d0[1], d1[0], d1[1], d2[0], d2[1], d3[0], d3[1], d4[0], d4[1])
-        store10(row, OFF_DECAY, lane, d)
-    store5(row, OFF_X + L.X_Z * W, lane, (
-        fr.advance_bristle_decay(qd[0], z[0], dt, d[0], d[1]) if free[0] & friction else z[0],
-        fr.advance_bristle_decay(qd[1], z[1], dt, d[2], d[3]) if free[1] & friction else z[1],
-        fr.advance_bristle_decay(qd[2], z[2], dt, d[4], d[5]) if free[2] & friction else z[2],
-        fr.advance_bristle_decay(qd[3], z[3], dt, d[6], d[7]) if free[3] & friction else z[3],
-        fr.advance_bristle_decay(qd[4], z[4], dt, d[8], d[9]) if free[4] & friction else z[4],
-    ))  # fmt: skip
+    if free[0]:
+        joint_bristles(row, 0, dt, reuse)
+    if free[1]:
+        joint_bristles(row, 1, dt, reuse)
+    if free[2]:
+        joint_bristles(row, 2, dt, reuse)
+    if free[3]:
+        joint_bristles(row, 3, dt, reuse)
+    if free[4]:
+        joint_bristles(row, 4, dt, reuse)
+
+
+@njit(**_INLINE)
+def joint_friction(row, j, c, first):
+    """Every lane: joint j's friction torque at the RK stage's rate (start rate + c times the last stage's
+    derivative, as the stage state is formed) and the held bristle state, into row[OFF_FRIC]."""
+    for lane in range(W):
+        v0 = row[OFF_Y0 + (5 + j) * W + lane]
+        v = v0 if first else v0 + c * row[OFF_K + (5 + j) * W + lane]
+        z = row[OFF_X + (L.X_Z + j) * W + lane]
+        row[OFF_FRIC + j * W + lane] = friction_torque(j, v, z, load_params(row, OFF_P, lane), L.F_FRICTION)
+
+
+@njit(**_INLINE)
+def stage_friction(row, free, c, first):
+    """The free joints' friction torques at one RK stage (call with friction on only; as :func:`bristles`)."""
+    if free[0]:
+        joint_friction(row, 0, c, first)
+    if free[1]:
+        joint_friction(row, 1, c, first)
+    if free[2]:
+        joint_friction(row, 2, c, first)
+    if free[3]:
+        joint_friction(row, 3, c, first)
+    if free[4]:
+        joint_friction(row, 4, c, first)
 
 
 @njit(**_INLINE)
@@ -174,10 +220,11 @@ def axpy24(a, x, y):
 
 @njit(**_INLINE)
 def start_step(row, free, friction, h, reuse_decay):
-    """Every lane: bristles over h/2, then the RK start state (reuse_decay: see :func:`half_bristle_step`;
-    a compile-time constant at each call site, so the loop has no branch)."""
+    """Bristles over h/2, then every lane's RK start state (reuse_decay: see :func:`joint_bristles`; a
+    compile-time constant at each call site, so the loops have no branch)."""
+    if friction:
+        bristles(row, free, h, reuse_decay)
     for lane in range(W):
-        half_bristle_step(row, lane, load_params(row, OFF_P, lane), free, friction, h, reuse_decay)
         store24(row, OFF_Y0, lane, load10(row, OFF_X, lane) + load7(row, OFF_X + L.X_SERVO * W, lane) + load7(row, OFF_X + L.X_SERVO_RATE * W, lane))
 
 
@@ -195,25 +242,29 @@ def physics_step(row, flags, free, tabs, h, reuse_decay):
         start_step(row, free, friction, h, True)
     else:
         start_step(row, free, friction, h, False)
+    f0, f1, f2, f3, f4 = free
     for s in range(4):  # the four stages, each a loop over the lanes (one copy of the right-hand side in the code)
         c = RK_C[s] * h
         wgt = RK_W[s]
         first = s == 0
+        if friction:  # the free joints' friction, each in a loop of its own (a locked joint's is never computed)
+            stage_friction(row, free, c, first)
         for lane in range(W):
             y0 = load24(row, OFF_Y0, lane)
             yt = y0 if first else axpy24(c, load24(row, OFF_K, lane), y0)
+            t = load5(row, OFF_FRIC, lane)
+            on = (f0 & friction, f1 & friction, f2 & friction, f3 & friction, f4 & friction)
+            fric = (t[0] if on[0] else 0.0, t[1] if on[1] else 0.0, t[2] if on[2] else 0.0, t[3] if on[3] else 0.0, t[4] if on[4] else 0.0)
             k = rhs_values(
-                yt, load5(row, OFF_X + L.X_Z * W, lane), load7(row, OFF_UD, lane), load10(row, OFF_U, lane),
-                load_params(row, OFF_P, lane), flags, free, tabs,
+                yt, fric, load7(row, OFF_UD, lane), load10(row, OFF_U, lane), load_params(row, OFF_P, lane), flags, free, tabs,
             )  # fmt: skip
             store24(row, OFF_K, lane, k)
             acc = load24(row, OFF_ACC, lane)
             store24(row, OFF_ACC, lane, axpy24(wgt, k, _ZERO_Y if first else acc))
-    for lane in range(W):  # the RK4 step, bristles over the second h/2, servo limits
+    for lane in range(W):  # the RK4 step and servo limits; then the bristles over the second h/2
         p = load_params(row, OFF_P, lane)
         y = axpy24(h, load24(row, OFF_ACC, lane), load24(row, OFF_Y0, lane))
         store10(row, OFF_X, lane, y[0:10])
-        half_bristle_step(row, lane, p, free, friction, h, False)
         ud = load7(row, OFF_UD, lane)
         s0, s1, s2, s3 = sv.project(p, 0, y[10], y[17]), sv.project(p, 1, y[11], y[18]), sv.project(p, 2, y[12], y[19]), sv.project(p, 3, y[13], y[20])
         s4, s5, s6 = sv.project(p, 4, y[14], y[21]), sv.project(p, 5, y[15], y[22]), sv.project(p, 6, y[16], y[23])
@@ -225,6 +276,8 @@ def physics_step(row, flags, free, tabs, h, reuse_decay):
             s0[1] if servo else 0.0, s1[1] if servo else 0.0, s2[1] if servo else 0.0, s3[1] if servo else 0.0,
             s4[1] if servo else 0.0, s5[1] if servo else 0.0, s6[1] if servo else 0.0,
         ))  # fmt: skip
+    if friction:
+        bristles(row, free, h, False)
 
 
 @njit(**_JIT_BATCH)  # with NRT: numba.carray's implementation returns an array
