@@ -199,11 +199,12 @@ print(json.dumps({"import_s": t1 - t0, "first_call_s": t3 - t2, "second_call_s":
 """
 
 
-def compile_times(stepper: str = "lanes_stepper") -> dict:
-    """First-call time of a kernel in fresh interpreters: empty numba cache, then warm cache."""
+def compile_times(stepper: str = "lanes_stepper", extra_env: dict[str, str] | None = None) -> dict:
+    """First-call time of a kernel in fresh interpreters: empty numba cache, then warm cache.
+    extra_env: more environment variables for both interpreters (e.g. ``RIG_ENV_FAST_INLINE``)."""
     out = {}
     with tempfile.TemporaryDirectory(prefix="rig_bench_numba_") as cache:
-        env = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""), **(extra_env or {}))
         for label in ("cold", "cached"):
             r = subprocess.run([sys.executable, "-c", _COMPILE_SNIPPET, stepper], env=env, cwd=ROOT, capture_output=True, text=True, timeout=900)
             if r.returncode != 0:
