@@ -63,7 +63,12 @@ def test_installed_in_this_process():
 def test_nested_inlined_tree_computes_what_python_computes():
     xs = np.linspace(-3.0, 3.0, 41)
     expected = np.array([_mid.py_func(x, 0.5 * x) + _mid.py_func(-x, 2.0) + _leaf.py_func(x) for x in xs])
-    np.testing.assert_allclose(_top(xs), expected, rtol=1e-14, atol=1e-14)
+    before = fast_inline.inlined
+    got = _top(xs)  # compiles here: every inline site of the tree goes through the fix
+    if fast_inline.installed():
+        # _top: 2 x _mid + _leaf; each _mid: 2 x _pair + _leaf; each _pair: 4 x _leaf (two in the loop body)
+        assert fast_inline.inlined - before == 3 + 2 * (3 + 2 * 4)
+    np.testing.assert_allclose(got, expected, rtol=1e-14, atol=1e-14)
 
 
 def test_ordinary_block_deepcopy_is_a_real_copy():

@@ -27,6 +27,8 @@ import threading
 
 _state = threading.local()
 _installed = False
+inlined = 0
+"""Call sites inlined through the fix in this process (for tests and diagnostics)."""
 
 
 def _fresh() -> bool:
@@ -60,7 +62,9 @@ def install() -> bool:
         return False
 
     def inline_function(self, caller_ir, block, i, function, arg_typs=None):
+        global inlined
         callee_ir = self.run_untyped_passes(function)  # new IR, for this call site only
+        inlined += 1
         previous = _fresh()
         _state.fresh = True
         try:
