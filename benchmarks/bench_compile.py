@@ -15,14 +15,12 @@ and the environment's bookkeeping kernels.
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks.bench_step import compile_times  # noqa: E402
+from benchmarks.bench_step import at_least_one, compile_times, machine_line  # noqa: E402
 
 STEPPERS = {"lanes": "lanes_stepper", "joint": "joint_stepper", "dae": "dae_stepper"}
 
@@ -30,12 +28,9 @@ STEPPERS = {"lanes": "lanes_stepper", "joint": "joint_stepper", "dae": "dae_step
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--kernels", nargs="+", choices=sorted(STEPPERS), default=["lanes", "joint", "dae"])
-    ap.add_argument("--rounds", type=int, default=1, help="repeat each pair of measurements")
+    ap.add_argument("--rounds", type=at_least_one, default=1, help="repeat each pair of measurements")
     args = ap.parse_args()
-    if args.rounds < 1:
-        ap.error(f"--rounds must be >= 1, got {args.rounds}")
-    load = open("/proc/loadavg").read().split()[0] if os.path.exists("/proc/loadavg") else "?"
-    print(f"# {platform.machine()}, {os.cpu_count()} CPUs, python {platform.python_version()}, load average {load}")
+    print(f"# {machine_line()}")
     print("| kernel | round | cold compile, fix on (s) | cold compile, fix off (s) | off / on | cache load, fix on (s) |")
     print("|---|---|---|---|---|---|")
     for name in args.kernels:

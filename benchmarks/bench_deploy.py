@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import subprocess
 import sys
 import tempfile
@@ -96,15 +95,6 @@ def observation_cost(law: Path, calls: int = 20_000) -> float:
     return (time.perf_counter() - t0) / calls
 
 
-def machine() -> str:
-    cpu = "unknown CPU"
-    try:
-        cpu = next(ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    return f"{cpu}, {os.cpu_count()} vCPUs, Python {platform.python_version()}, load average {os.getloadavg()[0]:.1f} at start"
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seconds", type=float, default=10.0)
@@ -116,7 +106,9 @@ def main() -> None:
     if a.runtime_only and a.write:
         ap.error("--write replaces the whole section: run it without --runtime-only")
     sys.path.insert(0, str(ROOT))
-    lines = [f"Command: `python benchmarks/bench_deploy.py --seconds {a.seconds:g}{' --realtime' if a.realtime else ''}`.  Machine: {machine()}.", ""]
+    from benchmarks.bench_step import machine_line
+
+    lines = [f"Command: `python benchmarks/bench_deploy.py --seconds {a.seconds:g}{' --realtime' if a.realtime else ''}`.  Machine: {machine_line()}.", ""]
     if not a.runtime_only:
         lines += ["| rate | scheduling | ticks | deadline misses | latency p50 / p99 / max, ms | wake jitter std / p99 / max, ms | missed frames | law act p50, ms |",
                   "|---|---|---|---|---|---|---|---|"]

@@ -16,15 +16,18 @@ the range of the per-round ratio vector / sync (the figure the issue's 50x targe
 from __future__ import annotations
 
 import argparse
-import os
-import platform
+import sys
 import time
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 
-import rig_env.envs  # noqa: F401  (registers the ids)
-from rig_env.envs import RigEnv, RigVectorEnv
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import rig_env.envs  # noqa: E402, F401  (registers the ids)
+from benchmarks.bench_step import at_least_one, machine_line  # noqa: E402
+from rig_env.envs import RigEnv, RigVectorEnv  # noqa: E402
 
 ENV_ID = "rig_env/VelocityVectorRoll-v0"
 
@@ -88,17 +91,15 @@ def main() -> None:
     ap.add_argument("--sizes", type=int, nargs="+", default=[1, 64, 1024])
     ap.add_argument("--seconds", type=float, default=2.0)
     ap.add_argument("--sync-max", type=int, default=1024, help="largest batch for the SyncVectorEnv comparison")
-    ap.add_argument("--repeats", type=int, default=3, help="rounds of timing windows (contenders alternate within a round)")
+    ap.add_argument("--repeats", type=at_least_one, default=3, help="rounds of timing windows (contenders alternate within a round)")
     args = ap.parse_args()
-    if args.repeats < 1:
-        ap.error(f"--repeats must be >= 1, got {args.repeats}")
-    load = open("/proc/loadavg").read().split()[0] if os.path.exists("/proc/loadavg") else "?"
-    print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, numpy {np.__version__}, load average {load}")
+    print(f"# {machine_line()}, numpy {np.__version__}")
     print(f"# first step (numba compile or cache load): serial kernel {first_step_seconds(1):.2f} s, "
           f"parallel kernel {first_step_seconds(64):.2f} s; not included in the rates below")
     print(f"# median of {args.repeats} rounds of {args.seconds:g} s windows; vector / sync: median [min, max] of the per-round ratios")
-    print("| n_envs | RigVectorEnv steps/s | SyncVectorEnv(RigEnv) steps/s | raw physics steps/s | vector / sync | vector / raw | env overhead ms/step |")
-    print("|---|---|---|---|---|---|---|")
+    print("# raw / sync: the ceiling of vector / sync, were the environment's own work (sensors, task, metrics) free")
+    print("| n_envs | RigVectorEnv steps/s | SyncVectorEnv(RigEnv) steps/s | raw physics steps/s | vector / sync | raw / sync | vector / raw | env overhead ms/step |")
+    print("|---|---|---|---|---|---|---|---|")
     for n in args.sizes:
         r = bench(n, args.seconds, args.sync_max, args.repeats)
         vec, raw = float(np.median(r["RigVectorEnv"])), float(np.median(r["raw physics"]))
@@ -109,7 +110,7 @@ def main() -> None:
         else:
             s, vs = float("nan"), "-"
         overhead_ms = 1e3 * n * (1.0 / vec - 1.0 / raw)
-        print(f"| {n} | {vec:.0f} | {s:.0f} | {raw:.0f} | {vs} | {vec / raw:.2f} | {overhead_ms:.3f} |", flush=True)
+        print(f"| {n} | {vec:.0f} | {s:.0f} | {raw:.0f} | {vs} | {raw / s:.1f} | {vec / raw:.2f} | {overhead_ms:.3f} |", flush=True)
     print(f"# rendering: {render_ms():.1f} ms per rgb_array frame (median of 40, 448 x 1024)")
 
 

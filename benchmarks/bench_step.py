@@ -71,13 +71,18 @@ FLAGS = flags_of(aero=True, friction=True, stops=True, servo=True, nonlinear_aer
 def machine() -> dict:
     """CPU model, logical CPUs available to this process, numba threads, load at start."""
     model = platform.processor() or "unknown"
+    fields: dict[str, str] = {}
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
+            key, _, value = line.partition(":")
+            fields.setdefault(key.strip(), value.strip())
+            if not line.strip():
+                break  # the first processor's block
     except OSError:
         pass
+    model = fields.get("model name", model)
+    if "cpu family" in fields and "model" in fields:  # the generation, which a bare "AMD EPYC" does not tell
+        model += f" (family {fields['cpu family']} model {fields['model']})"
     import numba
 
     return {
@@ -88,6 +93,25 @@ def machine() -> dict:
         "python": platform.python_version(),
         "numba": numba.__version__,
     }
+
+
+def machine_line() -> str:
+    """:func:`machine` as the one-line header the benchmarks print above their tables."""
+    m = machine()
+    load = f"{m['load_average_at_start'][0]:.2f}" if m["load_average_at_start"] else "unknown"
+    return (f"{m['cpu']}, {m['cpus_available']} CPUs, numba {m['numba']} with {m['numba_threads']} threads, "
+            f"Python {m['python']}, load average {load} at start")
+
+
+def at_least_one(text: str) -> int:
+    """argparse type of the benchmarks' counts (rounds, repeats): an integer >= 1."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {v}")
+    return v
 
 
 def setup(params: RigParams, n: int, seed: int = 0) -> dict:
