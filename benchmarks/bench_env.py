@@ -7,6 +7,9 @@ load happen before timing (their time is printed apart).  Steps/s counts environ
 substeps each) per wall-clock second.  The raw batch is ``RigVectorEnv.advance_physics`` (the lane kernel,
 ``rig_env.physics.lanes``) on the environment's own arrays: the cost of the physics alone; "env overhead" is the wall time per batch step of
 RigVectorEnv minus that of the raw batch (the environment's own bookkeeping: sensors, noise, task, metrics).
+"raw / sync" is the ceiling of "vector / sync": the ratio were that bookkeeping free (the scalar env's
+step is mostly per-call Python and one block of the lane kernel, so the ratio cannot exceed it; see
+``benchmarks/RESULTS.md`` on why a faster shared per-call path lowers the ratio).
 
 Each rate is measured ``--repeats`` times, the three contenders taking turns window by window, so that a
 slow spell of the shared machine falls on all of them alike; the table gives the median rate of each and
