@@ -11,6 +11,12 @@ RigVectorEnv minus that of the raw batch (the environment's own bookkeeping: sen
 step is mostly per-call Python and one block of the lane kernel, so the ratio cannot exceed it; see
 ``benchmarks/RESULTS.md`` on why a faster shared per-call path lowers the ratio).
 
+Two more scalar contenders, for information: ``make_vec(..., vectorization_mode="sync")`` (what a user
+gets by asking gymnasium for a SyncVectorEnv of the registered id: ``RigEnv`` inside gymnasium's standard
+wrappers) and a ``SyncVectorEnv`` of ``RigEnv`` switched to the per-environment kernel
+(``rig_env.physics.integrator``: one environment, no idle lanes; not what ``RigEnv`` runs, which is the
+batch of one on the lane kernel, seven lanes idle, so that it equals environment i of a batch bit for bit).
+
 Each rate is measured ``--repeats`` times, the three contenders taking turns window by window, so that a
 slow spell of the shared machine falls on all of them alike; the table gives the median rate of each and
 the range of the per-round ratio vector / sync (the figure the issue's 50x target is about).
@@ -31,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import rig_env.envs  # noqa: E402, F401  (registers the ids)
 from benchmarks.bench_step import at_least_one, machine_line  # noqa: E402
 from rig_env.envs import RigEnv, RigVectorEnv  # noqa: E402
+from rig_env.physics import integrator as integ  # noqa: E402
 
 ENV_ID = "rig_env/VelocityVectorRoll-v0"
 
@@ -46,6 +53,14 @@ def _rate(step, n_envs: int, seconds: float) -> float:
     return k * n_envs / (time.perf_counter() - t0)
 
 
+def per_env_kernel_rig_env() -> RigEnv:
+    """A RigEnv whose batch of one runs the per-environment kernel (``integrator.step_serial``) rather than
+    the lane kernel: the fastest scalar environment this code could make, for the table's information column."""
+    env = RigEnv()
+    env.vec._lanes, env.vec._work, env.vec._kernel = False, integ.new_work(1), integ.step_serial
+    return env
+
+
 def bench(n: int, seconds: float, sync_max: int, repeats: int) -> dict[str, list[float]]:
     """Rates (steps/s) of each contender, one per round; the contenders alternate within a round."""
     rng = np.random.default_rng(0)
@@ -58,11 +73,25 @@ def bench(n: int, seconds: float, sync_max: int, repeats: int) -> dict[str, list
         sync = gym.vector.SyncVectorEnv([lambda: RigEnv() for _ in range(n)], autoreset_mode=gym.vector.AutoresetMode.SAME_STEP)
         sync.reset(seed=0)
         steps["SyncVectorEnv(RigEnv)"] = lambda: sync.step(a)
+        made = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="sync")
+        made.reset(seed=0)
+        steps["make_vec sync"] = lambda: made.step(a)
+        per_env = gym.vector.SyncVectorEnv([per_env_kernel_rig_env for _ in range(n)], autoreset_mode=gym.vector.AutoresetMode.SAME_STEP)
+        per_env.reset(seed=0)
+        steps["SyncVectorEnv(per-env kernel)"] = lambda: per_env.step(a)
     out: dict[str, list[float]] = {k: [] for k in steps}
     for _ in range(repeats):
         for k, step in steps.items():
             out[k].append(_rate(step, n, seconds))
     return out
+
+
+def _ratio(r: dict[str, list[float]], sync: str) -> str:
+    """'median [min, max]' of the per-round ratios RigVectorEnv / ``sync``; '-' when ``sync`` was not run."""
+    if sync not in r:
+        return "-"
+    ratios = np.array(r["RigVectorEnv"]) / np.array(r[sync])
+    return f"{np.median(ratios):.1f} [{ratios.min():.1f}, {ratios.max():.1f}]"
 
 
 def first_step_seconds(n: int) -> float:
@@ -101,19 +130,17 @@ def main() -> None:
           f"parallel kernel {first_step_seconds(64):.2f} s; not included in the rates below")
     print(f"# median of {args.repeats} rounds of {args.seconds:g} s windows; vector / sync: median [min, max] of the per-round ratios")
     print("# raw / sync: the ceiling of vector / sync, were the environment's own work (sensors, task, metrics) free")
-    print("| n_envs | RigVectorEnv steps/s | SyncVectorEnv(RigEnv) steps/s | raw physics steps/s | vector / sync | raw / sync | vector / raw | env overhead ms/step |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("# for information: vector / make_vec(sync) and vector / SyncVectorEnv of RigEnv on the per-environment kernel, same rounds")
+    print("| n_envs | RigVectorEnv steps/s | SyncVectorEnv(RigEnv) steps/s | raw physics steps/s | vector / sync | raw / sync | vector / raw "
+          "| env overhead ms/step | vector / make_vec sync | vector / per-env-kernel sync |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for n in args.sizes:
         r = bench(n, args.seconds, args.sync_max, args.repeats)
         vec, raw = float(np.median(r["RigVectorEnv"])), float(np.median(r["raw physics"]))
-        if "SyncVectorEnv(RigEnv)" in r:
-            s = float(np.median(r["SyncVectorEnv(RigEnv)"]))
-            ratios = np.array(r["RigVectorEnv"]) / np.array(r["SyncVectorEnv(RigEnv)"])
-            vs = f"{np.median(ratios):.1f} [{ratios.min():.1f}, {ratios.max():.1f}]"
-        else:
-            s, vs = float("nan"), "-"
+        vs, vm, vp = (_ratio(r, k) for k in ("SyncVectorEnv(RigEnv)", "make_vec sync", "SyncVectorEnv(per-env kernel)"))
+        s = float(np.median(r["SyncVectorEnv(RigEnv)"])) if "SyncVectorEnv(RigEnv)" in r else float("nan")
         overhead_ms = 1e3 * n * (1.0 / vec - 1.0 / raw)
-        print(f"| {n} | {vec:.0f} | {s:.0f} | {raw:.0f} | {vs} | {raw / s:.1f} | {vec / raw:.2f} | {overhead_ms:.3f} |", flush=True)
+        print(f"| {n} | {vec:.0f} | {s:.0f} | {raw:.0f} | {vs} | {raw / s:.1f} | {vec / raw:.2f} | {overhead_ms:.3f} | {vm} | {vp} |", flush=True)
     print(f"# rendering: {render_ms():.1f} ms per rgb_array frame (median of 40, 448 x 1024)")
 
 
