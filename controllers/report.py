@@ -9,6 +9,7 @@ hatched) and ``report.md``.
 from __future__ import annotations
 
 import math
+import textwrap
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -111,12 +112,16 @@ def plot_metrics(cmp: "Comparison", path: Path) -> Path:
                 bars = ax.bar(x, vals, width, color=COLORS[li % len(COLORS)], hatch="//" if mode != "nominal" else None,
                               edgecolor="k", lw=0.4, alpha=0.9 if mode == "nominal" else 0.55, label=f"{law} ({mode})")
                 if key == "success_rate":  # a zero bar is invisible: print every value
-                    ax.bar_label(bars, labels=[("-" if not np.isfinite(v) else f"{v:.0f}") for v in vals], fontsize=6, padding=1)
+                    # upright, so that neighbouring bars' numbers do not run into one another
+                    ax.bar_label(bars, labels=[("-" if not np.isfinite(v) else f"{v:.0f}") for v in vals], fontsize=6, padding=1, rotation=90)
         ax.set_xticks(np.arange(len(tasks)))
-        ax.set_xticklabels([t.replace("_", " ") for t in tasks], fontsize=8)
+        ax.set_xticklabels([textwrap.fill(t.replace("_", " "), 10, break_long_words=False) for t in tasks], fontsize=7)  # wrapped: side by side they overlap
+        for ti, task in enumerate(tasks):  # a task without this metric (no step segments) says so, not an empty slot
+            if not any(np.isfinite(x[key]) for x in cmp.rows if x["task"] == task):
+                ax.text(ti, 0.0, "n/a", ha="center", va="bottom", fontsize=7, color="0.4")
         ax.set_title(label, fontsize=10)
         if key == "success_rate":
-            ax.set_ylim(0, 110)
+            ax.set_ylim(0, 120)
         ax.grid(axis="y", alpha=0.3)
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 8), fontsize=8, frameon=False)
