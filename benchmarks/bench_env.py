@@ -2,7 +2,7 @@
 
     python benchmarks/bench_env.py [--sizes 1 64 1024] [--seconds 2]
 
-All three in the same run (the machines are shared and noisy: compare ratios).  Compile and cache
+All in the same run (the machines are shared and noisy: compare ratios).  Compile and cache
 load happen before timing (their time is printed apart).  Steps/s counts environment control steps (80 Hz, 5 physics
 substeps each) per wall-clock second.  The raw batch is ``RigVectorEnv.advance_physics`` (the lane kernel,
 ``rig_env.physics.lanes``) on the environment's own arrays: the cost of the physics alone; "env overhead" is the wall time per batch step of
@@ -17,7 +17,7 @@ wrappers) and a ``SyncVectorEnv`` of ``RigEnv`` switched to the per-environment 
 (``rig_env.physics.integrator``: one environment, no idle lanes; not what ``RigEnv`` runs, which is the
 batch of one on the lane kernel, seven lanes idle, so that it equals environment i of a batch bit for bit).
 
-Each rate is measured ``--repeats`` times, the three contenders taking turns window by window, so that a
+Each rate is measured ``--repeats`` times, the contenders taking turns window by window, so that a
 slow spell of the shared machine falls on all of them alike; the table gives the median rate of each and
 the range of the per-round ratio vector / sync (the figure the issue's 50x target is about).
 """
