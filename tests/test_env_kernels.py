@@ -62,7 +62,7 @@ def test_streams_equal_the_numpy_splitmix_box_muller(n):
             np.testing.assert_array_equal(rs.uniform(keys, episode, step, stream, k), _uniform_np(keys, episode, step, stream, k))
             np.testing.assert_array_equal(rs.uniform(keys, episode, 0, stream, k), _uniform_np(keys, episode, 0, stream, k))
             z = rs.normal(keys, episode, step, stream, k)
-            assert z.shape == (n, k) and z.flags.c_contiguous
+            assert z.shape == (n, k) and z.T.flags.c_contiguous  # channel-major: Sensors.update reads it without a copy
             np.testing.assert_allclose(z, _normal_np(keys, episode, step, stream, k), rtol=0.0, atol=3e-15)
             np.testing.assert_array_equal(z[-1:], rs.normal(keys[-1:], episode[-1:], step[-1:], stream, k))  # alone = in a batch
 

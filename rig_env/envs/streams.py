@@ -181,7 +181,11 @@ def uniform(keys: np.ndarray, episode: np.ndarray, step: np.ndarray | int, strea
 
 
 def normal(keys: np.ndarray, episode: np.ndarray, step: np.ndarray | int, stream: int, k: int) -> np.ndarray:
-    """(m, k) standard normals: Box-Muller ``sqrt(-2 log(1 - u_j)) cos(2 pi u_{k+j})`` on 2k uniforms of the stream."""
+    """(m, k) standard normals: Box-Muller ``sqrt(-2 log(1 - u_j)) cos(2 pi u_{k+j})`` on 2k uniforms of the stream.
+
+    The array is the transpose of the (k, m) array the kernel fills (Fortran order, no copy): its ``.T``
+    is C-contiguous, which is how :meth:`rig_env.envs.sensors.Sensors.update` reads it (a transposing
+    copy of 1024 environments' seven channels cost 5 us, an eighth of the draw)."""
     keys, ep, st = _counters(keys, episode, step)
     m = keys.shape[0]
     with np.errstate(over="ignore"):
@@ -191,4 +195,4 @@ def normal(keys: np.ndarray, episode: np.ndarray, step: np.ndarray | int, stream
         _normal_kernel_parallel(keys, ep, st, code, outT, np.empty(((m + NORMAL_BLOCK - 1) // NORMAL_BLOCK, NORMAL_BLOCK), dtype=np.uint64))
     else:
         _normal_kernel(keys, ep, st, code, outT, np.empty((1, NORMAL_BLOCK), dtype=np.uint64))
-    return np.ascontiguousarray(outT.T)
+    return outT.T
