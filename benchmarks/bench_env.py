@@ -37,7 +37,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import rig_env.envs  # noqa: E402, F401  (registers the ids)
 from benchmarks.bench_step import at_least_one, machine_line  # noqa: E402
 from rig_env.envs import RigEnv, RigVectorEnv  # noqa: E402
-from rig_env.physics import integrator as integ  # noqa: E402
 
 ENV_ID = "rig_env/VelocityVectorRoll-v0"
 
@@ -57,7 +56,7 @@ def per_env_kernel_rig_env() -> RigEnv:
     """A RigEnv whose batch of one runs the per-environment kernel (``integrator.step_serial``) rather than
     the lane kernel: the fastest scalar environment this code could make, for the table's information column."""
     env = RigEnv()
-    env.vec._lanes, env.vec._work, env.vec._kernel = False, integ.new_work(1), integ.step_serial
+    env.vec._select_kernel(False)
     return env
 
 

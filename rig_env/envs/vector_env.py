@@ -167,14 +167,7 @@ class RigVectorEnv(VectorEnv):
         # the physics: eight environments per SIMD register (rig_env.physics.lanes) unless the model has the
         # high-incidence tables, which only the per-environment kernel runs; chosen by the model alone, not
         # by the batch size, so a RigEnv (the batch of one) steps exactly as environment i of a batch
-        self._lanes = lanes.supports(self.flags)
-        self._params_changed = True  # P not yet packed into the lane kernel's scratch
-        if self._lanes:
-            self._work: tuple[np.ndarray, ...] = (lanes.new_work(n),)
-            self._kernel = lanes.step_lanes if n >= integ.PARALLEL_MIN_ENVS else lanes.step_lanes_serial
-        else:
-            self._work = integ.new_work(n)
-            self._kernel = integ.step_batch if n >= integ.PARALLEL_MIN_ENVS else integ.step_serial
+        self._select_kernel(lanes.supports(self.flags))
         self._k0 = 0
 
         self.task = task_cls(n, self.free_dofs, self.dt, self.episode_seconds, **cfg.task_options)
@@ -303,6 +296,20 @@ class RigVectorEnv(VectorEnv):
             bad = ~np.all(np.isfinite(a), axis=1)
             raise ValueError(f"actions: non-finite value(s) in environment(s) {np.flatnonzero(bad)[:10].tolist()}; actions must be finite numbers in [-1, 1]")
         return out
+
+    def _select_kernel(self, use_lanes: bool) -> None:
+        """Physics kernel and its scratch: the lane kernel (``use_lanes``, which needs ``lanes.supports(flags)``)
+        or the per-environment one; each the parallel version from ``integrator.PARALLEL_MIN_ENVS`` environments.
+        (``benchmarks/bench_env.py`` switches a RigEnv to the per-environment kernel through this.)"""
+        n = self.num_envs
+        self._lanes = use_lanes
+        self._params_changed = True  # P not yet packed into the lane kernel's scratch
+        if use_lanes:
+            self._work: tuple[np.ndarray, ...] = (lanes.new_work(n),)
+            self._kernel = lanes.step_lanes if n >= integ.PARALLEL_MIN_ENVS else lanes.step_lanes_serial
+        else:
+            self._work = integ.new_work(n)
+            self._kernel = integ.step_batch if n >= integ.PARALLEL_MIN_ENVS else integ.step_serial
 
     def advance_physics(self) -> None:
         """Advance the physics batch by one control step with the inputs in ``U`` (no task, sensors or
