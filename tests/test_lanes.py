@@ -47,7 +47,7 @@ def run_both(X, P, delay, dbuf, free_idx, flags, steps, rng, h=0.0025, n_sub=5):
     Xa, Xb, da, db = X.copy(), X.copy(), dbuf.copy(), dbuf.copy()
     sa, sb = np.zeros(n, np.int8), np.zeros(n, np.int8)
     Wk, MW = I.new_work(n)
-    S = LN.new_work(n)
+    S = LN.new_work(n, n_sub)
     tabs = RigParams.default().tables()
     for k in range(steps):
         U = np.zeros((n, L.N_INPUTS))
@@ -103,14 +103,15 @@ def test_the_lane_loops_are_vectorised(tmp_path):
     """The point of the kernel: its loops over the lanes compiled to packed (vector) instructions.  A change
     that brings a library call, a loop or an unanalysable memory access into them falls back to scalar
     code silently; this catches it (rig_env.physics.lanes lists the rules).  Reads the machine code of
-    step_lanes_serial (everything it calls linked in) from numba's disk cache, where it is an ELF object."""
+    step_lanes_serial (everything it calls linked in) from numba's disk cache, where it is an ELF object,
+    and counts the instructions of the physics step's own symbol."""
     objdump = shutil.which("objdump")
     if objdump is None:
         pytest.skip("needs objdump (Debian package binutils)")
     if "+avx2" not in llvm.get_host_cpu_features().flatten():
         pytest.skip("no 256-bit vectors on this processor (AVX2): the lane kernel runs scalar here")
     X, P, delay, dbuf, free_idx = batch(8, (0, 3), seed=0)
-    S, U, st = LN.new_work(8), np.zeros((8, L.N_INPUTS)), np.zeros(8, np.int8)
+    S, U, st = LN.new_work(8, 5), np.zeros((8, L.N_INPUTS)), np.zeros(8, np.int8)
     LN.step_lanes_serial(X, dbuf, 0, delay, P, U, ALL, free_idx, 2, RigParams.default().tables(), 0.0025, 5, st, S, True)
     cached = sorted(Path(LN.step_lanes_serial._cache._cache_path).glob("lanes.step_lanes_serial-*.nbc"), key=lambda f: f.stat().st_mtime)
     assert cached, "step_lanes_serial was not cached"
@@ -118,7 +119,39 @@ def test_the_lane_loops_are_vectorised(tmp_path):
     obj = tmp_path / "step_lanes_serial.o"
     obj.write_bytes(data[data.index(b"\x7fELF") :])
     asm = subprocess.run([objdump, "-d", str(obj)], capture_output=True, text=True, check=True).stdout
-    packed = len(re.findall(r"\bv\w+pd\s+[^\n]*%[yz]mm", asm))  # double-precision ops on 256/512-bit registers
-    scalar = len(re.findall(r"\bv\w+sd\s+[^\n]*%xmm", asm))  # ... on one double
-    assert packed > 2000, (packed, scalar)  # measured 5115 packed, 403 scalar (packing, delay lines, checks)
+    # the physics step's own machine code (its loops over the lanes): the packing, the delay lines and the
+    # checks around it are scalar by design and would dilute the count
+    parts = re.split(r"^[0-9a-f]+ <([^>]+)>:$", asm, flags=re.M)
+    step = "".join(body for name, body in zip(parts[1::2], parts[2::2]) if "physics_step" in name)
+    assert step, "no physics_step symbol in step_lanes_serial's object"
+    packed = len(re.findall(r"\bv\w+pd\s+[^\n]*%[yz]mm", step))  # double-precision ops on 256/512-bit registers
+    scalar = len(re.findall(r"\bv\w+sd\s+[^\n]*%xmm", step))  # ... on one double
+    assert packed > 2000, (packed, scalar)  # measured 4759 packed, 482 scalar on a Zen 4 (AVX-512)
     assert packed > 5 * scalar, (packed, scalar)
+
+
+@pytest.mark.parametrize("n_sub, n_buf", [(5, 13), (1, 4), (7, 3)])
+def test_delay_lines_staged_once_per_control_step_read_what_the_per_environment_kernel_reads(n_sub, n_buf):
+    """The lane kernel fills its delay lines once per control step (the commands are held over it); the
+    per-environment kernel pushes and reads them physics step by physics step.  With the buffer as short
+    as the longest delay allows (n_buf = max delay + 1, so the oldest slot is read just before it is
+    overwritten) and delays from 0 to beyond a control step, both read the same demands: the delay lines
+    end equal bit for bit and the states to rounding."""
+    n = 11
+    X, P, _, _, free_idx = batch(n, (0, 3), seed=n_sub)
+    delay = np.random.default_rng(n_buf).integers(0, n_buf, (n, 2)).astype(np.int64)
+    delay[0] = n_buf - 1, 0
+    dbuf = np.zeros((n, n_buf, 7))
+    Xa, Xb, sa, sb, da, db = run_both(X, P, delay, dbuf, free_idx, ALL, 30, np.random.default_rng(4), h=0.0125 / n_sub, n_sub=n_sub)
+    assert np.all(sa == 0) and np.all(sb == 0)
+    assert np.array_equal(da, db)
+    assert np.abs(Xb - Xa).max() < 1e-10
+
+
+def test_a_scratch_too_short_for_the_control_step_is_an_error():
+    X, P, delay, dbuf, free_idx = batch(8, (0, 3), seed=0)
+    S, U, st = LN.new_work(8, 4), np.zeros((8, L.N_INPUTS)), np.zeros(8, np.int8)
+    with pytest.raises(ValueError, match="n_sub"):
+        LN.step_lanes_serial(X, dbuf, 0, delay, P, U, ALL, free_idx, 2, RigParams.default().tables(), 0.0025, 5, st, S, True)
+    with pytest.raises(ValueError, match="n_sub"):
+        LN.new_work(8, 0)

@@ -305,7 +305,7 @@ class RigVectorEnv(VectorEnv):
         self._lanes = use_lanes
         self._params_changed = True  # P not yet packed into the lane kernel's scratch
         if use_lanes:
-            self._work: tuple[np.ndarray, ...] = (lanes.new_work(n),)
+            self._work: tuple[np.ndarray, ...] = (lanes.new_work(n, self.n_sub),)
             self._kernel = lanes.step_lanes if n >= integ.PARALLEL_MIN_ENVS else lanes.step_lanes_serial
         else:
             self._work = integ.new_work(n)

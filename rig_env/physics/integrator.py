@@ -141,10 +141,21 @@ def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w):
 
 
 @njit(**_JIT)
+def limited_demands(u, p):
+    """The seven actuators' demands (rad) from the surface commands u, within their position limits (a 7-tuple)."""
+    return (
+        sv.limited(p, 0, sv.demand(u, 0)), sv.limited(p, 1, sv.demand(u, 1)), sv.limited(p, 2, sv.demand(u, 2)),
+        sv.limited(p, 3, sv.demand(u, 3)), sv.limited(p, 4, sv.demand(u, 4)), sv.limited(p, 5, sv.demand(u, 5)),
+        sv.limited(p, 6, sv.demand(u, 6)),
+    )  # fmt: skip
+
+
+@njit(**_JIT)
 def push_demands(dbuf, slot, u, p):
     """Write the limited actuator demands of inputs u into delay-line slot (per environment)."""
+    d = limited_demands(u, p)
     for k in range(7):
-        dbuf[slot, k] = sv.limited(p, k, sv.demand(u, k))
+        dbuf[slot, k] = d[k]
 
 
 @njit(**_JIT)

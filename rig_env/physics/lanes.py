@@ -27,6 +27,13 @@ joint, entered only for the free joints (:func:`stage_friction`, :func:`bristles
 friction is never computed.  With two free joints (velocity-vector roll) that made the lane kernel
 about 12 % faster (median of four alternating A/B runs, ``benchmarks/RESULTS.md``).
 
+The delay lines index each environment's own buffer by its own delay, which no loop over the lanes can
+vectorise, so they are served once per control step rather than once per physics step
+(:func:`stage_demands`): the commands are held over the control step, so each environment's limited demand
+is computed once and the delayed demands of all its physics steps are staged in the block's row
+(``row_length(n_sub)`` floats; the per-environment kernel computes the demand every physics step).  The
+buffers end bit for bit as the per-environment kernel leaves them (``tests/test_lanes.py``).
+
 The high-incidence tables (``F_NONLINEAR``) need a table search per evaluation, which no lane can
 share: :func:`supports` says False for them and callers use the per-environment kernel.
 
@@ -47,7 +54,7 @@ from numba.extending import intrinsic
 from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
-from rig_env.physics.integrator import N_Y, RK_C, RK_W, push_demands
+from rig_env.physics.integrator import N_Y, RK_C, RK_W, limited_demands
 from rig_env.physics.joint_space import forces, free_mask, friction_torque, mass_matrix_terms, solve_free
 from rig_env.physics.vmath import FASTMATH
 
@@ -70,6 +77,8 @@ OFF_ACC = OFF_K + N_Y * W  # the stages' weighted sum, N_Y
 OFF_DECAY = OFF_ACC + N_Y * W  # each joint's bristle decay (a, e) over h/2 at the rates of the last half step, 10
 OFF_FRIC = OFF_DECAY + 10 * W  # each joint's friction torque at the current RK stage, 5
 BLOCK = OFF_FRIC + 5 * W
+"""Floats of a block's row before the staged demands (see :func:`row_length`)."""
+OFF_STAGE = BLOCK  # the delayed demands of every physics step of the control step, n_sub x 7
 _ZERO_Y = (0.0,) * N_Y
 
 
@@ -78,9 +87,17 @@ def supports(flags: int) -> bool:
     return not flags & L.F_NONLINEAR
 
 
-def new_work(n_envs: int) -> np.ndarray:
-    """Scratch of a batch: one row of BLOCK floats per block of W environments."""
-    return np.zeros(((n_envs + W - 1) // W, BLOCK))
+def row_length(n_sub: int) -> int:
+    """Floats in a block's row for control steps of n_sub physics steps: BLOCK, then the delayed demands of
+    each physics step of the control step (staged once per control step, :func:`stage_demands`)."""
+    return BLOCK + n_sub * 7 * W
+
+
+def new_work(n_envs: int, n_sub: int) -> np.ndarray:
+    """Scratch of a batch stepped n_sub physics steps per control step: one row per block of W environments."""
+    if n_sub < 1:
+        raise ValueError(f"n_sub = {n_sub}: must be an integer >= 1")
+    return np.zeros(((n_envs + W - 1) // W, row_length(n_sub)))
 
 
 def _loader(n: int):
@@ -280,6 +297,40 @@ def physics_step(row, flags, free, tabs, h, reuse_decay):
         bristles(row, free, h, False)
 
 
+@njit(**_JIT)
+def stage_demands(row, i0, n, dbuf, k0, delay_steps, P, U, n_sub):
+    """The delay lines of block row's environments (i0 ..) over one control step of n_sub physics steps, at
+    once: the limited demands of U go into the slots of physics steps k0 .. k0 + n_sub - 1 and the delayed
+    ones each physics step reads are staged in row[OFF_STAGE] (step s's at OFF_STAGE + s * 7 * W).
+
+    The commands are held over the control step, so the demand is computed once (not once per physics
+    step) and pushed n_sub times, each push before the read of its own physics step, as the per-environment
+    kernel does (a delay of up to n_buf - 1 steps reads a slot a later push overwrites); the slots move by
+    one per physics step, wrapped by comparison rather than an integer division per step.  Lanes past the
+    end of the batch repeat lane 0's demands."""
+    n_buf = dbuf.shape[1]
+    slot0 = k0 % n_buf
+    for lane in range(W):
+        i = i0 + lane
+        if i >= n:
+            for s in range(n_sub):
+                for a in range(7):
+                    row[OFF_STAGE + (7 * s + a) * W + lane] = row[OFF_STAGE + (7 * s + a) * W]
+            continue
+        d = limited_demands(U[i], P[i])
+        slot = slot0
+        read_comp = (k0 - delay_steps[i, 0]) % n_buf
+        read_hawk = (k0 - delay_steps[i, 1]) % n_buf
+        for s in range(n_sub):
+            for a in range(7):
+                dbuf[i, slot, a] = d[a]
+            for a in range(7):
+                row[OFF_STAGE + (7 * s + a) * W + lane] = dbuf[i, read_comp if a < 4 else read_hawk, a]
+            slot = slot + 1 if slot + 1 < n_buf else 0
+            read_comp = read_comp + 1 if read_comp + 1 < n_buf else 0
+            read_hawk = read_hawk + 1 if read_hawk + 1 < n_buf else 0
+
+
 @njit(**_JIT_BATCH)  # with NRT: numba.carray's implementation returns an array
 def advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S, pack_params):
     """Block b's environments over one control step: packed into the block's row, stepped, checked and
@@ -287,10 +338,10 @@ def advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub
     discarded; environments already flagged are stepped and discarded (they stay frozen).  The
     parameters are packed only with ``pack_params`` (they stay in the row from one step to the next)."""
     n = X.shape[0]
-    n_buf = dbuf.shape[1]
     # row b of S as an array whose strides LLVM sees as constants (a view S[b] keeps them as run-time values,
     # and the loops over the lanes are then not vectorised)
-    row = numba.carray(_pointer(S.ctypes.data + b * BLOCK * 8), (BLOCK,), np.float64)
+    m = S.shape[1]
+    row = numba.carray(_pointer(S.ctypes.data + b * m * 8), (m,), np.float64)
     i0 = b * W
     for lane in range(W):
         i = i0 + lane if i0 + lane < n else i0
@@ -301,20 +352,10 @@ def advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub
                 row[OFF_P + k * W + lane] = P[i, k]
         for k in range(L.N_INPUTS):
             row[OFF_U + k * W + lane] = U[i, k]
+    stage_demands(row, i0, n, dbuf, k0, delay_steps, P, U, n_sub)  # the delay lines: lane-dependent indices, scalar
     for s in range(n_sub):
-        k = k0 + s
-        slot = k % n_buf  # the same for every environment: one integer division, not one per lane and surface
-        for lane in range(W):  # the delay lines: lane-dependent indices, a scalar loop of its own
-            i = i0 + lane
-            if i < n:
-                push_demands(dbuf[i], slot, U[i], P[i])
-                read_comp = (k - delay_steps[i, 0]) % n_buf
-                read_hawk = (k - delay_steps[i, 1]) % n_buf
-                for a in range(7):
-                    row[OFF_UD + a * W + lane] = dbuf[i, read_comp if a < 4 else read_hawk, a]
-            else:
-                for a in range(7):
-                    row[OFF_UD + a * W + lane] = row[OFF_UD + a * W]
+        for lane in range(W):  # physics step s's delayed demands to the constant offset the step's loops read
+            store7(row, OFF_UD, lane, load7(row, OFF_STAGE + 7 * W * s, lane))
         physics_step(row, flags, free, tabs, h, s > 0)
     for lane in range(W):
         i = i0 + lane
@@ -347,6 +388,8 @@ def step_lanes(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h,
     holds from the previous call, for a caller that knows P has not changed since (RigVectorEnv: P
     changes only at a reset).
     """
+    if S.shape[1] < BLOCK + n_sub * 7 * W:
+        raise ValueError("S: too short a row for n_sub physics steps per control step (lanes.new_work(n_envs, n_sub))")
     free = free_mask(free_idx, n_free)
     for b in prange(S.shape[0]):
         advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S, pack_params)
@@ -355,6 +398,8 @@ def step_lanes(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h,
 @njit(**_JIT_BATCH)
 def step_lanes_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params):
     """Serial twin of :func:`step_lanes` (one block, or batches too small for a parallel launch)."""
+    if S.shape[1] < BLOCK + n_sub * 7 * W:
+        raise ValueError("S: too short a row for n_sub physics steps per control step (lanes.new_work(n_envs, n_sub))")
     free = free_mask(free_idx, n_free)
     for b in range(S.shape[0]):
         advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S, pack_params)
