@@ -49,7 +49,7 @@ import numba
 import numpy as np
 from numba import njit, prange, types
 from numba.core import cgutils
-from numba.extending import intrinsic
+from numba.extending import intrinsic, register_jitable
 
 from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
@@ -87,10 +87,19 @@ def supports(flags: int) -> bool:
     return not flags & L.F_NONLINEAR
 
 
+@register_jitable
 def row_length(n_sub: int) -> int:
     """Floats in a block's row for control steps of n_sub physics steps: BLOCK, then the delayed demands of
-    each physics step of the control step (staged once per control step, :func:`stage_demands`)."""
+    each physics step of the control step (staged once per control step, :func:`stage_demands`).  Plain
+    Python from Python, compiled inline in the kernels (numba's register_jitable)."""
     return BLOCK + n_sub * 7 * W
+
+
+@register_jitable
+def check_work(S, n_sub):
+    """ValueError unless the scratch S has rows long enough for n_sub physics steps per control step."""
+    if S.shape[1] < row_length(n_sub):
+        raise ValueError("S: too short a row for n_sub physics steps per control step (lanes.new_work(n_envs, n_sub))")
 
 
 def new_work(n_envs: int, n_sub: int) -> np.ndarray:
@@ -388,8 +397,7 @@ def step_lanes(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h,
     holds from the previous call, for a caller that knows P has not changed since (RigVectorEnv: P
     changes only at a reset).
     """
-    if S.shape[1] < BLOCK + n_sub * 7 * W:
-        raise ValueError("S: too short a row for n_sub physics steps per control step (lanes.new_work(n_envs, n_sub))")
+    check_work(S, n_sub)
     free = free_mask(free_idx, n_free)
     for b in prange(S.shape[0]):
         advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S, pack_params)
@@ -398,8 +406,7 @@ def step_lanes(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h,
 @njit(**_JIT_BATCH)
 def step_lanes_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params):
     """Serial twin of :func:`step_lanes` (one block, or batches too small for a parallel launch)."""
-    if S.shape[1] < BLOCK + n_sub * 7 * W:
-        raise ValueError("S: too short a row for n_sub physics steps per control step (lanes.new_work(n_envs, n_sub))")
+    check_work(S, n_sub)
     free = free_mask(free_idx, n_free)
     for b in range(S.shape[0]):
         advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S, pack_params)
