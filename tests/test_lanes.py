@@ -155,3 +155,12 @@ def test_a_scratch_too_short_for_the_control_step_is_an_error():
         LN.step_lanes_serial(X, dbuf, 0, delay, P, U, ALL, free_idx, 2, RigParams.default().tables(), 0.0025, 5, st, S, True)
     with pytest.raises(ValueError, match="n_sub"):
         LN.new_work(8, 0)
+
+
+@pytest.mark.parametrize("n", [1, 9, 64, 1024, 3000])
+def test_the_scratch_is_zeroed_and_every_lane_group_is_cache_line_aligned(n):
+    S = LN.new_work(n, 5)
+    assert S.shape == ((n + LN.W - 1) // LN.W, LN.row_length(5)) and S.flags.c_contiguous
+    assert not S.any()
+    # each quantity's W lanes are one 64-byte line: the start, and every row, on a line boundary
+    assert S.ctypes.data % 64 == 0 and S.strides[1] * LN.W == 64 and S.strides[0] % 64 == 0

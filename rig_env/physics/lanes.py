@@ -102,11 +102,24 @@ def check_work(S, n_sub):
         raise ValueError("S: too short a row for n_sub physics steps per control step (lanes.new_work(n_envs, n_sub))")
 
 
+ALIGN = 64
+"""Bytes: the scratch starts on a cache-line boundary (one 512-bit register is W floats = 64 bytes)."""
+
+
 def new_work(n_envs: int, n_sub: int) -> np.ndarray:
-    """Scratch of a batch stepped n_sub physics steps per control step: one row per block of W environments."""
+    """Scratch of a batch stepped n_sub physics steps per control step: one row per block of W environments.
+
+    The array starts on a 64-byte boundary, and a row is a whole number of W floats, so every access
+    ``row[k * W : (k + 1) * W]`` of the lane kernel is one aligned 512-bit load or store.  ``np.zeros``
+    of a large array starts 16 bytes past a page boundary (the allocator's header), where every such
+    access straddles two cache lines: 1-3 % of the physics at 1024 environments (``benchmarks/RESULTS.md``)."""
     if n_sub < 1:
         raise ValueError(f"n_sub = {n_sub}: must be an integer >= 1")
-    return np.zeros(((n_envs + W - 1) // W, row_length(n_sub)))
+    shape = ((n_envs + W - 1) // W, row_length(n_sub))
+    size = shape[0] * shape[1]
+    buf = np.zeros(size + ALIGN // 8)
+    start = (-buf.ctypes.data % ALIGN) // 8  # float64 arrays start on 8-byte boundaries at least
+    return buf[start : start + size].reshape(shape)
 
 
 def _loader(n: int):
