@@ -222,3 +222,26 @@ def test_split_bristle_converges_at_second_order(params, lugre):
     order = np.polyfit(np.log(hs), np.log(err), 1)[0]
     assert err[0] < 1e-6, f"errors {err} rad at h = {hs} s"  # measured 1.7e-7 at 2 ms
     assert order > 1.8, f"errors {err} rad at h = {hs} s: order {order:.2f}"
+
+
+# ---------------------------------------------------------------- the bristle update itself
+@pytest.mark.parametrize("v", [0.0, 1e-14, 1e-9, 1e-6, 1e-3, 0.05, 1.0, -0.3, -30.0])
+@pytest.mark.parametrize("z0", [0.0, 2e-5, -7e-4])
+def test_bristle_update_is_the_closed_form_of_eq_19(params, lugre, v, z0):
+    """z(dt) of eq. (19) at frozen v: z_ss + (z0 - z_ss) exp(-a dt), z_ss = v / a, a = sigma0 |v| / S(v),
+    written out here with the C library's exp; for a dt below 1e-4, where exp(-a dt) is close to 1, its
+    Taylor series z0 + (v - a z0) dt (1 - a dt / 2 + (a dt)^2 / 6) instead."""
+    p = params.to_vector()
+    dt = 1.25e-3
+    s = lugre.Fc + (lugre.Fs - lugre.Fc) * math.exp(-lugre.alpha_f * abs(v))
+    a = lugre.sigma0 * abs(v) / s
+    if a * dt > 1e-4:
+        z_ss = v / a
+        want = z_ss + (z0 - z_ss) * math.exp(-a * dt)
+    else:
+        want = z0 + (v - a * z0) * dt * (1.0 - 0.5 * a * dt + (a * dt) ** 2 / 6.0)
+    got = fr.advance_bristle(p, J, v, z0, dt)
+    assert got == pytest.approx(want, rel=1e-12, abs=1e-20)
+    ra, g = fr.bristle_decay(p, J, v, dt)
+    assert ra == pytest.approx(a, rel=1e-14)
+    assert g == pytest.approx(dt if a == 0.0 else -math.expm1(-a * dt) / a, rel=1e-12)  # (1 - exp(-a dt)) / a, dt in the limit

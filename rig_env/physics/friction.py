@@ -57,24 +57,29 @@ def torque(p, j, v, z):
 
 @njit(**_JIT)
 def bristle_decay(p, j, v, dt):
-    """(a, e) of eq. (19) at rate v held over dt: decay rate a = sigma0 |v| / S(v) (1/s), e = 1 - exp(-a dt)."""
+    """(a, g) of eq. (19) at rate v held over dt: decay rate a = sigma0 |v| / S(v) (1/s) and
+    g = (1 - exp(-a dt)) / a (s), the factor of :func:`advance_bristle_decay`; g = dt in the limit a dt <
+    1e-12 (no decay: a locked or resting joint), where its relative error is below 5e-13."""
     a = p[FRICTION_BASE[j] + _S0] * abs(v) / stribeck(p, j, v)
-    return a, -vmath.expm1(-a * dt)
+    small = a * dt < 1e-12
+    g = -vmath.expm1(-a * dt) / (1.0 if small else a)
+    return a, dt if small else g
 
 
 @njit(**_JIT)
-def advance_bristle_decay(v, z, dt, a, e):
-    """Exact solution of eq. (19) over dt with v held constant, from its (a, e) of :func:`bristle_decay`."""
-    # z -> z_ss + (z - z_ss) exp(-a dt), z_ss = v / a, written without cancellation; at a dt < 1e-12 (no
-    # decay, a locked or resting joint) z + v dt, selected rather than branched
-    return z + v * dt if a * dt < 1e-12 else z + (v - a * z) * e / a
+def advance_bristle_decay(v, z, a, g):
+    """Exact solution of eq. (19) over dt with v held constant, from its (a, g) of :func:`bristle_decay`:
+    z -> z_ss + (z - z_ss) exp(-a dt), z_ss = v / a, written as z + (v - a z) g, without cancellation and
+    without a division or a branch (the lane kernel reuses (a, g) from one half step to the next, and
+    that loop then has nothing a vector unit cannot do)."""
+    return z + (v - a * z) * g
 
 
 @njit(**_JIT)
 def advance_bristle(p, j, v, z, dt):
     """Exact solution of eq. (19) over dt with v held constant."""
-    a, e = bristle_decay(p, j, v, dt)
-    return advance_bristle_decay(v, z, dt, a, e)
+    a, g = bristle_decay(p, j, v, dt)
+    return advance_bristle_decay(v, z, a, g)
 
 
 @njit(**_JIT)

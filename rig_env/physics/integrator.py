@@ -40,7 +40,7 @@ W_H = 156  # bias, 5
 W_JV = 161  # Jacobian columns, 45
 W_QDD = 206
 W_BACKUP = 211  # state at the start of the control step, N_STATE
-W_DECAY = 240  # bristle decay (a, e) over h/2 of each joint at the joint rate of the last update, 5 x 3
+W_DECAY = 240  # bristle decay (a, g) over h/2 of each joint at the joint rate of the last update, 5 x 3
 N_WORK = 255
 RK_C = (0.0, 0.5, 0.5, 1.0)
 RK_W = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)
@@ -77,7 +77,7 @@ def half_bristle_step(x, z, p, free_idx, n_free, h, w):
     """Bristle states z of the free joints over h/2 at the joint rates of x (exact, eq. 19).
 
     The decay factors depend on the joint rate only, and the rate at the end of one physics step is the
-    rate at the start of the next: w[W_DECAY:] keeps (rate, a, e) of each joint's last update and they
+    rate at the start of the next: w[W_DECAY:] keeps (rate, a, g) of each joint's last update and they
     are reused when the rate is bit-for-bit the same.  advance_env invalidates them at the start of
     every control step (the caller may have changed states or parameters in between).
     """
@@ -87,13 +87,13 @@ def half_bristle_step(x, z, p, free_idx, n_free, h, w):
         c = W_DECAY + 3 * j
         if v == w[c]:
             rate = w[c + 1]
-            e = w[c + 2]
+            g = w[c + 2]
         else:
-            rate, e = fr.bristle_decay(p, j, v, 0.5 * h)
+            rate, g = fr.bristle_decay(p, j, v, 0.5 * h)
             w[c] = v
             w[c + 1] = rate
-            w[c + 2] = e
-        z[j] = fr.advance_bristle_decay(v, z[j], 0.5 * h, rate, e)
+            w[c + 2] = g
+        z[j] = fr.advance_bristle_decay(v, z[j], rate, g)
 
 
 @njit(**_JIT)

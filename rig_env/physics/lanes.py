@@ -74,7 +74,7 @@ OFF_UD = OFF_U + L.N_INPUTS * W  # delayed, limited actuator demands of the phys
 OFF_Y0 = OFF_UD + 7 * W  # RK state at the start of the physics step, N_Y
 OFF_K = OFF_Y0 + N_Y * W  # the last stage's derivative, N_Y
 OFF_ACC = OFF_K + N_Y * W  # the stages' weighted sum, N_Y
-OFF_DECAY = OFF_ACC + N_Y * W  # each joint's bristle decay (a, e) over h/2 at the rates of the last half step, 10
+OFF_DECAY = OFF_ACC + N_Y * W  # each joint's bristle decay (a, g) over h/2 at the rates of the last half step, 10
 OFF_FRIC = OFF_DECAY + 10 * W  # each joint's friction torque at the current RK stage, 5
 BLOCK = OFF_FRIC + 5 * W
 """Floats of a block's row before the staged demands (see :func:`row_length`)."""
@@ -183,7 +183,7 @@ def rhs_values(y, fric, ud, u, p, flags, free, tabs):
 def joint_bristles(row, j, dt, reuse):
     """Every lane: joint j's bristle state over dt = h/2 at the lane's joint rate (exact, eq. 19), in place.
 
-    The decay (a, e) depends on the joint rate only, and the rate at the end of one physics step is the
+    The decay (a, g) depends on the joint rate only, and the rate at the end of one physics step is the
     rate at the start of the next, bit for bit: with ``reuse`` (a compile-time constant wherever this is
     inlined) the decay the previous half step stored in the row is taken rather than recomputed, as
     :func:`rig_env.physics.integrator.half_bristle_step` does.  Without it the decay is computed and stored.
@@ -193,12 +193,12 @@ def joint_bristles(row, j, dt, reuse):
         z = row[OFF_X + (L.X_Z + j) * W + lane]
         if reuse:
             a = row[OFF_DECAY + 2 * j * W + lane]
-            e = row[OFF_DECAY + (2 * j + 1) * W + lane]
+            g = row[OFF_DECAY + (2 * j + 1) * W + lane]
         else:
-            a, e = fr.bristle_decay(load_params(row, OFF_P, lane), j, v, dt)
+            a, g = fr.bristle_decay(load_params(row, OFF_P, lane), j, v, dt)
             row[OFF_DECAY + 2 * j * W + lane] = a
-            row[OFF_DECAY + (2 * j + 1) * W + lane] = e
-        row[OFF_X + (L.X_Z + j) * W + lane] = fr.advance_bristle_decay(v, z, dt, a, e)
+            row[OFF_DECAY + (2 * j + 1) * W + lane] = g
+        row[OFF_X + (L.X_Z + j) * W + lane] = fr.advance_bristle_decay(v, z, a, g)
 
 
 @njit(**_INLINE)
