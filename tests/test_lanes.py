@@ -126,7 +126,7 @@ def test_the_lane_loops_are_vectorised(tmp_path):
     assert step, "no physics_step symbol in step_lanes_serial's object"
     packed = len(re.findall(r"\bv\w+pd\s+[^\n]*%[yz]mm", step))  # double-precision ops on 256/512-bit registers
     scalar = len(re.findall(r"\bv\w+sd\s+[^\n]*%xmm", step))  # ... on one double
-    assert packed > 2000, (packed, scalar)  # measured 4759 packed, 482 scalar on a Zen 4 (AVX-512)
+    assert packed > 2000, (packed, scalar, step.count("vdivsd"))  # measured 4734 packed, 236 scalar, no vdivsd on a Zen 4 (AVX-512)
     assert packed > 5 * scalar, (packed, scalar)
 
 
