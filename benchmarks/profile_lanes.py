@@ -7,7 +7,7 @@ velocity-vector-roll batch under ``perf record -e cpu-clock`` (a software clock:
 rarely expose hardware counters), reads the kernel's machine code from numba's disk cache (an ELF
 object, as ``tests/test_lanes.py`` does) and maps each sampled instruction pointer onto it through the
 address at which the process loaded the kernel.  Prints the share of the samples per function of the
-object, then within ``physics_step``: its longest loop (the four RK stages over the lanes), the samples
+object, then within ``physics_step``: its loop with the most samples (the four RK stages over the lanes), the samples
 on stack (spill) loads and stores and on other instructions with a stack operand, and per mnemonic.
 
 A timer sample lands on the instruction the processor was about to retire when the interrupt came,
@@ -53,7 +53,7 @@ def child(n: int, seconds: float) -> None:
         env.advance_physics()
         k += 1
     print(f"US_PER_STEP {(time.perf_counter() - t0) / k * 1e6:.1f}")
-    (sig, cres), = lanes.step_lanes_serial.overloads.items()
+    ((_, cres),) = lanes.step_lanes_serial.overloads.items()
     print(f"ENTRY {cres.fndesc.llvm_func_name} {cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)}")
     cached = sorted(Path(lanes.step_lanes_serial._cache._cache_path).glob("lanes.step_lanes_serial-*.nbc"), key=lambda f: f.stat().st_mtime)
     print(f"OBJECT {cached[-1]}")
@@ -108,7 +108,7 @@ def report(counts: collections.Counter, insns: dict[int, str], symbols: dict[str
             loops.append((sum(counts[x] for x in body if t <= x <= o), sum(1 for x in body if t <= x <= o), t, o))
     if loops:
         c, k, t, o = max(loops)
-        print(f"  longest loop {t:#x}-{o:#x} (the RK stages): {k} instructions, {c / ns:.1%} of the samples")
+        print(f"  hottest loop {t:#x}-{o:#x} (the RK stages): {k} instructions, {c / ns:.1%} of the samples")
     stack = lambda o: "(%rsp)" in insns[o] or "(%rbp)" in insns[o]  # noqa: E731
     mnem = lambda o: insns[o].split()[0]  # noqa: E731
     spill_ld = [o for o in body if stack(o) and mnem(o) in _MOVES and re.search(r"\(%r[sb]p\),\s*%[xyz]mm", insns[o])]
