@@ -97,14 +97,17 @@ def trim(
     flags = _flags(aero, False)
     qd = np.zeros(5)
 
-    def residual(x: np.ndarray) -> np.ndarray:
+    def residual(y: np.ndarray) -> np.ndarray:
         q = q0.copy()
-        q[idx] = x
+        q[idx] += y
         return joint_accelerations(q, qd, u, p, flags, idx, tabs)[idx]
 
-    sol = least_squares(residual, q0[idx], xtol=tol, ftol=tol, gtol=tol, method="lm")
+    # solved for the change y from the guess, starting at y = 0: MINPACK's Levenberg-Marquardt sizes its
+    # first step in proportion to the starting point's norm (100 |x0|, or 100 when x0 = 0), so a guess
+    # of angles near 1e-17 rad (a trim of rounding-level asymmetry) would leave it no room to move
+    sol = least_squares(residual, np.zeros(idx.size), xtol=tol, ftol=tol, gtol=tol, method="lm")
     q = q0.copy()
-    q[idx] = sol.x
+    q[idx] += sol.x
     res = float(np.max(np.abs(residual(sol.x))))
     if res > 1e-6:
         raise RuntimeError(f"trim: no equilibrium found for free_dofs={list(free)} (max |qdd| = {res:.3g} rad/s^2)")

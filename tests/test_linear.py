@@ -46,3 +46,19 @@ def test_linearize_rejects_bad_names(params):
     op = rig_env.trim(params, free_dofs=["model_pitch"], q_guess=[0, 0, 0, 0.1, 0])
     with pytest.raises(ValueError, match="inputs: unknown surface"):
         rig_env.linearize(params, op, inputs=["flap9"])
+
+
+@pytest.mark.parametrize("tiny", [0.0, 1.8e-17, -3e-15])
+def test_trim_from_a_guess_of_rounding_level_angles(params, tiny):
+    """A guess whose angles are rounding-level non-zeros (the zero-input trim of a symmetric pair of joints
+    can come out at 1e-17 rad) reaches the same equilibrium as a guess of exact zeros.  Solved for the
+    angles themselves, MINPACK's first step is 100 times the guess's norm and the solver stopped there
+    (max |qdd| 1.1 rad/s^2 at 4 deg of rudder, sway and model yaw free)."""
+    free = ("rig_yaw", "model_yaw")
+    guess = np.zeros(5)
+    guess[2], guess[4] = tiny, -tiny
+    op = rig_env.trim(params, free_dofs=free, airspeed=20.0, controls={"comp_rudder": 4.0}, q_guess=guess)
+    assert op.residual < 1e-12
+    # the equilibrium of exact zeros: the arm at -1.08 deg of yaw, the model at +1.08 deg relative to it
+    assert np.degrees(op.q[2]) == pytest.approx(-1.0799, abs=1e-3)
+    assert np.degrees(op.q[4]) == pytest.approx(1.0799, abs=1e-3)
