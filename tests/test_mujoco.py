@@ -93,9 +93,13 @@ def test_mass_matrix_and_bias_match_mujoco(params, free, locked):
         bias = (h - Qg)[idx]
         bias_all.append(bias)
         d_bias.append(bias - data.qfrc_bias[dof])
-        # kinematics: MuJoCo's hawk c.g. is rig_env's R_a = A_s [l_f 0 0] + A_a l_cga
-        G, rho = kin[3], kin[4]
+        # kinematics: MuJoCo's hawk c.g. is rig_env's R_a = A_s [l_f 0 0] + A_a l_cga, in world axes as
+        # joint_space.frames gives it (the drawings and the DAE) and in arm axes as the dynamics use it
+        As, _, _, G, rho = js.frames(q, P)[:5]
         np.testing.assert_allclose(data.body("hawk").xipos, np.add(G, rho), rtol=0, atol=1e-14)
+        rho_arm = kin[4]
+        r_a = np.reshape(As, (3, 3)) @ (np.array([P[L.P_GEOMETRY_ARM_LENGTH], 0.0, 0.0]) + rho_arm)
+        np.testing.assert_allclose(data.body("hawk").xipos, r_a, rtol=0, atol=1e-14)
     # bias relative to its largest value over the sample (single states can have a bias near zero)
     err_h = np.abs(d_bias).max() / np.abs(bias_all).max()
     print(f"\n{'/'.join(free)}: max rel. error M {err_m:.2e}, bias {err_h:.2e}")

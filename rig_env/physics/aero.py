@@ -139,19 +139,17 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
 
 
 @njit(**_INLINE)
-def strip(vb0, wb, ce, sg, r, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn):
-    """Force and moment (arm axes, about the reference point) of the strip at radius r of a panel with
-    span e_r = (0, ce, sg) and normal n = x_arm x e_r = (0, -sg, ce) (their zero components left out of
-    the products).  vb0, wb: reference-point velocity relative to the air and angular velocity (arm
-    axes); qp: the panel's pitch rate; cl0, cm0: the coefficients' flap and camber part.  A strip below
-    MIN_AIRSPEED carries no load (selected, not branched, so that panels vectorise)."""
-    # strip velocity v = v_ref + w x (r e_r), arm axes
-    u = vb0[0] + wb[1] * sg * r - wb[2] * ce * r
-    v1 = vb0[1] - wb[0] * sg * r
-    v2 = vb0[2] + wb[0] * ce * r
-    wn = -(v1 * -sg + v2 * ce)  # -v.n
-    V = math.sqrt(u * u + wn * wn)  # in-plane speed
-    vabs = math.sqrt(u * u + v1 * v1 + v2 * v2)  # full speed, with the spanwise component
+def strip(u, wn, vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn):
+    """Loads of one strip from its velocity relative to the air in the panel's axes (e_x, n, e_r): u along
+    x, -wn along the normal n, a spanwise component of square vs2.  Returns (f_x, f_n, dk, mc): the force's
+    x and n components, the drag factor dk (the force's spanwise component is -dk times the spanwise
+    velocity, the same for both strips of a panel, so the panel applies it once) and the section pitching
+    moment mc (about -e_r).  Lift is normal to the in-plane velocity (u e_x - wn n), drag against the full
+    strip velocity (so that the panels' drag sums to a force along the free stream, as Table 4's CD does).
+    A strip below MIN_AIRSPEED carries no load (selected, not branched, so that panels vectorise)."""
+    V2 = u * u + wn * wn
+    V = math.sqrt(V2)  # in-plane speed
+    vabs = math.sqrt(V2 + vs2)  # full speed, with the spanwise component
     # 1 / V and 1 / vabs from one division (at V = 0 they are not finite: the strip's load is selected away below)
     inv = 1.0 / (V * vabs)
     alpha = vmath.atan2(wn, u)  # branch-free: the panels vectorise
@@ -165,42 +163,49 @@ def strip(vb0, wb, ce, sg, r, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cm
     CL = cl0 + cl_static + clq * qhat
     CM = cm0 + cm_static + cmq * qhat
     CD = cd0 + k_ind * CL * CL
-    qS = 0.5 * rho * V * V * dS
-    # lift normal to the in-plane velocity (u e_x - wn n); drag against the full strip velocity (so that
-    # the panels' drag sums to a force along the free stream, as Table 4's CD does).  The lift's qS / V
-    # is written as 0.5 rho V dS: no division
-    lk = 0.5 * rho * V * dS * CL
-    lift_x = lk * wn
-    lift_n = lk * u
-    dk = qS * CD * (V * inv)
-    fx = lift_x - dk * u
-    fy = lift_n * -sg - dk * v1
-    fz = lift_n * ce - dk * v2
-    # moment of the strip force about the reference point, (r e_r) x f, plus the section pitching
-    # moment about -e_r
-    ar1 = ce * r
-    ar2 = sg * r
+    hrs = 0.5 * rho * dS
+    qS = hrs * V2
+    lk = hrs * V * CL  # the lift's qS / V, without a division
+    dk = qS * CD * (V * inv)  # qS CD / vabs
+    f_x = lk * wn - dk * u
+    f_n = lk * u + dk * wn
     mc = qS * c * CM
-    mx = ar1 * fz - ar2 * fy
-    my = ar2 * fx - mc * ce
-    mz = -(ar1 * fx) - mc * sg
     if V < MIN_AIRSPEED:
-        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    return fx, fy, fz, mx, my, mz
+        return 0.0, 0.0, 0.0, 0.0
+    return f_x, f_n, dk, mc
 
 
 @njit(**_INLINE)
 def panel(i, vb0, wb, flap, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn):
-    """Force and moment (arm axes) of panel i: its two Gauss strips at rm -+ dr_g."""
+    """Force and moment (arm axes, the moment about the reference point) of panel i: its two Gauss strips
+    at r = rm -+ dr_g along its span e_r = (0, ce, sg), normal n = x_arm x e_r = (0, -sg, ce).
+
+    A strip at r moves at v = vb0 + wb x (r e_r) relative to the air: in the panel's axes u = vb0_x +
+    r (wb_y sg - wb_z ce) along x, vb0.n + r wb_x along n and vb0.e_r along e_r (the same for both
+    strips).  A strip force f = f_x e_x + f_n n + f_r e_r at r e_r has the moment r (f_n e_x - f_x n); the
+    section moment acts about -e_r.  The strips' loads are summed in the panel's axes and turned into
+    arm axes once."""
     ce = PANEL_COS[i]
     sg = PANEL_SIN[i]
     se = MIX_ELEVATOR_A[i]
     qp = -(wb[1] * ce + wb[2] * sg)  # -w.e_r: rotation about -e_r moves the leading edge towards +n
     cl0 = se * cl_off + cld * flap
     cm0 = se * cm_off + cmd * flap
-    a = strip(vb0, wb, ce, sg, rm - dr_g, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn)
-    b = strip(vb0, wb, ce, sg, rm + dr_g, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn)
-    return a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3], a[4] + b[4], a[5] + b[5]
+    vs = vb0[1] * ce + vb0[2] * sg
+    vs2 = vs * vs
+    wn0 = vb0[1] * sg - vb0[2] * ce  # -vb0.n
+    du = wb[1] * sg - wb[2] * ce  # d(u) / dr
+    ra = rm - dr_g
+    rb = rm + dr_g
+    a = strip(vb0[0] + ra * du, wn0 - ra * wb[0], vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn)
+    b = strip(vb0[0] + rb * du, wn0 - rb * wb[0], vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn)
+    fx = a[0] + b[0]
+    fn = a[1] + b[1]
+    fr = -(vs * (a[2] + b[2]))
+    mx = ra * a[1] + rb * b[1]
+    mn = -(ra * a[0] + rb * b[0])
+    mr = -(a[3] + b[3])
+    return fx, ce * fr - sg * fn, ce * fn + sg * fr, mx, ce * mr - sg * mn, ce * mn + sg * mr
 
 
 @njit(**_JIT)
@@ -224,7 +229,19 @@ def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn, un
     """Compensator force (world, N) and moment about its aerodynamic reference point (world, N m).
 
     A: arm rotation; v_ref: velocity of the reference point (world); omega: arm angular velocity
-    (world); v_air: air velocity (world); flaps: 4 flap deflections (rad, after mixing and servos); unrolled: the four panels written out, for
+    (world); v_air: air velocity (world); the rest as :func:`comp_aero_arm`, which this calls with the
+    velocities in arm axes.
+    """
+    f, m = comp_aero_arm(p, mtv(A, sub(v_ref, v_air)), mtv(A, omega), flaps, nonlinear, tab_alpha, tab_cn, unrolled)
+    return mv(A, f), mv(A, m)
+
+
+@njit(**_INLINE)
+def comp_aero_arm(p, vb0, wb, flaps, nonlinear, tab_alpha, tab_cn, unrolled=False):
+    """Compensator force (arm axes, N) and moment about its aerodynamic reference point (arm axes, N m).
+
+    vb0: velocity of the reference point relative to the air, wb: arm angular velocity, both in arm
+    axes; flaps: 4 flap deflections (rad, after mixing and servos); unrolled: the four panels written out, for
     the lane kernel, whose loop over environments must contain no loop of its own (a compile-time
     constant there); otherwise one loop over the panels, which LLVM vectorises across the panels.
     Each panel i (span e_r, normal n = x_arm cross e_r) carries Table 4 coefficients per unit area of
@@ -250,8 +267,6 @@ def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn, un
     clq = p[L.P_COMP_AERO_CLQ]
     cmq = p[L.P_COMP_AERO_CMQ]
     cd0 = 0.5 * p[L.P_COMP_AERO_CD0]
-    vb0 = mtv(A, sub(v_ref, v_air))
-    wb = mtv(A, omega)
     if nonlinear:
         fx, fy, fz, mx, my, mz = strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, tab_alpha, tab_cn)
     elif unrolled:
@@ -277,4 +292,4 @@ def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn, un
             mx += f[3]
             my += f[4]
             mz += f[5]
-    return mv(A, (fx, fy, fz)), mv(A, (mx, my, mz))
+    return (fx, fy, fz), (mx, my, mz)

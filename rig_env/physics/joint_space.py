@@ -19,6 +19,13 @@ Jacobian) gives
 
 with Q the generalised gravity, aerodynamic, friction and stop torques.  Locked joints keep their
 angle and the equations are solved for the free subset only.
+
+The kernels evaluate M, h and Q with every vector in the arm's axes (:func:`arm_kinematics`): each
+entry is a dot product of joint axes with inertias, forces and torques, the same in any axes, and in
+the arm's the arm-fixed points and the arm's inertia about the pivot are constants and two joint axes
+are unit vectors, so A_s itself is never formed (about 10 % fewer instructions in the lane kernel than
+the world-axes form, ``benchmarks/RESULTS.md``).  :func:`frames` and :func:`velocities` keep the
+world-axes kinematics for the DAE, the drawings and the tests.
 """
 
 from __future__ import annotations
@@ -31,8 +38,8 @@ from numba import njit
 from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import vmath
-from rig_env.physics.aero import comp_aero, hawk_aero
-from rig_env.physics.vec import FASTMATH, add, col, cross, dot, inertia_world, mm, mtv, mv, rot_zy, rot_zyx, scale
+from rig_env.physics.aero import comp_aero_arm, hawk_aero
+from rig_env.physics.vec import FASTMATH, add, col, cross, dot, inertia_world, mm, mtv, mv, rot_zy, rot_zyx, scale, sub
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
 # the right-hand side's parts are inlined into their caller at numba-IR level: as separate LLVM
@@ -102,14 +109,88 @@ def madd(a, b):
 
 
 @njit(**_INLINE)
+def arm_kinematics(q, qd, p):
+    """The kinematics of the right-hand side in arm axes (components along A_s's columns).
+
+    Every term of M, h and Q is a dot product of a joint axis with a force, torque or inertia times an
+    axis, and such products do not depend on the axes the vectors are written in.  Written in the arm's
+    axes, the arm's inertia about the pivot and the arm-fixed points (G, the c.g.s, the compensator's
+    reference point) are constants of the parameters, the rig-roll and model-yaw axes are unit vectors
+    and the rig-pitch and model-pitch axes have a zero component, so the world rotation A_s drops out of
+    the mass matrix and the bias (rig yaw psi only turns the air velocity, :func:`forces`):
+
+        a_roll = e_x,  a_pitch = Rx(phi)^T e_y = (0, c phi, -s phi),  a_yaw = A_s^T e_z = (-s theta, c theta s phi, c theta c phi),
+        a_model_pitch = B e_y = (-s psi_a, c psi_a, 0),  a_model_yaw = e_z,  with B = Rz(psi_a) Ry(theta_a) = A_s^T A_a.
+
+    The angular velocities and the bias accelerations (J-dot qdot) are :func:`velocities`' sums, each cross
+    product with a unit or zero-component axis written out.  World z (down, gravity's direction) is a_yaw.
+
+    Returns (B, (c phi, s phi), a_yaw, (s psi_a, c psi_a), rho, w_s, w_a, b_s, b_a, (c theta, s theta)), rho the
+    Hawk c.g. from the model gimbal.
+    """
+    sf, cf = vmath.sincos(q[L.J_RIG_ROLL])
+    st, ct = vmath.sincos(q[L.J_RIG_PITCH])
+    B = rot_zy(q[L.J_MODEL_YAW], q[L.J_MODEL_PITCH])
+    sz = -B[1]  # rot_zy: (cz cy, -sz, cz sy, sz cy, cz, sz sy, -sy, 0, cy)
+    cz = B[4]
+    a2 = (-st, ct * sf, ct * cf)
+    q0, q1, q2, q3, q4 = qd[L.J_RIG_ROLL], qd[L.J_RIG_PITCH], qd[L.J_RIG_YAW], qd[L.J_MODEL_PITCH], qd[L.J_MODEL_YAW]
+    w_yaw = (a2[0] * q2, a2[1] * q2, a2[2] * q2)
+    w_yp = (w_yaw[0], w_yaw[1] + cf * q1, w_yaw[2] - sf * q1)
+    w_s = (w_yp[0] + q0, w_yp[1], w_yp[2])
+    w_sy = (w_s[0], w_s[1], w_s[2] + q4)
+    w_a = (w_sy[0] - sz * q3, w_sy[1] + cz * q3, w_sy[2])
+    # each axis turns with the bodies inboard of it: d(axis)/dt = (angular velocity before it) x axis
+    # w_yaw x a_pitch, w_yp x e_x, w_s x e_z, w_sy x a_model_pitch:
+    b_s = (
+        (-w_yaw[1] * sf - w_yaw[2] * cf) * q1,
+        w_yaw[0] * sf * q1 + w_yp[2] * q0,
+        w_yaw[0] * cf * q1 - w_yp[1] * q0,
+    )
+    b_a = (
+        b_s[0] + w_s[1] * q4 - w_sy[2] * cz * q3,
+        b_s[1] - w_s[0] * q4 - w_sy[2] * sz * q3,
+        b_s[2] + (w_sy[0] * cz + w_sy[1] * sz) * q3,
+    )
+    hx = p[L.P_GEOMETRY_HAWK_CG_X]
+    hz = p[L.P_GEOMETRY_HAWK_CG_Z]
+    rho = (B[0] * hx + B[2] * hz, B[3] * hx + B[5] * hz, B[6] * hx + B[8] * hz)
+    return B, (cf, sf), a2, (sz, cz), rho, w_s, w_a, b_s, b_a, (ct, st)
+
+
+@njit(**_INLINE)
+def cross_x(a, s):
+    """a x (s, 0, 0)."""
+    return (0.0, a[2] * s, -(a[1] * s))
+
+
+@njit(**_INLINE)
+def x_cross(s, a):
+    """(s, 0, 0) x a."""
+    return (0.0, -(s * a[2]), s * a[1])
+
+
+@njit(**_INLINE)
+def dot_pitch(cs, v):
+    """a_pitch . v with a_pitch = (0, c, -s), cs = (c, s)."""
+    return cs[0] * v[1] - cs[1] * v[2]
+
+
+@njit(**_INLINE)
+def dot_model_pitch(sc, v):
+    """a_model_pitch . v with a_model_pitch = (-s, c, 0), sc = (s, c)."""
+    return sc[1] * v[1] - sc[0] * v[0]
+
+
+@njit(**_INLINE)
 def mass_matrix_terms(q, qd, p):
     """(M, h, kin) of M qdd + h = Q at joint angles q and rates qd, as values (no arrays, so that a loop over
     environments vectorises).
 
     M: the 15 entries of its upper triangle by rows (m00, m01, .., m04, m11, .., m14, m22, .., m44);
-    h: 5 bias forces; kin: the kinematics (As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a) for the force
-    terms.  Every arm joint turns all three bodies about an axis through the pivot and every model joint
-    turns the Hawk about an axis through the model gimbal, so with J_v = a x r, J_w = a:
+    h: 5 bias forces; kin: the kinematics of :func:`arm_kinematics` for :func:`forces`.  Every arm joint
+    turns all three bodies about an axis through the pivot and every model joint turns the Hawk about an
+    axis through the model gimbal, so with J_v = a x r, J_w = a:
 
         M_jk = a_j . I_pivot a_k                       (j, k arm joints)
         M_jk = a_j . I_gimbal a_k                      (j, k model joints)
@@ -118,51 +199,60 @@ def mass_matrix_terms(q, qd, p):
 
     with I_pivot, I_gimbal the inertias about the pivot and the gimbal (parallel-axis terms), r_a the
     Hawk c.g. from the pivot, rho from the gimbal, b_v, b_w the bias accelerations.  This is
-    J^T M_body J and J^T (M_body b + gyroscopic) written without forming J.
+    J^T M_body J and J^T (M_body b + gyroscopic) written without forming J, in arm axes
+    (:func:`arm_kinematics`): there the arm and compensator are one rigid body of constant inertia
+    I_arm about the pivot (their own inertias plus the parallel-axis terms of their c.g.s), whose
+    bias torque about the pivot, sum of r x m b_v + I b_w + w x I w over its parts, is
+    I_arm b_s + w_s x I_arm w_s.
     """
-    As, Aa, axes, G, rho, r_s, r_r, r_ref = frames(q, p)
-    w_s, w_a, b_s, b_a = velocities(axes, qd)
+    kin = arm_kinematics(q, qd, p)
+    B, cs, a2, sc, rho, w_s, w_a, b_s, b_a, ts = kin
     m_a = p[L.P_MASS_HAWK_MASS]
-    m_s = p[L.P_MASS_ARM_MASS]
-    m_r = p[L.P_MASS_COMP_MASS]
-    I_s = inertia_world(
-        As,
-        p[L.P_MASS_ARM_IXX] + p[L.P_MASS_COMP_IXX],
-        p[L.P_MASS_ARM_IYY] + p[L.P_MASS_COMP_IYY],
-        p[L.P_MASS_ARM_IZZ] + p[L.P_MASS_COMP_IZZ],
-        0.0,
+    lf = p[L.P_GEOMETRY_ARM_LENGTH]
+    I_pts = madd(
+        point_inertia(p[L.P_MASS_ARM_MASS], (p[L.P_GEOMETRY_ARM_CG_X], p[L.P_GEOMETRY_ARM_CG_Y], p[L.P_GEOMETRY_ARM_CG_Z])),
+        point_inertia(p[L.P_MASS_COMP_MASS], (p[L.P_GEOMETRY_COMP_CG_X], p[L.P_GEOMETRY_COMP_CG_Y], p[L.P_GEOMETRY_COMP_CG_Z])),
     )
-    I_a = inertia_world(Aa, p[L.P_MASS_HAWK_IXX], p[L.P_MASS_HAWK_IYY], p[L.P_MASS_HAWK_IZZ], p[L.P_MASS_HAWK_IXZ])
-    r_a = add(G, rho)
+    I_arm = (
+        I_pts[0] + (p[L.P_MASS_ARM_IXX] + p[L.P_MASS_COMP_IXX]), I_pts[1], I_pts[2],
+        I_pts[3], I_pts[4] + (p[L.P_MASS_ARM_IYY] + p[L.P_MASS_COMP_IYY]), I_pts[5],
+        I_pts[6], I_pts[7], I_pts[8] + (p[L.P_MASS_ARM_IZZ] + p[L.P_MASS_COMP_IZZ]),
+    )  # fmt: skip
+    I_a = inertia_world(B, p[L.P_MASS_HAWK_IXX], p[L.P_MASS_HAWK_IYY], p[L.P_MASS_HAWK_IZZ], p[L.P_MASS_HAWK_IXZ])
+    r_a = (lf + rho[0], rho[1], rho[2])
     I_gim = madd(I_a, point_inertia(m_a, rho))
-    I_piv = madd(madd(I_s, point_inertia(m_s, r_s)), madd(point_inertia(m_r, r_r), madd(I_a, point_inertia(m_a, r_a))))
+    I_piv = madd(I_arm, madd(I_a, point_inertia(m_a, r_a)))
     ra_rho = dot(r_a, rho)
     K = (
         I_a[0] + m_a * (ra_rho - rho[0] * r_a[0]), I_a[1] - m_a * rho[0] * r_a[1], I_a[2] - m_a * rho[0] * r_a[2],
         I_a[3] - m_a * rho[1] * r_a[0], I_a[4] + m_a * (ra_rho - rho[1] * r_a[1]), I_a[5] - m_a * rho[1] * r_a[2],
         I_a[6] - m_a * rho[2] * r_a[0], I_a[7] - m_a * rho[2] * r_a[1], I_a[8] + m_a * (ra_rho - rho[2] * r_a[2]),
     )  # fmt: skip
-    a0, a1, a2, a3, a4 = axes
-    I0, I1, I2 = mv(I_piv, a0), mv(I_piv, a1), mv(I_piv, a2)
-    K0, K1, K2 = mtv(K, a0), mtv(K, a1), mtv(K, a2)  # a_j^T K
-    G3, G4 = mv(I_gim, a3), mv(I_gim, a4)
+    cf, sf = cs
+    # I_piv a_j and K^T a_j (a_j^T K) of the arm axes; I_gim a_k of the model axes
+    I1 = (I_piv[1] * cf - I_piv[2] * sf, I_piv[4] * cf - I_piv[5] * sf, I_piv[7] * cf - I_piv[8] * sf)
+    I2 = mv(I_piv, a2)
+    K0 = (K[0], K[1], K[2])
+    K1 = (K[3] * cf - K[6] * sf, K[4] * cf - K[7] * sf, K[5] * cf - K[8] * sf)
+    K2 = mtv(K, a2)
+    sz, cz = sc
+    G3 = (I_gim[1] * cz - I_gim[0] * sz, I_gim[4] * cz - I_gim[3] * sz, I_gim[7] * cz - I_gim[6] * sz)
     Mt = (
-        dot(I0, a0), dot(I0, a1), dot(I0, a2), dot(K0, a3), dot(K0, a4),
-        dot(I1, a1), dot(I1, a2), dot(K1, a3), dot(K1, a4),
-        dot(I2, a2), dot(K2, a3), dot(K2, a4),
-        dot(G3, a3), dot(G3, a4),
-        dot(G4, a4),
+        I_piv[0], dot_pitch(cs, (I_piv[0], I_piv[3], I_piv[6])), I_piv[0] * a2[0] + I_piv[3] * a2[1] + I_piv[6] * a2[2],
+        dot_model_pitch(sc, K0), K0[2],
+        dot_pitch(cs, I1), dot(I1, a2), dot_model_pitch(sc, K1), K1[2],
+        dot(I2, a2), dot_model_pitch(sc, K2), K2[2],
+        dot_model_pitch(sc, G3), G3[2],
+        I_gim[8],
     )  # fmt: skip
-    # bias (velocity-product) generalised forces
-    a_a = add(point_bias(b_s, w_s, G), point_bias(b_a, w_a, rho))
+    # bias (velocity-product) generalised forces; G = (lf, 0, 0): b_s x G + w_s x (w_s x G)
+    u = cross_x(w_s, lf)
+    a_a = add(add(cross_x(b_s, lf), cross(w_s, u)), point_bias(b_a, w_a, rho))
     f_a = scale(a_a, m_a)
     t_hawk = add(add(mv(I_a, b_a), cross(w_a, mv(I_a, w_a))), cross(rho, f_a))  # about the gimbal
-    t_arm = add(
-        add(cross(r_s, scale(point_bias(b_s, w_s, r_s), m_s)), cross(r_r, scale(point_bias(b_s, w_s, r_r), m_r))),
-        add(add(mv(I_s, b_s), cross(w_s, mv(I_s, w_s))), add(t_hawk, cross(G, f_a))),
-    )
-    ht = (dot(a0, t_arm), dot(a1, t_arm), dot(a2, t_arm), dot(a3, t_hawk), dot(a4, t_hawk))
-    return Mt, ht, (As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a)
+    t_arm = add(add(mv(I_arm, b_s), cross(w_s, mv(I_arm, w_s))), add(t_hawk, x_cross(lf, f_a)))
+    ht = (t_arm[0], dot_pitch(cs, t_arm), dot(a2, t_arm), dot_model_pitch(sc, t_hawk), t_hawk[2])
+    return Mt, ht, kin
 
 
 # (row, column) of the 15 upper-triangle entries of mass_matrix_terms' M
@@ -258,30 +348,46 @@ def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
     (the lane kernel) rather than looped over (the per-environment kernel vectorises that loop); both
     are compile-time constants wherever the lane kernel inlines this.
     """
-    As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a = kin
+    B, cs, a2, sc, rho, w_s, w_a, b_s, b_a, ts = kin  # arm axes (arm_kinematics)
     g = p[L.P_ENVIRONMENT_GRAVITY]
     m_a = p[L.P_MASS_HAWK_MASS]
-    r_a = add(G, rho)
-    f_a = (0.0, 0.0, m_a * g)
+    lf = p[L.P_GEOMETRY_ARM_LENGTH]
+    r_a = (lf + rho[0], rho[1], rho[2])
+    gv = scale(a2, g)  # gravity's acceleration: world z (down) is the rig-yaw axis a2
+    f_a = scale(gv, m_a)
     t_a = (0.0, 0.0, 0.0)
-    # torque of all arm-borne loads about the pivot
-    t_arm = add(cross(r_s, (0.0, 0.0, p[L.P_MASS_ARM_MASS] * g)), cross(r_r, (0.0, 0.0, p[L.P_MASS_COMP_MASS] * g)))
+    # torque of all arm-borne loads about the pivot: the arm's and compensator's weights at their c.g.s
+    m_s = p[L.P_MASS_ARM_MASS]
+    m_r = p[L.P_MASS_COMP_MASS]
+    first_moment = (
+        m_s * p[L.P_GEOMETRY_ARM_CG_X] + m_r * p[L.P_GEOMETRY_COMP_CG_X],
+        m_s * p[L.P_GEOMETRY_ARM_CG_Y] + m_r * p[L.P_GEOMETRY_COMP_CG_Y],
+        m_s * p[L.P_GEOMETRY_ARM_CG_Z] + m_r * p[L.P_GEOMETRY_COMP_CG_Z],
+    )
+    t_arm = cross(first_moment, gv)
     if flags & L.F_AERO:
-        v_air = air_velocity(u)
-        v_a = add(cross(w_s, G), cross(w_a, rho))
-        fa, ta = hawk_aero(p, Aa, v_a, w_a, v_air, flaps[4], flaps[5], flaps[6], nonlinear, tabs[0], tabs[1], tabs[2])
+        v_air = air_velocity(u)  # world; into arm axes: A_s^T = Rx(phi)^T Ry(theta)^T Rz(psi)^T
+        sp, cp = vmath.sincos(q[L.J_RIG_YAW])
+        cf, sf = cs
+        ct, st = ts
+        v1 = (cp * v_air[0] + sp * v_air[1], cp * v_air[1] - sp * v_air[0], v_air[2])
+        v2 = (ct * v1[0] - st * v1[2], v1[1], st * v1[0] + ct * v1[2])
+        v_air_s = (v2[0], cf * v2[1] + sf * v2[2], cf * v2[2] - sf * v2[1])
+        v_a = add(cross_x(w_s, lf), cross(w_a, rho))
+        fa, ta = hawk_aero(p, B, v_a, w_a, v_air_s, flaps[4], flaps[5], flaps[6], nonlinear, tabs[0], tabs[1], tabs[2])
         f_a = add(f_a, fa)
         t_a = ta
-        fc, tc = comp_aero(p, As, cross(w_s, r_ref), w_s, v_air, flaps, nonlinear, tabs[3], tabs[4], unrolled)
-        t_arm = add(t_arm, add(cross(r_ref, fc), tc))
+        x_ref = p[L.P_GEOMETRY_COMP_AERO_X]
+        fc, tc = comp_aero_arm(p, sub(cross_x(w_s, x_ref), v_air_s), w_s, flaps, nonlinear, tabs[3], tabs[4], unrolled)
+        t_arm = add(t_arm, add(x_cross(x_ref, fc), tc))
     t_pivot = add(t_arm, add(cross(r_a, f_a), t_a))
     t_gimbal = add(cross(rho, f_a), t_a)
     return (
-        dot(axes[0], t_pivot) + (fric[0] + stop_torque(0, q, qd, p, flags)),
-        dot(axes[1], t_pivot) + (fric[1] + stop_torque(1, q, qd, p, flags)),
-        dot(axes[2], t_pivot) + (fric[2] + stop_torque(2, q, qd, p, flags)),
-        dot(axes[3], t_gimbal) + (fric[3] + stop_torque(3, q, qd, p, flags)),
-        dot(axes[4], t_gimbal) + (fric[4] + stop_torque(4, q, qd, p, flags)),
+        t_pivot[0] + (fric[0] + stop_torque(0, q, qd, p, flags)),
+        dot_pitch(cs, t_pivot) + (fric[1] + stop_torque(1, q, qd, p, flags)),
+        dot(a2, t_pivot) + (fric[2] + stop_torque(2, q, qd, p, flags)),
+        dot_model_pitch(sc, t_gimbal) + (fric[3] + stop_torque(3, q, qd, p, flags)),
+        t_gimbal[2] + (fric[4] + stop_torque(4, q, qd, p, flags)),
     )
 
 
