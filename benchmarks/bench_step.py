@@ -149,7 +149,7 @@ def lanes_stepper(a: dict):
     """The same env-step with the lane kernel (eight environments per SIMD register), as the environments use it."""
     from rig_env.physics import lanes
 
-    S = lanes.new_work(a["X"].shape[0])
+    S = lanes.new_work(a["X"].shape[0], N_SUB)
     kernel = lanes.step_lanes if a["X"].shape[0] >= integ.PARALLEL_MIN_ENVS else lanes.step_lanes_serial
     k = [0]
 

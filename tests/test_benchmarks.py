@@ -1,0 +1,44 @@
+"""The benchmarks' kernel steppers still run against the kernels' current interfaces.
+
+Timing lives in ``benchmarks/`` (never in tests); this only steps each stepper of
+``benchmarks/bench_step.py`` (also used by ``benchmarks/bench_compile.py``) on a few environments, so that a
+change of a kernel's signature cannot leave a benchmark broken unnoticed (``lanes.new_work`` gained its
+``n_sub`` argument and ``bench_step.py`` failed until the next benchmark run found it).
+"""
+
+import numpy as np
+import pytest
+
+from benchmarks import bench_step as b
+
+
+def test_lane_and_joint_steppers_agree(params):
+    """The lane kernel and the per-environment kernel, as the benchmark drives them, end one env-step at
+    the same state (they are the same model; the lane kernel differs in the order of some operations)."""
+    out = {}
+    for name in ("lanes_stepper", "joint_stepper"):
+        a = b.setup(params, 9)  # 9: one full block of 8 lanes and one partial
+        step = getattr(b, name)(a)
+        for _ in range(3):
+            step()
+        assert np.all(a["status"] == 0)
+        out[name] = a["X"].copy()
+    assert np.all(np.isfinite(out["lanes_stepper"]))
+    np.testing.assert_allclose(out["lanes_stepper"], out["joint_stepper"], rtol=0, atol=1e-11)
+
+
+def test_dae_stepper_runs(params):
+    """The DAE stepper (its state lives inside the stepper) takes env-steps without flagging an environment."""
+    a = b.setup(params, 2)
+    step = b.dae_stepper(a)
+    for _ in range(3):
+        step()
+    assert np.all(a["status"] == 0)
+
+
+@pytest.mark.parametrize("n", [1, 64])
+def test_rate_counts_env_steps(n):
+    """rate() returns env-steps per wall second and per CPU second, both positive for a stepper that works."""
+    calls = []
+    best, per_cpu = b.rate(lambda: calls.append(1), n, seconds=0.01, min_calls=3, repeats=1)
+    assert len(calls) >= 3 and best > 0 and per_cpu > 0
