@@ -30,8 +30,6 @@ world-axes kinematics for the DAE, the drawings and the tests.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
