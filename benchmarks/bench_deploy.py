@@ -125,7 +125,7 @@ def main() -> None:
                              f"{s['counts']['missed']} | {C['p50_ms']:.3f} |")
                 print(lines[-1], flush=True)
         lines += ["", "| artefact kind (exported from) | runtime `act`, median per call | note |", "|---|---|---|"]
-        from controllers.base import CONTROLLERS
+        from controllers.laws.base import CONTROLLERS
         import controllers  # noqa: F401
 
         for kind in ["linear"] + sorted(k for k in CONTROLLERS if k != "linear"):

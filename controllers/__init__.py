@@ -1,18 +1,29 @@
-"""Control laws of the compensator behind one interface (:mod:`controllers.base`).
+"""Control laws of the compensator, grouped by phase.
 
-Importing this package registers the built-in laws in ``controllers.base.CONTROLLERS``: ``"pid"``
-(:mod:`controllers.pid`), ``"lqr"`` (:mod:`controllers.lqr`), each followed by its heave/sway law
-for the tasks with rig_roll locked (:mod:`controllers.heave_sway`; for free-flight emulation the
-model-following LQR of :mod:`controllers.emulation` comes first), and the learned policies of
-:mod:`controllers.rl` (``"ppo"``, ``"sac"``).  Every runtime here imports numpy only; the designs
-(python-control, the numba model) live in the ``*_design`` modules and load when a law is designed.
+| package | phase | imports |
+|---|---|---|
+| :mod:`controllers.laws` | the laws as they run (what deploys) | numpy |
+| :mod:`controllers.design` | their design: trim/linearise, tuning, LQR synthesis, RL training and export | rig_env, python-control, scipy, torch |
+| :mod:`controllers.evaluation` | closed-loop evaluation, the comparison, its report | the environments, laws, designs |
+| :mod:`controllers.deploy` | the law as data, the real-time loop, the simulated rig | numpy (the loop); the rest for export |
+
+This package imports only :mod:`controllers.laws`; :func:`make_controller` loads the designs when called.
 """
 
-from controllers.base import CONTROLLERS, Controller, LoopSpec, UnsupportedTask, make_controller, register
-from controllers import pid  # noqa: E402,F401  (registers "pid": the roll-axis cascade)
-from controllers import lqr  # noqa: E402,F401  (registers "lqr": the scheduled roll-axis LQR)
-from controllers import emulation  # noqa: E402,F401  (after the roll laws: the model-following "lqr" of free-flight emulation)
-from controllers import heave_sway  # noqa: E402,F401  (after the roll laws: the heave/sway "pid" and "lqr")
-from controllers import rl  # noqa: E402,F401  (registers "ppo" and "sac": shipped policies, numpy runtime)
+from __future__ import annotations
 
-__all__ = ["CONTROLLERS", "Controller", "LoopSpec", "UnsupportedTask", "make_controller", "register"]
+from typing import Any
+
+from controllers.laws import LAWS, Controller, LoopSpec, UnsupportedTask, law_for, register
+
+CONTROLLERS = LAWS
+
+
+def make_controller(kind: str, spec: LoopSpec, num_envs: int = 1, **options: Any) -> Controller:
+    """:func:`controllers.design.make_controller`: the law of ``kind`` for ``spec``, designed and built."""
+    from controllers.design import make_controller as make
+
+    return make(kind, spec, num_envs, **options)
+
+
+__all__ = ["CONTROLLERS", "LAWS", "Controller", "LoopSpec", "UnsupportedTask", "law_for", "make_controller", "register"]

@@ -8,7 +8,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from rig_env.cli import main
+from rig_cli.main import main
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 

@@ -127,7 +127,7 @@ def test_round_trip_reproduces_the_law_and_its_states(exported, kind, task):
 @pytest.mark.parametrize("task", TASKS)
 def test_lqr_tables_are_python_controls_lqr_and_bilinear(exported, task):
     """Independent: a grid point's gain is control.lqr at that point (design_point); the schedule is bilinear."""
-    from controllers.lqr_design import design_point
+    from controllers.design.lqr import design_point
     from rig_env.params import RigParams
 
     law, path = exported["lqr", task]
@@ -146,7 +146,7 @@ def test_lqr_tables_are_python_controls_lqr_and_bilinear(exported, task):
 
 
 def test_pid_gains_are_the_tuners(exported):
-    from controllers.tuning import tune_axis
+    from controllers.design.tuning import tune_axis
     from rig_env.params import RigParams
 
     law, path = exported["pid", "bank_to_bank"]
@@ -304,8 +304,8 @@ def test_heave_sway_tables_are_the_design_tools(kind, task, opts):
     and the arm's; PID gains are tune_driven's, LQR gains control.lqr's (lqr_point with the chosen weights).
     (Free-flight emulation's registered LQR is the model-following one, tests/test_laws_emulation.py; the
     heave/sway LQR, which can still fly it when built directly, is checked here.)"""
-    from controllers.axis_design import axis_point, lqr_point, static_table, tune_driven
-    from controllers.heave_sway import HeaveSwayLQR
+    from controllers.design.heave_sway import axis_point, lqr_point, static_table, tune_driven
+    from controllers.laws.heave_sway import HeaveSwayLQR
     from rig_env.envs.sensors import RATE_SCALE
     from rig_env.envs.tasks.base import G0
     from rig_env.envs.tasks.oscillation import ForcedOscillation
@@ -338,7 +338,7 @@ def test_heave_sway_tables_are_the_design_tools(kind, task, opts):
 
 def test_smooth_ramp_copy_is_the_tasks():
     """The reference parser's numpy copy of the tasks' ramp (its runtime cannot import rig_env) is the same function."""
-    from controllers.references import smooth_ramp
+    from controllers.laws.references import smooth_ramp
     from rig_env.envs.tasks.base import smooth_ramp as task_ramp
 
     x = np.linspace(-0.5, 1.5, 201)
@@ -364,7 +364,7 @@ def test_heave_sway_wrong_shape_refused(tmp_path):
 def test_policy_round_trip_reproduces_the_shipped_policy(exported, kind, task):
     """The artefact holds the shipped file's numbers (read here straight from its JSON) and its provenance, and
     flies the same episode as the law built from the file."""
-    from controllers.rl import policy_path
+    from controllers.laws.rl import policy_path
 
     law, path = exported[kind, task]
     art = A.load(path)
@@ -392,8 +392,8 @@ def test_sb3_predict_through_the_artefact(tmp_path, algo):
     sys.path.insert(0, str(ROOT / "tests"))
     from test_rl import _random_obs, _tiny_model
 
-    from controllers.rl import save_policy
-    from controllers.rl_export import export_sb3
+    from controllers.laws.rl import save_policy
+    from controllers.design.rl_export import export_sb3
 
     model, vn, spec = _tiny_model(algo, normalize=True)  # a few hundred steps, VecNormalize on
     policy = save_policy(export_sb3(model, spec, vn), tmp_path / "policy.json")
@@ -450,7 +450,7 @@ def test_policy_weights_tampered_or_misshapen_refused(exported, tmp_path):
 
 def test_cli_refuses_tampered_policy_artefact_and_wrong_task_policy(exported, tmp_path):
     """Exit status 2 and a message naming what failed: a tampered file on verify, another task's policy on export."""
-    from controllers.rl import policy_path
+    from controllers.laws.rl import policy_path
 
     _, path = exported["ppo", "velocity_vector_roll"]
     raw = path.read_text()

@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from controllers.base import CONTROLLERS, Controller, register
-from controllers.compare import compare
-from controllers.evaluate import NOMINAL, ROBUST, evaluate
-from rig_env.cli import main
+from controllers.laws.base import CONTROLLERS, Controller, register
+from controllers.evaluation.compare import compare
+from controllers.evaluation.evaluate import NOMINAL, ROBUST, evaluate
+from rig_cli.main import main
 
 
 def test_paired_blocks_see_identical_episodes():

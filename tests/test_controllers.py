@@ -11,11 +11,11 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from controllers import LoopSpec, make_controller
-from controllers.estimator import DelayedKalman, kalman_gain
-from controllers.lqr import augmented, design_point
-from controllers.model import loop_elements, resolve, rotation
-from controllers.pid_element import PID
-from controllers.tuning import margins, tune_axis
+from controllers.laws.estimator import DelayedKalman, kalman_gain
+from controllers.laws.lqr import augmented, design_point
+from controllers.design.model import loop_elements, resolve, rotation
+from controllers.laws.pid_element import PID
+from controllers.design.tuning import margins, tune_axis
 from rig_env import RigParams, linearize
 from rig_env.envs import RigVectorEnv
 from rig_env.linear import OperatingPoint
@@ -126,7 +126,7 @@ def test_tuned_gains_meet_the_stated_margins(params, free, joint):
     t = tune_axis(params, free, joint, 20.0, DT)
     el = loop_elements(params, DT)
     s = control.tf("s")
-    from controllers.tuning import rate_plant
+    from controllers.design.tuning import rate_plant
 
     P = rate_plant(params, free, joint, 20.0)
     C = t.kp + t.ki / s
@@ -241,7 +241,7 @@ def test_pid_and_lqr_meet_the_success_criterion_at_20_m_s(task):
     bank_to_bank runs 16.9 s: at its default 17 s the fifth bank step falls on the last control step,
     so the task's final-error criterion cannot be met by any law (reported to the environment's owner).
     """
-    from controllers.evaluate import Conditions, evaluate
+    from controllers.evaluation.evaluate import Conditions, evaluate
 
     cond = Conditions("at 20 m/s", airspeed=(20.0, 20.0), turbulence=0.0)
     extra = {"episode_seconds": 16.9} if task == "bank_to_bank" else {}

@@ -25,11 +25,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers.base import LoopSpec
+from controllers.laws.base import LoopSpec
 from controllers.deploy import artefact as A
 from controllers.deploy import protocol as pr
 from controllers.deploy.framelog import read_log
-from controllers.deploy.linear import LinearLaw
+from controllers.laws.linear import LinearLaw
 from controllers.deploy.loop import ACTIVE, F_STUCK, FAULT, LoopConfig, RigLoop
 from controllers.deploy.simrig import fly_offline
 
@@ -208,7 +208,7 @@ def test_artefact_round_trip_runtime_parity_and_signature(tmp_path):
 
 def test_linear_form_export_of_another_law(tmp_path):
     """A static law linear in its observation (an LQR) exports to kind "linear" through linear_form()."""
-    from controllers.base import Controller
+    from controllers.laws.base import Controller
 
     spec = _spec()
     K = np.random.default_rng(2).normal(size=(spec.n_actions, spec.obs_dim)) * 0.1
@@ -292,7 +292,7 @@ def test_scripts_exit_nonzero_on_refused_artefact(law_file, tmp_path):
 
 def test_runtime_imports_no_torch_nor_sb3(law_file):
     """Loading and running a law never imports torch or stable-baselines3 (the other heavy modules are reported)."""
-    code = ("import sys, json; from controllers.deploy.artefact import load; import controllers.deploy.linear; "
+    code = ("import sys, json; from controllers.deploy.artefact import load; import controllers.laws.linear; "
             f"law = load({str(law_file)!r}).controller(); import numpy as np; law.act(np.zeros((1, law.spec.obs_dim))); "
             "print(json.dumps(sorted({m.split('.')[0] for m in sys.modules} & {'torch', 'stable_baselines3', 'gymnasium', 'numba', 'rig_env', 'scipy'})))")
     r = subprocess.run([sys.executable, "-c", code], env=ENV, capture_output=True, text=True, timeout=60)

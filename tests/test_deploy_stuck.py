@@ -16,7 +16,7 @@ import pytest
 
 from controllers.deploy import artefact as A
 from controllers.deploy import protocol as pr
-from controllers.deploy.linear import roll_tracking
+from controllers.design.linear import roll_tracking
 from controllers.deploy.loop import ACTIVE, F_STUCK, FAULT, LoopConfig, RigLoop
 from controllers.deploy.stuck import U_REF, StuckDetector
 from rig_env.params import JOINTS
@@ -151,7 +151,7 @@ class FedLoop(RigLoop):
 @pytest.fixture(scope="module")
 def vvr_law(tmp_path_factory):
     """The demonstration roll-tracking law for velocity_vector_roll, as a file."""
-    from controllers.base import LoopSpec
+    from controllers.laws.base import LoopSpec
     from rig_env.envs import RigVectorEnv
 
     spec = LoopSpec.from_env(RigVectorEnv(1, task="velocity_vector_roll"))

@@ -1,4 +1,4 @@
-"""The model-following LQR of free-flight emulation (controllers.emulation): its sampling against an ODE
+"""The model-following LQR of free-flight emulation (controllers.laws.emulation): its sampling against an ODE
 solver, its model against the task's reference and rig_env's linearisation, its gains against the
 discrete Riccati equation solved by scipy, its margins against python-control, its reading of the
 observation against the task's true reference, and the closed loop against the task's criterion."""
@@ -18,21 +18,21 @@ from scipy.linalg import solve_discrete_are
 from scipy.signal import cont2discrete
 
 from controllers import LoopSpec, UnsupportedTask, make_controller
-from controllers.emulation import (
+from controllers.laws.emulation import (
     BASE_STATES,
     MAX_DEVIATION,
     TARGETS,
     EmulationLQR,
     EmulationTables,
 )
-from controllers.emulation_design import (
+from controllers.design.emulation import (
     continuous_model,
     design_point,
     margins_discrete,
     zoh_with_delay,
 )
-from controllers.evaluate import NOMINAL, evaluate
-from controllers.heave_sway import HeaveSwayLQR
+from controllers.evaluation.evaluate import NOMINAL, evaluate
+from controllers.laws.heave_sway import HeaveSwayLQR
 from rig_env import RigParams, linearize, trim
 from rig_env.envs import RigVectorEnv
 from rig_env.envs.tasks.freeflight import FreeHawkShortPeriod
@@ -102,7 +102,7 @@ def test_design_model_blocks_are_the_rigs_and_the_tasks(params, V):
     """Rig block = linearize at the zero-input trim (heave column per normalised input, Hawk-elevator column);
     the free Hawk's block = the task's FreeHawkShortPeriod.matrices, whose alpha-q part has the closed-form
     short-period frequency and damping; the servo rows are wn^2 (u - s) - 2 zeta wn s'."""
-    from controllers.axis_design import axis_point
+    from controllers.design.heave_sway import axis_point
     from rig_env.physics import layout as L
 
     A, b, _, _ = continuous_model(params, V, DT)
@@ -130,7 +130,7 @@ def test_gain_solves_the_discrete_riccati_equation(params):
     """K = (R + B'XB)^-1 B'XA with X from scipy's solve_discrete_are on the same augmented model and weights."""
     pt = design_point(params, 20.0, DT, 1, MAX_DEVIATION, 0.5)
     Ad, Bd = pt["Ad"], pt["Bd"]
-    from controllers.emulation_design import error_outputs
+    from controllers.design.emulation import error_outputs
 
     C = error_outputs(np.array([0.0, pt["q_op"][0], 0.0, pt["q_op"][1], 0.0]), 20.0, params.geometry.arm_length, Ad.shape[0])
     W = np.diag([1 / MAX_DEVIATION["alpha_error"] ** 2, 1 / MAX_DEVIATION["q_error"] ** 2, 1 / MAX_DEVIATION["rig_pitch"] ** 2])
@@ -145,8 +145,8 @@ def test_gain_solves_the_discrete_riccati_equation(params):
 def test_estimator_gain_is_the_converged_kalman_filter(params):
     """The steady-state gain equals the time-varying Kalman filter's, iterated from P = I until it stops changing
     (plain numpy, no Riccati solver); the error dynamics A (I - L C) are stable."""
-    from controllers.emulation import SIGMA_A, SIGMA_F, SIGMA_Z, SIGMA_ZF
-    from controllers.emulation_design import EST
+    from controllers.laws.emulation import SIGMA_A, SIGMA_F, SIGMA_Z, SIGMA_ZF
+    from controllers.design.emulation import EST
 
     pt = design_point(params, 20.0, DT, 1, MAX_DEVIATION, 0.5)
     A = pt["Ad"][np.ix_(EST, EST)]
@@ -172,7 +172,7 @@ def test_loop_as_flown_obeys_the_separation_principle(params):
     of the state feedback A - B K on the plant's states, those of the estimator's error A_e (I - L C), and zeros
     (the law's copy of its own delay line); and the state-feedback ones are the full design's minus the
     reference model's.  A wrong sign or a wrong block in the interconnection would move them."""
-    from controllers.emulation_design import EST
+    from controllers.design.emulation import EST
 
     pt = design_point(params, 20.0, DT, 1, MAX_DEVIATION, 0.5)
     Ad, Bd, K, d, Lk = pt["Ad"], pt["Bd"], pt["K"], pt["d"], pt["kalman_gain"]
@@ -202,7 +202,7 @@ def test_loop_as_flown_obeys_the_separation_principle(params):
     full = np.linalg.eigvals(Ad - Bd @ K[None, :])
     for lam in sf:
         assert np.min(np.abs(full - lam)) < (2e-3 if abs(lam) < 1e-2 else 1e-8), lam
-    from controllers.emulation_design import loop_as_flown
+    from controllers.design.emulation import loop_as_flown
     assert loop_as_flown(pt, DT)["rho"] == pytest.approx(np.max(np.abs(expected)), rel=1e-9)
 
 
@@ -249,8 +249,8 @@ def test_law_as_built_meets_its_margin_targets_as_flown(law20):
     """Every design airspeed: GM >= 6 dB and PM >= 45 deg of the loop as flown (law with its estimator and delay
     line, rig with servo and delay), a stable closed loop; and the weight search
     tightened as far as the targets allow (the next candidate would break them)."""
-    from controllers.emulation import WEIGHT_SCALES
-    from controllers.emulation_design import design_point
+    from controllers.laws.emulation import WEIGHT_SCALES
+    from controllers.design.emulation import design_point
 
     d = law20.tables.design
     for p in d["points"]:
@@ -341,7 +341,7 @@ def test_success_rate_of_the_emulation(turbulence, threshold):
 
 def test_runtime_alpha_is_the_tasks():
     """The runtime's numpy copy of the rig's alpha (it cannot import rig_env) is the task's function."""
-    from controllers.emulation import rig_alpha
+    from controllers.laws.emulation import rig_alpha
     from rig_env.envs.tasks.freeflight import rig_alpha as task_alpha
 
     rng = np.random.default_rng(4)

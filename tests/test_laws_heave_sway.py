@@ -1,4 +1,4 @@
-"""Heave/sway laws (controllers.heave_sway): designs against theory, the reference parser against the
+"""Heave/sway laws (controllers.laws.heave_sway): designs against theory, the reference parser against the
 task's true reference, the registry, and closed-loop success rates (slow)."""
 
 from __future__ import annotations
@@ -11,13 +11,14 @@ import numpy as np
 import pytest
 
 from controllers import LoopSpec, make_controller
-from controllers.axis_design import axis_point, lqr_margins, lqr_point, pid_margins_as_flown, static_table, tune_driven
-from controllers.evaluate import GUSTY, NOMINAL, evaluate
-from controllers.heave_sway import HeaveSwayLQR, HeaveSwayPID
-from controllers.lqr import LQRLaw, augmented
-from controllers.model import loop_elements
-from controllers.pid import PIDLaw
-from controllers.references import DrivenReference
+from controllers.design.heave_sway import axis_point, lqr_margins, lqr_point, pid_margins_as_flown, static_table, tune_driven
+from controllers.evaluation.evaluate import GUSTY, NOMINAL, evaluate
+from controllers.laws.heave_sway import HeaveSwayLQR, HeaveSwayPID
+from controllers.laws.lqr import LQRLaw, augmented
+from controllers.design.model import loop_elements
+from controllers.laws.pid import PIDLaw
+from controllers.laws.references import DrivenReference
+from controllers.design.signals import reference_constants
 from rig_env import RigParams
 from rig_env.envs import RigVectorEnv
 
@@ -91,7 +92,7 @@ def test_lqr_poles_and_margins(params, fd, joint, hold):
 def test_lqr_law_as_built_meets_its_margin_targets(task, opts):
     """The law's weight search keeps GM >= 6 dB and PM >= 45 deg at every design airspeed, and the
     next tighter candidate would not (so the search did tighten as far as the targets allow)."""
-    from controllers.heave_sway import ANGLE_MAX_DEG, LQR_TARGETS
+    from controllers.laws.heave_sway import ANGLE_MAX_DEG, LQR_TARGETS
     _, spec = _spec(task, opts)
     law = HeaveSwayLQR(spec, 1)
     j = law.joint
@@ -125,7 +126,7 @@ def test_reference_parser_matches_the_task_reference(task, opts):
     quantisation, 0.1 deg); a_ref against the derivative of the true reference rate."""
     env, spec = _spec(task, opts, 4)
     law = make_controller("pid", spec, 4)  # flies the rig
-    parser = DrivenReference(spec, 4, RigParams.default())  # under test, on the same observations
+    parser = DrivenReference(spec, 4, reference_constants(spec, RigParams.default()))  # under test, on the same observations
     obs, _ = env.reset(seed=3)
     law.reset()
     refs, rates, accs = [], [], []
@@ -151,8 +152,8 @@ def test_reference_parser_matches_the_task_reference(task, opts):
 # --------------------------------------------------------------------------------------------- registry
 @pytest.mark.parametrize("task, opts", CASES)
 def test_make_controller_builds_the_heave_sway_laws(task, opts):
-    """The heave/sway laws, except free-flight emulation's LQR: the model-following one (controllers.emulation) comes first."""
-    from controllers.emulation import EmulationLQR
+    """The heave/sway laws, except free-flight emulation's LQR: the model-following one (controllers.laws.emulation) comes first."""
+    from controllers.laws.emulation import EmulationLQR
     _, spec = _spec(task, opts)
     assert type(make_controller("pid", spec, 2)) is HeaveSwayPID
     assert type(make_controller("lqr", spec, 2)) is (EmulationLQR if task == "free_flight_emulation" else HeaveSwayLQR)
@@ -169,7 +170,7 @@ def test_make_controller_keeps_the_roll_laws_for_roll_tasks(task):
 def test_laws_refuse_a_locked_driven_joint():
     env = RigVectorEnv(2, task="forced_oscillation", task_options={"axis": "heave_pitch"}, free_dofs=("rig_pitch",))
     spec = replace(LoopSpec.from_env(env), task_options={"axis": "sway_yaw"})
-    from controllers.base import UnsupportedTask
+    from controllers.laws.base import UnsupportedTask
     with pytest.raises(UnsupportedTask, match="rig_yaw"):
         HeaveSwayPID(spec, 2)
 

@@ -14,15 +14,15 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from controllers.base import LoopSpec, make_controller
-from controllers.rl import (
+from controllers import LoopSpec, make_controller
+from controllers.laws.rl import (
     POLICY_DIR,
     PolicyFileError,
     checksum,
     load_policy,
     save_policy,
 )
-from controllers.rl_export import evaluate, export_sb3
+from controllers.design.rl_export import evaluate, export_sb3
 
 ROOT = Path(__file__).resolve().parents[1]
 TASK = "velocity_vector_roll"
@@ -90,8 +90,8 @@ def test_runtime_never_imports_torch_or_sb3_and_never_unpickles(exported, monkey
     algo, _, _, _, path = exported
     code = (
         "import sys, numpy as np\n"
-        "from controllers.base import LoopSpec, make_controller\n"
-        "from controllers.rl import load_policy\n"
+        "from controllers import LoopSpec, make_controller\n"
+        "from controllers.laws.rl import load_policy\n"
         f"d = load_policy({str(path)!r})\n"
         f"law = make_controller({algo!r}, d.spec, 3, path={str(path)!r})\n"
         "law.act(np.zeros((3, d.spec.obs_dim)))\n"
@@ -182,7 +182,7 @@ def test_missing_shipped_policy_names_the_file():
 def test_potential_shaping_telescopes():
     """With gamma = 1 the shaped return minus the task's return is Phi(last obs) - Phi(first obs)."""
     from rig_env.envs.sb3 import RigSB3VecEnv
-    from scripts.rl_callbacks import TrainingReward
+    from controllers.design.rl_callbacks import TrainingReward
 
     base = RigSB3VecEnv(3, task=TASK, episode_seconds=0.5)
     base.seed(5)
@@ -218,7 +218,7 @@ def test_potential_shaping_telescopes():
 def test_error_reset_ends_lost_episodes_as_failures():
     """Zero action loses the spinning reference: every episode ends once |roll_error| > 45 deg, terminated."""
     from rig_env.envs.sb3 import RigSB3VecEnv
-    from scripts.rl_callbacks import ErrorReset
+    from controllers.design.rl_callbacks import ErrorReset
 
     base = RigSB3VecEnv(4, task=TASK)
     base.seed(2)
@@ -239,7 +239,7 @@ def test_error_reset_ends_lost_episodes_as_failures():
 
 def test_evaluate_equals_single_episodes_of_rigenv():
     """evaluate() over a batch = each seeded RigEnv episode on its own (returns, success, RMS error)."""
-    from controllers.base import Controller
+    from controllers.laws.base import Controller
     from rig_env.envs import RigEnv
 
     class Hold(Controller):  # a fixed small aileron: ends every episode unsuccessfully but not trivially
@@ -295,9 +295,9 @@ def test_policies_are_shipped_for_both_tasks():
 
 @pytest.mark.slow
 def test_short_ppo_run_improves_the_return(tmp_path):
-    """scripts/train.py end to end on a small budget (bank-to-bank, its table settings): the exported
+    """rig train end to end on a small budget (bank-to-bank, its table settings): the exported
     policy after 400k steps earns clearly more of the task's reward than after one PPO update."""
-    from scripts.train import main
+    from controllers.design.rl_train import main
 
     common = ["--algo", "ppo", "--task", "bank_to_bank", "--seed", "0", "--eval-every", "400000",
               "--eval-episodes", "8", "--final-episodes", "32", "--no-stop"]

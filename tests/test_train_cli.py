@@ -1,4 +1,4 @@
-"""scripts/train.py's training conditions (--conditions, --env) and seed sweeps (--seeds, scripts/seeds.py)."""
+"""rig train's training conditions (--conditions, --env) and seed sweeps (--seeds, controllers/design/rl_seeds.py)."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from controllers.evaluate import MODES
-from controllers.rl import load_policy
-from scripts.train import main, parse_args
+from controllers.evaluation.evaluate import MODES
+from controllers.laws.rl import load_policy
+from controllers.design.rl_train import main, parse_args
 
 TINY = ["--timesteps", "1", "--eval-every", "100000", "--eval-episodes", "4", "--final-episodes", "8"]
 
@@ -64,7 +64,7 @@ def test_two_seeds_under_the_comparison_conditions(tmp_path):
 
 
 def test_summary_refuses_runs_of_different_settings(tmp_path):
-    from scripts.seeds import summarise
+    from controllers.design.rl_seeds import summarise
 
     for name, extra in (("a", []), ("b", ["--env", "turbulence=0.02"])):
         assert main(["--algo", "ppo", "--task", "bank_to_bank", *TINY, "--seed", "1", "--out", str(tmp_path / name), *extra]) == 0

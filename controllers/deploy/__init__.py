@@ -3,9 +3,9 @@
 | module | one idea |
 |---|---|
 | :mod:`~controllers.deploy.artefact` | a law as one file of plain data (JSON + base64 arrays), checksum, optional HMAC, the kind registry |
-| :mod:`~controllers.deploy.linear` | ``LinearLaw``: kind "linear" (static state feedback + limits) |
+| :mod:`~controllers.laws.linear` | ``LinearLaw``: kind "linear" (static state feedback + limits) |
 | :mod:`~controllers.deploy.laws` | kinds "pid" and "lqr": the model-based laws' designed tables |
-| :mod:`~controllers.deploy.policy_kinds` | kinds "ppo" and "sac": a policy file carried whole, run by :mod:`controllers.rl` |
+| :mod:`~controllers.deploy.policy_kinds` | kinds "ppo" and "sac": a policy file carried whole, run by :mod:`controllers.laws.rl` |
 | :mod:`~controllers.deploy.protocol` | the binary UDP frames (sensor, command), CRC-32 |
 | :mod:`~controllers.deploy.loop` | ``RigLoop``: fixed-rate loop, lifecycle, watchdogs, output limits |
 | :mod:`~controllers.deploy.framelog` | the loop's append-only binary log |
@@ -19,7 +19,7 @@ runtime (artefact, protocol, loop, laws) needs numpy and the standard library on
 Importing this package registers the artefact kinds "linear", "pid", "lqr", "ppo" and "sac".
 """
 
-from controllers.deploy import laws, linear  # noqa: F401  (register the "pid", "lqr", "ppo", "sac" and "linear" kinds)
+from controllers.deploy import laws  # noqa: F401  (registers the artefact kinds of every law)
 from controllers.deploy.artefact import ARTEFACT_KINDS, Artefact, ArtefactError, load, register_kind, save
 
 __all__ = ["ARTEFACT_KINDS", "Artefact", "ArtefactError", "load", "register_kind", "save"]

@@ -11,7 +11,7 @@ human-readable.  The size cost (base64: 4/3 of the raw bytes) is ~60 kB for a 64
 | ``format`` | ``"rig-law"`` | file type |
 | ``format_version`` | int | :data:`FORMAT_VERSION`; another version is refused |
 | ``kind`` | str | key of :data:`ARTEFACT_KINDS` (``"linear"``; ``"pid"``, ``"lqr"``, ``"mlp"``... when registered) |
-| ``spec`` | object | the :class:`controllers.base.LoopSpec` the law was designed for |
+| ``spec`` | object | the :class:`controllers.laws.base.LoopSpec` the law was designed for |
 | ``sensors`` | object | sensor layout it was designed with: ``rate_filter_hz``, ``link_delay_steps``, ``quantise``, ``pot_bits``, ``encoder_bits`` |
 | ``limits`` | object | ``position_deg``, ``rate_deg_s``: per action, output limits the loop always applies |
 | ``params`` | object | the kind's scalar / string parameters |
@@ -26,10 +26,10 @@ allow_nan=False)`` encoded as ASCII.  Every array must be finite.
 Registry: ``ARTEFACT_KINDS[kind] = ArtefactKind(to_arrays, from_arrays)``.  ``to_arrays(controller)``
 returns a dict whose values are numpy arrays (stored under ``arrays``) or JSON scalars / strings /
 lists of them (stored under ``params``); ``from_arrays(dict, spec)`` gets the same dict back and
-returns a numpy-only :class:`controllers.base.Controller` for one environment.  A law module
+returns a numpy-only :class:`controllers.laws.base.Controller` for one environment.  A law module
 registers its kind with :func:`register_kind` at import (see docs/DEPLOY.md); an exported controller
 names its kind by ``artefact_kind`` (class attribute; default its ``kind``), so an LQR can export to
-``"linear"``.  This module imports only the standard library, numpy and :mod:`controllers.base`.
+``"linear"``.  This module imports only the standard library, numpy and :mod:`controllers.laws.base`.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from controllers.base import Controller, LoopSpec
+from controllers.laws.base import Controller, LoopSpec
 
 FORMAT = "rig-law"
 FORMAT_VERSION = 1

@@ -63,9 +63,9 @@ def task_options(pairs: Sequence[str] | None) -> dict[str, Any]:
 
 def cmd_export(a: argparse.Namespace) -> int:
     import controllers  # noqa: F401  (registers the built-in laws and their artefact kinds)
-    from controllers.base import CONTROLLERS, LoopSpec, make_controller
+    from controllers import CONTROLLERS, LoopSpec, make_controller
     from controllers.deploy import artefact as art
-    from controllers.deploy.linear import roll_tracking
+    from controllers.design.linear import roll_tracking
     from rig_env.envs import RigVectorEnv
 
     env = RigVectorEnv(1, task=a.task, control_rate=a.rate, task_options=task_options(a.task_option))
@@ -78,7 +78,7 @@ def cmd_export(a: argparse.Namespace) -> int:
     elif a.controller in CONTROLLERS:
         if a.policy and a.controller not in ("ppo", "sac"):
             raise ValueError(f"--policy: only for the RL kinds ppo, sac; not {a.controller!r}")
-        kwargs: dict[str, Any] = {"path": a.policy} if a.policy else {}  # controllers.rl.MLPPolicy(path=...)
+        kwargs: dict[str, Any] = {"path": a.policy} if a.policy else {}  # controllers.laws.rl.MLPPolicy(path=...)
         ctrl = make_controller(a.controller, spec, 1, **kwargs)
     else:
         raise ValueError(f"--controller {a.controller!r}: not available in this installation; available: {kinds}")
@@ -148,7 +148,7 @@ def parser() -> argparse.ArgumentParser:
     e.add_argument("--task-option", action="append", metavar="KEY=VALUE", help="a task option (repeatable), e.g. axis=sway_yaw for forced_oscillation")
     e.add_argument("--out", required=True)
     e.add_argument("--rate", type=float, default=80.0, help="control rate, Hz")
-    e.add_argument("--policy", help="ppo, sac: a policy file from scripts/train.py (default: the shipped controllers/policies/<task>_<kind>.json)")
+    e.add_argument("--policy", help="ppo, sac: a policy file from rig train (default: the shipped controllers/policies/<task>_<kind>.json)")
     e.add_argument("--gains", type=float, nargs=3, default=(2.0, 1.0, 1.0), metavar=("KP", "KD", "KFF"), help="linear: roll-tracking gains")
     e.add_argument("--key-file", help="sign with the HMAC key in this file")
     e.add_argument("--notes", default="")

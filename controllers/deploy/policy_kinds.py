@@ -4,10 +4,10 @@ The artefact's arrays are the policy file's arrays (float64 copies of its float3
 bit); its ``params`` hold the rest of the policy file verbatim (format, loop spec, activation,
 normalisation constants, action post-processing, the training provenance and the policy file's own
 SHA-256).  Loading reassembles the policy file from the two, validates it with
-:func:`controllers.rl.parse_policy` (fields, shapes, finiteness) and checks that it hashes to the
+:func:`controllers.laws.rl.parse_policy` (fields, shapes, finiteness) and checks that it hashes to the
 SHA-256 it claims, so the weights that fly are provably the ones training shipped.  The runtime is
-:class:`controllers.rl.PPOPolicy` / :class:`~controllers.rl.SACPolicy` itself (one MLP forward pass,
-:meth:`controllers.rl.PolicyData.forward`); nothing imports torch or stable-baselines3.
+:class:`controllers.laws.rl.PPOPolicy` / :class:`~controllers.laws.rl.SACPolicy` itself (one MLP forward pass,
+:meth:`controllers.laws.rl.PolicyData.forward`); nothing imports torch or stable-baselines3.
 
 | arrays | shape | policy file field |
 |---|---|---|
@@ -34,9 +34,9 @@ from typing import Any
 
 import numpy as np
 
-from controllers.base import Controller, LoopSpec
+from controllers.laws.base import Controller, LoopSpec
 from controllers.deploy.artefact import register_kind
-from controllers.rl import MLPPolicy, PPOPolicy, SACPolicy, checksum, load_policy, parse_policy
+from controllers.laws.rl import MLPPolicy, PPOPolicy, SACPolicy, checksum, load_policy, parse_policy
 
 RUNTIMES: dict[str, type[MLPPolicy]] = {"ppo": PPOPolicy, "sac": SACPolicy}
 _PARAMS = {"policy", "policy_file"}
@@ -81,7 +81,7 @@ def join_policy(header: Any, arrays: Mapping[str, np.ndarray], where: str) -> di
 def to_arrays(law: Controller) -> dict[str, Any]:
     """A PPO/SAC law as artefact data: its policy file (or the policy it was itself loaded from) split."""
     if not isinstance(law, MLPPolicy) or law.kind not in RUNTIMES:
-        raise TypeError(f"kinds {sorted(RUNTIMES)} export a controllers.rl policy law; got {type(law).__name__}")
+        raise TypeError(f"kinds {sorted(RUNTIMES)} export a controllers.laws.rl policy law; got {type(law).__name__}")
     source = getattr(law, "policy_source", None)
     if source is None:
         if law.path is None:

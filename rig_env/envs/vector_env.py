@@ -117,6 +117,8 @@ class RigVectorEnv(VectorEnv):
     """
 
     metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": list(RENDER_MODES)}
+    action_scale_deg: float = ACTION_SCALE_DEG
+    """Compensator deflection, deg, of a normalised action of 1 (every action entry)."""
 
     def __init__(self, num_envs: int = 1, config: RigEnvConfig | None = None, render_mode: str | None = None, **fields: Any) -> None:
         if not isinstance(num_envs, (int, np.integer)) or isinstance(num_envs, bool) or not 1 <= num_envs <= 1_000_000:

@@ -182,7 +182,7 @@ class FreeFlightEmulation(Task):
     The limit is within reach: without control the normalised error is about 1.5 (the rig's lightly
     damped heave-pitch mode rings); a static law on the six task entries and the rig-pitch rate
     (hand-searched gains, with feedforward of accel_ref) reached a median of 0.31 over 32 episodes, and
-    the model-following LQR (:mod:`controllers.emulation`) reaches it in every one of 32 episodes in calm
+    the model-following LQR (:mod:`controllers.laws.emulation`) reaches it in every one of 32 episodes in calm
     air (median 0.30, 15-25 m/s, sensor noise, servo spread).  Turbulence is scored as error: the
     reference flies in still air, so the rig's response to the gusts counts against it; at 1 % gusts that
     part alone is 0.40 with the LQR (0.62 open loop, no pilot input), and 18 of 32 episodes succeed.

@@ -1,19 +1,19 @@
 """Heave and sway laws (PID and LQR) for the tasks that drive rig_pitch or rig_yaw with rig_roll locked.
 
 Tasks: pull_up_push_over, forced_oscillation (``axis`` heave_pitch or sway_yaw) and
-free_flight_emulation; the driven joint's reference comes from :class:`controllers.references.DrivenReference`
+free_flight_emulation; the driven joint's reference comes from :class:`controllers.laws.references.DrivenReference`
 (angle error ``e``, rate ``w_ref``, acceleration ``a_ref``).  Both laws command the compensator's
 virtual heave (elevator) or sway (rudder) input; roll is locked, so the surfaces are the virtual
-inputs themselves (:func:`controllers.model.resolve` at phi = 0) and the aileron stays at 0.
+inputs themselves (:func:`controllers.design.model.resolve` at phi = 0) and the aileron stays at 0.
 
-Design model (:mod:`controllers.axis_design`): the rig's zero-input equilibrium and its linearisation
+Design model (:mod:`controllers.design.heave_sway`): the rig's zero-input equilibrium and its linearisation
 at every airspeed of a grid over ``spec.airspeed_range`` (2.5 m/s apart), interpolated linearly at
 the measured airspeed.  Feedforward of the reference on that model, with the passive model joints
 quasi-static (they follow the rig within a fraction of the reference's period):
 
     u_ff  = u_s(theta_ref, V) + (a_ref - A'_jj w_ref) / b_j
 
-with ``u_s`` the rig's static input curve (:func:`controllers.axis_design.static_table`: the input
+with ``u_s`` the rig's static input curve (:func:`controllers.design.heave_sway.static_table`: the input
 that holds the driven joint at theta with every free joint settled, from ``rig_env.trim``; its
 slope at theta_op is the linear model's static gain ``1 / G_j``, ``G = -A_q^-1 B_axis`` (every joint's
 angle per unit input; the input reaches the passive joints too, through the coupled inertia),
@@ -22,8 +22,8 @@ control power.
 
 | class | kind | law |
 |---|---|---|
-| :class:`HeaveSwayPID` | pid | outer P on ``e`` plus ``w_ref`` -> rate demand (limit :data:`RATE_DEMAND_MAX`); inner PI on the measured rate with ``u_ff`` and the decoupling ``u_dc`` (below) (:class:`controllers.pid_element.PID`: back-calculation anti-windup, output +-1, the servo's rate limit, bumpless engagement); gains from :func:`controllers.axis_design.tune_driven` at the middle airspeed, scaled by ``(V_design / V)^2`` |
-| :class:`HeaveSwayLQR` | lqr | ``v = u_ff - K(V) [q - q_ref, w - w_ref, z]``, ``K`` from :func:`controllers.axis_design.lqr_point` (Bryson weights: the tightest of :data:`ANGLE_MAX_DEG` meeting :data:`LQR_TARGETS`) with the integral ``z`` of the driven joint's error (clamping anti-windup), ``(q, w)`` from :class:`controllers.estimator.DelayedKalman`; passive joints referenced to their quasi-static angle, or left free (zero gain) in free-flight emulation |
+| :class:`HeaveSwayPID` | pid | outer P on ``e`` plus ``w_ref`` -> rate demand (limit :data:`RATE_DEMAND_MAX`); inner PI on the measured rate with ``u_ff`` and the decoupling ``u_dc`` (below) (:class:`controllers.laws.pid_element.PID`: back-calculation anti-windup, output +-1, the servo's rate limit, bumpless engagement); gains from :func:`controllers.design.heave_sway.tune_driven` at the middle airspeed, scaled by ``(V_design / V)^2`` |
+| :class:`HeaveSwayLQR` | lqr | ``v = u_ff - K(V) [q - q_ref, w - w_ref, z]``, ``K`` from :func:`controllers.design.heave_sway.lqr_point` (Bryson weights: the tightest of :data:`ANGLE_MAX_DEG` meeting :data:`LQR_TARGETS`) with the integral ``z`` of the driven joint's error (clamping anti-windup), ``(q, w)`` from :class:`controllers.laws.estimator.DelayedKalman`; passive joints referenced to their quasi-static angle, or left free (zero gain) in free-flight emulation |
 
 Decoupling (PID): the passive model joints pull on the driven joint (the model's lift and side force
 on the arm; a gust shows first as a model-joint deflection).  ``u_dc = -(A_jp (q_p - q_p,ref) + A'_jp w_p) / b_j``
@@ -33,15 +33,15 @@ The LQR has these terms in ``K`` already.  Free-flight emulation instead inverts
 row, ``u_ff = (a_ref - A_j x) / b_j`` on the measured state, so that the gimbal follows the free
 Hawk's heave acceleration whatever the model does.
 
-Departure recovery keeps rig_roll free, so the roll laws (:mod:`controllers.pid`, :mod:`controllers.lqr`)
+Departure recovery keeps rig_roll free, so the roll laws (:mod:`controllers.laws.pid`, :mod:`controllers.laws.lqr`)
 fly it (they come first in the registry); with wind-tunnel turbulence (1 %) they recover 28/32 and 27/32
 episodes at 20 m/s.  With 5 % gusts (the "gusty" stress mode) no law does: the passive model joints' rates stay
 above the task's 20 deg/s recovery limit (peaks 60-85 deg/s), which no compensator input can damp.
 
 ``law.describe()`` gives gains and margins (servo, delay and rate sensor in the loop) for the report.
 
-Design and runtime are apart (as :mod:`controllers.pid`, :mod:`controllers.lqr`):
-:mod:`controllers.heave_sway_design` (python-control, scipy, the numba model, ``rig_env``; imported
+Design and runtime are apart (as :mod:`controllers.laws.pid`, :mod:`controllers.laws.lqr`):
+:mod:`controllers.design.heave_sway` (python-control, scipy, the numba model, ``rig_env``; imported
 only when a law is designed) produces :class:`HeaveSwayTables`, plain data; this module runs them
 with numpy alone, in simulation and from a deployed artefact (kinds ``"pid_heave_sway"`` and
 ``"lqr_heave_sway"``: ``law.to_data()`` / ``HeaveSwayPID.from_data(data, spec)``), one implementation.
@@ -52,24 +52,22 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from controllers.axes import AXIS_OF
-from controllers.base import Controller, LoopSpec, register
-from controllers.estimator import DelayedKalman
-from controllers.pid_element import PID
-from controllers.references import DrivenReference, ReferenceConstants
-from controllers.signals import SignalScales, table_array
+from controllers.laws.axes import AXIS_OF
+from controllers.laws.base import Controller, LoopSpec, register
+from controllers.laws.estimator import DelayedKalman
+from controllers.laws.pid_element import PID
+from controllers.laws.references import TASKS, DrivenReference, ReferenceConstants
+from controllers.laws.signals import SignalScales, table_array
 
-if TYPE_CHECKING:  # the design's types only; the runtime never imports rig_env
-    from rig_env.params import RigParams
 
 ANGLE_MAX_DEG = (4.0, 3.5, 3.0, 2.5, 2.0)
 """Candidate Bryson maxima of the driven joint's angle and its integral (deg, deg s), loosest first; the
-rate's is 30 deg/s (as :data:`controllers.lqr.MAX_DEVIATION`).  :class:`HeaveSwayLQR` takes the tightest
-whose loop (broken at the driven input, servo and Pade delay in, :func:`controllers.axis_design.lqr_margins`)
+rate's is 30 deg/s (as :data:`controllers.laws.lqr.MAX_DEVIATION`).  :class:`HeaveSwayLQR` takes the tightest
+whose loop (broken at the driven input, servo and Pade delay in, :func:`controllers.design.heave_sway.lqr_margins`)
 keeps :data:`LQR_TARGETS` at every design airspeed."""
 LQR_TARGETS = {"gm_db": 6.0, "pm_deg": 45.0}
 RATE_DEMAND_MAX = math.radians(90.0)
@@ -95,8 +93,8 @@ class HeaveSwayTables:
     | q_op | (nv, nq) | rad, zero-input trim angles of the free joints |
     | S | (nv, npas) | passive joint angle per rad of the driven joint held by a steady input |
     | static_theta, static_u, static_n | (nv, m), (nv, m), (nv,) | the static input curve per airspeed: the first ``static_n`` points, rad ascending / normalised |
-    | reference | :class:`controllers.references.ReferenceConstants` | the reference parser's numbers |
-    | scales | :class:`controllers.signals.SignalScales` | the observation's normalisation |
+    | reference | :class:`controllers.laws.references.ReferenceConstants` | the reference parser's numbers |
+    | scales | :class:`controllers.laws.signals.SignalScales` | the observation's normalisation |
     | law | dict | pid: ``kp``, ``ki`` (per rad/s, per rad s), ``k_angle`` (1/s), ``v_design`` (m/s), ``rate_limit`` (units/s), ``feedforward``, ``decouple``; lqr: ``K`` (nv, 2 nq + 1), ``A_q``, ``A_w`` (nv, nq, nq), ``B`` (nv, nq, 3), ``kalman_gain`` (nq, 2), ``link_delay_steps`` |
     | design | dict | provenance: targets, margins, weights, airspeed range, sensor layout assumed |
     """
@@ -218,6 +216,15 @@ class _AxisModel:
 class _HeaveSwayBase(Controller):
     _law = ""
 
+    @classmethod
+    def supports(cls, spec: LoopSpec) -> str | None:
+        """The heave/sway laws fly the heave and sway tasks with rig_roll locked."""
+        if spec.task not in TASKS:
+            return f"task {spec.task!r}: the heave/sway laws fly {list(TASKS)}"
+        if "rig_roll" in spec.free_dofs:
+            return f"free_dofs = {list(spec.free_dofs)}: the heave/sway laws need rig_roll locked"
+        return None
+
     def __init__(self, spec: LoopSpec, num_envs: int, tables: HeaveSwayTables | Mapping[str, Any]) -> None:
         super().__init__(spec, num_envs)
         t = self.tables = tables if isinstance(tables, HeaveSwayTables) else HeaveSwayTables.from_data(self._law, tables, spec)
@@ -266,33 +273,16 @@ class _HeaveSwayBase(Controller):
 
 @register("pid")
 class HeaveSwayPID(_HeaveSwayBase):
-    """Cascaded PID on the driven rig joint; see the module docstring.  Keyword arguments:
+    """Cascaded PID on the driven rig joint; see the module docstring.
 
-    | argument | default | meaning |
-    |---|---|---|
-    | params | default rig | rig parameters of the design model |
-    | link_delay_steps | 1 | telemetry delay the tuning accounts for, control steps |
-    | rate_filter_hz | 10.0 | the rate sensor's filter the tuning accounts for, Hz |
-    | feedforward | True | reference feedforward ``u_ff`` |
-    | decouple | True | decoupling ``u_dc`` of the passive joints |
-    | targets | None | margin targets for :func:`controllers.axis_design.tune_driven` (``pm_inner``, ``gm_inner``, ``pm_outer``, ``gm_outer``) |
-    | tables | None | a finished design (:class:`HeaveSwayTables` or its data); the arguments above must then be left at their defaults |
+    ``tables``: the design (:class:`HeaveSwayTables` or its data), made by
+    :func:`controllers.design.heave_sway.design_heave_sway_pid` (or read from an artefact).
     """
 
     artefact_kind = "pid_heave_sway"
     _law = "pid"
 
-    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
-                 rate_filter_hz: float = 10.0, feedforward: bool = True, decouple: bool = True, targets: dict[str, float] | None = None,
-                 tables: HeaveSwayTables | Mapping[str, Any] | None = None) -> None:
-        if tables is None:
-            # design time only: python-control, scipy, the numba model and rig_env
-            from controllers.heave_sway_design import design_heave_sway_pid
-
-            tables = design_heave_sway_pid(spec, params, link_delay_steps=link_delay_steps, rate_filter_hz=rate_filter_hz,
-                                           feedforward=feedforward, decouple=decouple, targets=targets)
-        elif params is not None or link_delay_steps != 1 or rate_filter_hz != 10.0 or feedforward is not True or decouple is not True or targets is not None:
-            raise ValueError("tables given: params, link_delay_steps, rate_filter_hz, feedforward, decouple and targets belong to the design and must not be passed too")
+    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, tables: HeaveSwayTables | Mapping[str, Any]) -> None:
         super().__init__(spec, num_envs, tables)
         g, n = self.tables.law, self.num_envs
         self.v_design, self.use_ff, self.decouple = g["v_design"], g["feedforward"], g["decouple"]
@@ -329,7 +319,7 @@ class HeaveSwayPID(_HeaveSwayBase):
 
     def describe(self) -> dict[str, Any]:
         """Tuning (gains, inner and outer loop margins) and the margins of the whole law broken at the
-        surface command (``*_input``: cascade and decoupling together, :func:`controllers.axis_design.pid_margins_as_flown`),
+        surface command (``*_input``: cascade and decoupling together, :func:`controllers.design.heave_sway.pid_margins_as_flown`),
         as computed by the design."""
         return {self.joint: dict(self.tables.design["tuning"])}
 
@@ -338,26 +328,22 @@ class HeaveSwayPID(_HeaveSwayBase):
 class HeaveSwayLQR(_HeaveSwayBase):
     """LQR with integral action on the driven rig joint, scheduled in airspeed; see the module docstring.
 
-    | argument | default | meaning |
-    |---|---|---|
-    | params | default rig | rig parameters of the design model |
-    | link_delay_steps | 1 | measurement delay the estimator predicts over, control steps |
-    | max_deviation | None | Bryson maxima (rad, rad/s, rad s) by state label, overriding the weight search |
-    | tables | None | a finished design (:class:`HeaveSwayTables` or its data); the arguments above must then be left at their defaults |
+    ``tables``: the design (:class:`HeaveSwayTables` or its data), made by
+    :func:`controllers.design.heave_sway.design_heave_sway_lqr` (or read from an artefact).  It can
+    fly free-flight emulation when built so, but :func:`~controllers.laws.base.law_for` routes that
+    task's ``"lqr"`` to the model-following :class:`controllers.laws.emulation.EmulationLQR`.
     """
 
     artefact_kind = "lqr_heave_sway"
     _law = "lqr"
 
-    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
-                 max_deviation: dict[str, float] | None = None, tables: HeaveSwayTables | Mapping[str, Any] | None = None) -> None:
-        if tables is None:
-            # design time only: python-control, scipy, the numba model and rig_env
-            from controllers.heave_sway_design import design_heave_sway_lqr
+    @classmethod
+    def supports(cls, spec: LoopSpec) -> str | None:
+        if spec.task == "free_flight_emulation":
+            return "free-flight emulation's 'lqr' is the model-following EmulationLQR"
+        return _HeaveSwayBase.supports.__func__(cls, spec)
 
-            tables = design_heave_sway_lqr(spec, params, link_delay_steps=link_delay_steps, max_deviation=max_deviation)
-        elif params is not None or link_delay_steps != 1 or max_deviation is not None:
-            raise ValueError("tables given: params, link_delay_steps and max_deviation belong to the design and must not be passed too")
+    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, tables: HeaveSwayTables | Mapping[str, Any]) -> None:
         super().__init__(spec, num_envs, tables)
         g = self.tables.law
         self.max_deviation = dict(self.tables.design["max_deviation"])

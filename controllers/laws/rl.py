@@ -1,6 +1,6 @@
 """RL laws (PPO, SAC) run from plain data with numpy only: the shipped policy file, its loader and runtime.
 
-A policy trained by ``scripts/train.py`` is exported (:func:`controllers.rl_export.export_sb3`) to one
+A policy trained by ``rig train`` is exported (:func:`controllers.design.rl_export.export_sb3`) to one
 JSON file; this module loads it, validates it and runs it.  Nothing here imports torch or
 stable-baselines3, and nothing is unpickled: a policy file is data, never code.
 
@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from controllers.base import Controller, LoopSpec, register
+from controllers.laws.base import Controller, LoopSpec, register
 
 FORMAT = "rig_env.rl_policy"
 FORMAT_VERSION = 1
@@ -253,7 +253,7 @@ class MLPPolicy(Controller):
         super().__init__(spec, num_envs)
         p = Path(path) if path is not None else policy_path(spec.task, self.kind)
         if not p.is_file():
-            raise FileNotFoundError(f"{self.kind} policy for task {spec.task!r}: no file {p} (train one with scripts/train.py)")
+            raise FileNotFoundError(f"{self.kind} policy for task {spec.task!r}: no file {p} (train one with rig train)")
         self.path: Path | None = p
         self._adopt(load_policy(p), str(p))
 

@@ -1,4 +1,4 @@
-"""From a trained stable-baselines3 model to the plain-data policy of :mod:`controllers.rl`, and its evaluation.
+"""From a trained stable-baselines3 model to the plain-data policy of :mod:`controllers.laws.rl`, and its evaluation.
 
 ``export_sb3`` reads the actor's weights, the VecNormalize statistics and the action space off the
 live SB3 objects (it calls their methods; it imports stable-baselines3 only to check classes, and
@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from controllers.base import Controller, LoopSpec
-from controllers.rl import FORMAT, FORMAT_VERSION, POSTPROCESS
+from controllers.laws.base import Controller, LoopSpec
+from controllers.laws.rl import FORMAT, FORMAT_VERSION, POSTPROCESS
 
 
 def encode(a: Any) -> list:
@@ -64,10 +64,10 @@ def export_sb3(
     env_overrides: dict[str, Any] | None = None,
     provenance: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """The policy of a trained SB3 PPO/SAC ``model`` as a policy-file payload (see ``controllers.rl``).
+    """The policy of a trained SB3 PPO/SAC ``model`` as a policy-file payload (see ``controllers.laws.rl``).
 
     vecnormalize: the training ``VecNormalize`` (its observation statistics are shipped) or None.
-    Pass the payload to :func:`controllers.rl.save_policy`.
+    Pass the payload to :func:`controllers.laws.rl.save_policy`.
     """
     from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.distributions import DiagGaussianDistribution

@@ -45,10 +45,8 @@ class LoopSpec:
 
     @classmethod
     def from_env(cls, env: Any) -> "LoopSpec":
-        """From a ``RigVectorEnv`` or ``RigEnv`` (or anything wrapping one: ``.unwrapped``/``.vec``)."""
+        """From a ``RigVectorEnv`` or ``RigEnv`` (or anything wrapping one: ``.unwrapped``/``.vec``); reads its attributes only."""
         vec = getattr(env, "vec", None) or getattr(getattr(env, "unwrapped", env), "vec", None) or getattr(env, "unwrapped", env)
-        from rig_env.envs.vector_env import ACTION_SCALE_DEG
-
         return cls(
             task=vec.config.task,
             free_dofs=tuple(vec.free_dofs),
@@ -56,7 +54,7 @@ class LoopSpec:
             action_names=tuple(vec.action_names),
             dt=float(vec.dt),
             airspeed_range=tuple(float(v) for v in vec.airspeed_range),
-            action_scale_deg=float(ACTION_SCALE_DEG),
+            action_scale_deg=float(vec.action_scale_deg),
             task_options=dict(vec.config.task_options),
         )
 
@@ -103,6 +101,11 @@ class Controller(abc.ABC):
             raise ValueError(f"num_envs = {num_envs!r}: must be a positive integer")
         self.spec, self.num_envs = spec, int(num_envs)
 
+    @classmethod
+    def supports(cls, spec: LoopSpec) -> str | None:
+        """None when :func:`law_for` should route ``spec`` to this class, else the reason it does not (numpy only)."""
+        return None
+
     @abc.abstractmethod
     def reset(self, mask: np.ndarray | None = None) -> None: ...
 
@@ -126,39 +129,45 @@ class Controller(abc.ABC):
         return m
 
 
-CONTROLLERS: dict[str, list[Callable[..., Controller]]] = {}
-"""Law classes by kind (``"lqr"``, ``"pid"``, ``"ppo"``, ``"sac"``...), filled by the law modules.
+LAWS: dict[str, list[type[Controller]]] = {}
+"""Law classes by kind (``"lqr"``, ``"pid"``, ``"ppo"``, ``"sac"``, ``"linear"``), filled by :func:`register`.
 
-A kind may hold several classes, each for the tasks it can fly (e.g. the roll-axis PID and the
-heave/sway PID); :func:`make_controller` builds the first that does not raise
-:class:`UnsupportedTask` for the spec."""
+A kind may hold several classes, each for the loops it flies (the roll-axis PID and the heave/sway
+PID); each says which :class:`LoopSpec` it takes through :meth:`Controller.supports`, and no two
+classes of one kind take the same spec (:func:`law_for` refuses an ambiguous spec), so the class a
+spec gets never depends on the order in which modules were imported."""
+
+CONTROLLERS = LAWS
+"""The same registry under its earlier name."""
 
 
 def register(kind: str) -> Callable[[type[Controller]], type[Controller]]:
+    """Class decorator: file the law under ``kind`` (once) and name its kind."""
+
     def deco(cls: type[Controller]) -> type[Controller]:
         cls.kind = kind
-        CONTROLLERS.setdefault(kind, [])
-        if cls not in CONTROLLERS[kind]:
-            CONTROLLERS[kind].append(cls)
+        LAWS.setdefault(kind, [])
+        if cls not in LAWS[kind]:
+            LAWS[kind].append(cls)
         return cls
 
     return deco
 
 
-def make_controller(kind: str, spec: LoopSpec, num_envs: int = 1, **kwargs: Any) -> Controller:
-    """Build a law of ``kind`` for ``spec``; an unknown kind is a ValueError listing the known ones.
+def law_for(kind: str, spec: LoopSpec) -> type[Controller]:
+    """The one registered class of ``kind`` that :meth:`~Controller.supports` ``spec``.
 
-    Raises :class:`UnsupportedTask` (naming every candidate's reason) when no class of the kind can
-    fly the spec's task and joints.
+    ValueError for an unknown kind (naming the known ones) or a spec two classes claim;
+    :class:`UnsupportedTask` (naming every class's reason) when none does.
     """
-    import controllers  # noqa: F401  (registers the built-in laws)
-
-    if kind not in CONTROLLERS:
-        raise ValueError(f"controller kind {kind!r}: unknown; known kinds: {sorted(CONTROLLERS)}")
-    reasons = []
-    for cls in CONTROLLERS[kind]:
-        try:
-            return cls(spec, num_envs, **kwargs)
-        except UnsupportedTask as exc:
-            reasons.append(f"{cls.__name__}: {exc}")
-    raise UnsupportedTask(f"no {kind!r} law for task {spec.task!r} with free_dofs {list(spec.free_dofs)} ({'; '.join(reasons)})")
+    if kind not in LAWS:
+        raise ValueError(f"controller kind {kind!r}: unknown; known kinds: {sorted(LAWS)}")
+    reasons, takers = [], []
+    for cls in LAWS[kind]:
+        why = cls.supports(spec)
+        (reasons.append(f"{cls.__name__}: {why}") if why else takers.append(cls))
+    if len(takers) > 1:
+        raise ValueError(f"{kind!r} laws {[c.__name__ for c in takers]} all claim task {spec.task!r}; a spec must have one law per kind")
+    if not takers:
+        raise UnsupportedTask(f"no {kind!r} law for task {spec.task!r} with free_dofs {list(spec.free_dofs)} ({'; '.join(reasons)})")
+    return takers[0]

@@ -1,91 +1,41 @@
 """The comparison: every control law on every task, nominal and robust, summarised in control terms.
 
-:func:`compare` runs :func:`controllers.evaluate.evaluate` for each task in each mode (one batch per
+:func:`compare` runs :func:`controllers.evaluation.evaluate.evaluate` for each task in each mode (one batch per
 task and mode, all laws in it on paired conditions), aggregates the episode metrics
 (:data:`COLUMNS`), prints the tables, and writes into ``out_dir``: ``summary.json`` (settings,
 rows, loop margins, skipped laws, timings), ``summary.csv`` (the rows), the plots and
-``report.md`` (:mod:`controllers.report`).  Laws are the registered kinds
-(``controllers.base.CONTROLLERS``); a kind that cannot be built for a task (an RL kind without a
+``report.md`` (:mod:`controllers.evaluation.report`).  Laws are the registered kinds
+(``controllers.laws.base.CONTROLLERS``); a kind that cannot be built for a task (an RL kind without a
 shipped policy raises ``FileNotFoundError``; a law that cannot fly the task raises
-``controllers.base.UnsupportedTask``) is skipped with a printed note.
+``controllers.laws.base.UnsupportedTask``) is skipped with a printed note.
 """
 
 from __future__ import annotations
 
 import csv
 import json
-import math
 import platform
 import sys
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence, TextIO
 
-import numpy as np
 
-import controllers
-from controllers.base import CONTROLLERS, Controller, LoopSpec, UnsupportedTask, make_controller
-from controllers.evaluate import MODES, EvalResult, evaluate
-from controllers.tuning import plain
+from controllers import CONTROLLERS, Controller, LoopSpec, UnsupportedTask, make_controller
+from controllers.evaluation import report
+from controllers.evaluation.summary import COLUMNS, Comparison, aggregate, format_table
+from controllers.evaluation.evaluate import MODES, evaluate
+from controllers.design.tuning import plain
 from rig_env.envs import TASKS, RigVectorEnv
 
-COLUMNS = (  # (key, header, unit, format)
-    ("success_rate", "success", "%", "{:.0f}"),
-    ("rms_error", "RMS err", "task unit", "{:.2f}"),
-    ("rise_time", "rise", "s", "{:.2f}"),
-    ("settling_time", "settle", "s", "{:.2f}"),
-    ("overshoot_pct", "overshoot", "%", "{:.1f}"),
-    ("control_effort", "effort", "RMS a", "{:.3f}"),
-    ("control_rate", "rate", "RMS da/dt, 1/s", "{:.2f}"),
-    ("constraint_violations", "on stop", "steps", "{:.1f}"),
-    ("failures", "failed", "episodes", "{:.0f}"),
-)
 QUICK_EPISODES, FULL_EPISODES = 12, 64
 PREFERRED_ORDER = ("pid", "lqr", "ppo", "sac")
 
 
-@dataclass
-class Comparison:
-    """Everything :func:`compare` measured; ``rows``: one dict per (mode, task, law) with :data:`COLUMNS`."""
-
-    settings: dict[str, Any]
-    rows: list[dict[str, Any]] = field(default_factory=list)
-    margins: dict[str, dict[str, Any]] = field(default_factory=dict)
-    skipped: list[dict[str, str]] = field(default_factory=list)
-    results: list[EvalResult] = field(default_factory=list)
-    seconds: float = 0.0
-
-
 def default_kinds() -> list[str]:
     """Registered kinds, the preferred ones first."""
-    _ = controllers  # importing the package registered the built-in laws
     kinds = sorted(CONTROLLERS, key=lambda k: (PREFERRED_ORDER.index(k) if k in PREFERRED_ORDER else len(PREFERRED_ORDER), k))
     return kinds
-
-
-def aggregate(res: EvalResult) -> list[dict[str, Any]]:
-    """One row per law of ``res``: means over episodes (NaN-aware for rise, settling, overshoot)."""
-    rows = []
-    for name, m in res.metrics.items():
-        failed = (m["status"] != 0) | m["stop_exceeded"].astype(bool)
-        row: dict[str, Any] = {"mode": res.conditions, "task": res.task, "controller": name, "episodes": res.n_episodes,
-                               "success_rate": 100.0 * float(np.mean(m["success"])), "failures": int(np.sum(failed))}
-        for key in ("rms_error", "rise_time", "settling_time", "overshoot_pct", "control_effort", "control_rate", "constraint_violations"):
-            v = np.asarray(m[key], dtype=float)
-            row[key] = float(np.nanmean(v)) if np.any(np.isfinite(v)) else math.nan
-        rows.append(row)
-    return rows
-
-
-def format_table(rows: Sequence[dict[str, Any]], title: str) -> str:
-    """Plain-text table of rows (task, law, :data:`COLUMNS`)."""
-    head = ["task", "law"] + [h for _, h, _, _ in COLUMNS]
-    body = [[r["task"], r["controller"]] + [("-" if not np.isfinite(r[k]) else f.format(r[k])) for k, _, _, f in COLUMNS] for r in rows]
-    w = [max(len(str(x)) for x in col) for col in zip(head, *body)]
-    line = "  ".join("-" * x for x in w)
-    fmt = lambda cells: "  ".join(str(c).ljust(w[0]) if i == 0 else str(c).rjust(w[i]) for i, c in enumerate(cells))
-    return "\n".join([title, line, fmt(head), line, *(fmt(b) for b in body), line])
 
 
 def _build(kinds: Sequence[str], task: str, n: int, fields: dict[str, Any], out: TextIO) -> tuple[dict[str, Controller], list[dict[str, str]]]:
@@ -175,8 +125,6 @@ def _mode_note(mode: str) -> str:
 
 def write_files(cmp: Comparison, out: Path, stream: TextIO) -> None:
     """summary.json, summary.csv, plots and report.md into ``out``."""
-    from controllers import report
-
     out.mkdir(parents=True, exist_ok=True)
     summary = {"settings": cmp.settings, "rows": cmp.rows, "margins": cmp.margins, "skipped": cmp.skipped,
                "seconds": cmp.seconds, "timing": [{"task": r.task, "mode": r.conditions, "seconds": r.seconds, "paired": r.paired,

@@ -27,7 +27,7 @@ METRICS = ("success_rate", "rms_error_deg", "mean_return")
 
 def summarise(policy_files: list[Path], out: Path, title: str, target: float) -> dict[str, Any]:
     """Summary of the runs behind ``policy_files`` (written to ``out/seeds.json`` and ``out/seeds.png``); returns it."""
-    from controllers.rl import load_policy
+    from controllers.laws.rl import load_policy
 
     if not policy_files:
         raise ValueError("policy_files: give at least one run")

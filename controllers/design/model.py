@@ -23,7 +23,7 @@ frame and :func:`resolve` turns them into surfaces (the linear model gives, at e
 
 so ``h`` moves rig_pitch and ``s`` moves rig_yaw whatever the roll angle, with the gain they have
 at phi = 0 (checked in ``tests/test_controllers.py``).  Design inputs: :data:`AXES`.  The geometry
-(:data:`AXES`, :func:`resolve`, :func:`rotation`) lives in the numpy-only :mod:`controllers.axes`.
+(:data:`AXES`, :func:`resolve`, :func:`rotation`) lives in the numpy-only :mod:`controllers.laws.axes`.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ import control
 import numpy as np
 from scipy.optimize import least_squares
 
-from controllers.axes import AXES, AXIS_OF, resolve, rotation  # noqa: F401  (re-exported: the numpy-only geometry)
+from controllers.laws.axes import AXES, AXIS_OF, resolve, rotation  # noqa: F401  (re-exported: the numpy-only geometry)
 from rig_env.linear import OperatingPoint, joint_accelerations, linearize
 from rig_env.params import JOINTS, SURFACES, RigParams
 from rig_env.physics import layout as L

@@ -8,19 +8,18 @@ Per control step ``dt`` (batched over environments, numpy only)::
 
 Actions are normalised (1 = ``spec.action_scale_deg``).  This is what an LQR exports to (``K = -K_lqr
 M`` with ``M`` the map from observation entries to the design state, ``obs0`` the trim observation,
-``u0`` the trim command), so :data:`ARTEFACT_KINDS` ``["linear"]`` serves both.  :func:`roll_tracking`
-builds the simple roll-tracking law used by the deployment tests (a proportional-derivative law on the
-task's roll error entries with reference-rate feed-forward; a legitimate law, not a tuned design).
+``u0`` the trim command), so the artefact kind ``"linear"`` serves both.
+:func:`controllers.design.linear.roll_tracking` designs the simple roll-tracking law the deployment
+tests fly.
 """
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
-from controllers.base import Controller, LoopSpec, register
-from controllers.deploy.artefact import register_kind
+from controllers.laws.base import Controller, LoopSpec, register
 
 
 @register("linear")
@@ -70,46 +69,3 @@ def _arr(name: str, v: Any, shape: tuple[int, ...]) -> np.ndarray:
         raise ValueError(f"{name}: non-finite value(s)")
     return a
 
-
-def roll_tracking(spec: LoopSpec, kp: float = 2.0, kd: float = 1.0, kff: float = 1.0) -> LinearLaw:
-    """Compensator aileron = kp roll_error + kd roll-rate error + kff roll_rate_ref (observation units).
-
-    Uses the task entries ``roll_error`` and ``roll_rate_error``/``roll_rate_ref`` when the task has
-    them, else ``-rig_roll_rate`` as the rate error (a step reference has zero reference rate).
-    """
-    if "roll_error" not in spec.obs_labels:
-        raise ValueError(f"task {spec.task!r}: the roll-tracking law needs an observation entry 'roll_error'; entries: {list(spec.obs_labels)}")
-    K = np.zeros((spec.n_actions, spec.obs_dim))
-    a = spec.action_index("comp_aileron")
-    K[a, spec.index("roll_error")] = kp
-    if "roll_rate_error" in spec.obs_labels:
-        K[a, spec.index("roll_rate_error")] = kd
-        K[a, spec.index("roll_rate_ref")] = kff
-    else:
-        K[a, spec.index("rig_roll_rate")] = -kd
-    return LinearLaw(spec, 1, K=K)
-
-
-def _to_arrays(law: Controller) -> dict[str, Any]:
-    """A LinearLaw's arrays, or ``law.linear_form()`` (a dict with K, obs0, u0, rate_limit) of another law
-    that is static and linear in its observation (an LQR sets ``artefact_kind = "linear"`` and provides it)."""
-    if isinstance(law, LinearLaw):
-        return {"K": law.K.copy(), "obs0": law.obs0.copy(), "u0": law.u0.copy(), "rate_limit": law.rate_limit.copy()}
-    form = getattr(law, "linear_form", None)
-    if form is None:
-        raise TypeError(f"kind 'linear' exports a LinearLaw or a law with linear_form(); got {type(law).__name__}")
-    d = dict(form())
-    unknown = sorted(set(d) - {"K", "obs0", "u0", "rate_limit"})
-    if unknown:
-        raise ValueError(f"linear_form(): unknown key(s) {unknown}; allowed K, obs0, u0, rate_limit")
-    return _to_arrays(LinearLaw(law.spec, 1, **d))  # validates shapes and values, fills the defaults
-
-
-def _from_arrays(data: Mapping[str, Any], spec: LoopSpec) -> LinearLaw:
-    missing = [k for k in ("K", "obs0", "u0", "rate_limit") if k not in data]
-    if missing:
-        raise ValueError(f"linear: missing array(s) {missing}")
-    return LinearLaw(spec, 1, K=data["K"], obs0=data["obs0"], u0=data["u0"], rate_limit=data["rate_limit"])
-
-
-register_kind("linear", _to_arrays, _from_arrays)

@@ -8,11 +8,11 @@ The rig's own heave-pitch mode rings instead (open loop, emulation error about 1
 This is *explicit model following* (Stevens & Lewis, *Aircraft Control and Simulation*, model-following
 LQ design; Kaufman's "model-following" tracker): the rig and the reference model are put side by side
 in one linear system and a discrete LQR minimises the difference between them.  Design model
-(:mod:`controllers.emulation_design`), per airspeed of a grid over the loop's airspeed range:
+(:mod:`controllers.design.emulation`), per airspeed of a grid over the loop's airspeed range:
 
 | states | from |
 |---|---|
-| ``rig_pitch``, ``model_pitch`` and their rates (from the zero-input trim) | ``rig_env.trim`` / ``rig_env.linearize`` (viscous friction kept), as :func:`controllers.axis_design.axis_point` |
+| ``rig_pitch``, ``model_pitch`` and their rates (from the zero-input trim) | ``rig_env.trim`` / ``rig_env.linearize`` (viscous friction kept), as :func:`controllers.design.heave_sway.axis_point` |
 | ``flap``, ``flap_rate``: the compensator's heave input through its servo | second-order servo, ``servos.compensator`` |
 | ``alpha_ff``, ``q_ff``: the free Hawk's short period | the task's own reference model (``FreeHawkShortPeriod.matrices``) |
 | ``hawk_elevator``, ``hawk_elevator_rate``: the Hawk elevator through its servo | ``servos.hawk``; it drives the rig's Hawk (``linearize``'s ``hawk_elevator`` column) and the free Hawk alike |
@@ -50,7 +50,7 @@ in the measured airspeed, and ``x`` built from the observation:
 
 No integrator: the rig's heave is meant to wash out, not to hold.  ``law.describe()``: closed-loop poles
 and, per design airspeed, the margins of the loop as flown, broken at the heave command: the law with its
-estimator and delay line, the rig with servo and delay (:func:`controllers.emulation_design.loop_as_flown`; default rig, 15-25 m/s: GM 12.4-12.9 dB, PM 48-49 deg,
+estimator and delay line, the rig with servo and delay (:func:`controllers.design.emulation.loop_as_flown`; default rig, 15-25 m/s: GM 12.4-12.9 dB, PM 48-49 deg,
 delay margin 0.16-0.27 s, with the weights tightened to 0.6 of the reward's scales).
 Artefact kind ``"lqr_emulation"`` (:meth:`EmulationTables.to_data`; :mod:`controllers.deploy.laws`).
 """
@@ -60,15 +60,13 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from controllers.base import Controller, LoopSpec, UnsupportedTask, register
-from controllers.signals import SignalScales, table_array
+from controllers.laws.base import Controller, LoopSpec, UnsupportedTask, register
+from controllers.laws.signals import SignalScales, table_array
 
-if TYPE_CHECKING:  # the design's types only; the runtime never imports rig_env
-    from rig_env.params import RigParams
 
 TASK = "free_flight_emulation"
 FREE_DOFS = ("rig_pitch", "model_pitch")
@@ -209,30 +207,24 @@ class EmulationTables:
 
 @register("lqr")
 class EmulationLQR(Controller):
-    """Model-following LQR of free-flight emulation (module docstring); registered before the heave/sway LQR.
+    """Model-following LQR of free-flight emulation (module docstring).
 
-    | argument | default | meaning |
-    |---|---|---|
-    | params | default rig | rig parameters of the design model |
-    | link_delay_steps | 1 | telemetry delay the design accounts for, control steps |
-    | max_deviation | :data:`MAX_DEVIATION` | Bryson maxima by name (``alpha_error``, ``q_error``, ``rig_pitch``), overriding entry by entry |
-    | max_input | :data:`MAX_INPUT` | normalised heave input allowed at 20 m/s |
-    | tables | None | a finished design (:class:`EmulationTables` or its data); the arguments above must then be left at their defaults |
+    ``tables``: the design (:class:`EmulationTables` or its data), made by
+    :func:`controllers.design.emulation.design_emulation_lqr` (or read from an artefact).
     """
 
     artefact_kind = "lqr_emulation"
 
-    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
-                 max_deviation: dict[str, float] | None = None, max_input: float | None = None,
-                 tables: EmulationTables | Mapping[str, Any] | None = None) -> None:
-        check_emulation(spec)  # cheap, before any design
-        if tables is None:
-            # design time only: python-control, scipy, the numba model and rig_env
-            from controllers.emulation_design import design_emulation_lqr
+    @classmethod
+    def supports(cls, spec: LoopSpec) -> str | None:
+        try:
+            check_emulation(spec)
+        except UnsupportedTask as exc:
+            return str(exc)
+        return None
 
-            tables = design_emulation_lqr(spec, params, link_delay_steps=link_delay_steps, max_deviation=max_deviation, max_input=max_input)
-        elif params is not None or link_delay_steps != 1 or max_deviation is not None or max_input is not None:
-            raise ValueError("tables given: params, link_delay_steps, max_deviation and max_input belong to the design and must not be passed too")
+    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, tables: EmulationTables | Mapping[str, Any]) -> None:
+        check_emulation(spec)
         super().__init__(spec, num_envs)
         t = self.tables = tables if isinstance(tables, EmulationTables) else EmulationTables.from_data(tables, spec)
         ix, sc, n = spec.index, t.scales, self.num_envs

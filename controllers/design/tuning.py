@@ -1,10 +1,10 @@
 """Reproducible loop-shaping of the PID family on the linearised rig, to stated gain and phase margins.
 
-Procedure (:func:`tune_axis`, one rig joint ``j`` and its virtual input, :mod:`controllers.model`):
+Procedure (:func:`tune_axis`, one rig joint ``j`` and its virtual input, :mod:`controllers.design.model`):
 
 1. Trim and linearise the task's free joints at the design airspeed (the middle of the task's range)
    and zero roll angle; ``P(s)``: joint rate (rad/s) per normalised virtual input.
-2. Loop elements (:func:`controllers.model.loop_elements`): servo ``S(s)`` (6 Hz, zeta 0.7), the
+2. Loop elements (:func:`controllers.design.model.loop_elements`): servo ``S(s)`` (6 Hz, zeta 0.7), the
    transport delay ``D(s)`` (servo 15 ms + telemetry one period + half a period for the hold) as a
    3rd-order Pade approximation, the rate sensor ``H(s)`` (10 Hz filter, half-period backward
    difference).  The angle path carries the same ``D`` and no filter.
@@ -31,8 +31,8 @@ from typing import Any
 import control
 import numpy as np
 
-from controllers.axes import AXES, AXIS_OF, axes_of
-from controllers.model import design_model, loop_elements
+from controllers.laws.axes import AXES, AXIS_OF, axes_of
+from controllers.design.model import design_model, loop_elements
 from rig_env.params import RigParams
 
 

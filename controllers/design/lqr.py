@@ -1,12 +1,12 @@
-"""Design of the gain-scheduled LQR (:class:`controllers.lqr.LQRLaw`): trim, linearise, solve, tabulate.
+"""Design of the gain-scheduled LQR (:class:`controllers.laws.lqr.LQRLaw`): trim, linearise, solve, tabulate.
 
 For every airspeed ``V`` of a grid over ``spec.airspeed_range`` and every roll angle ``phi`` of a
 30 deg grid, :func:`design_point` trims and linearises the task's free joints
-(:func:`controllers.model.design_model`, the numba model the environment integrates, virtual inputs
+(:func:`controllers.design.model.design_model`, the numba model the environment integrates, virtual inputs
 roll/heave/sway), augments the model with the integrals of the tracked errors (roll angle; rig_pitch
 and rig_yaw when free) and solves ``control.lqr`` with Bryson weights (:data:`MAX_DEVIATION`,
 :data:`MAX_INPUT`).  :func:`design_lqr` stacks the grid into the tables of
-:class:`controllers.lqr.LQRTables` (plain data, what the numpy runtime and a deployed artefact
+:class:`controllers.laws.lqr.LQRTables` (plain data, what the numpy runtime and a deployed artefact
 hold) with the estimator's Kalman gains and the design's provenance: weights, grid, noise model,
 and the loop margins (:func:`describe_point`, servo and Pade delay in the loop) at the lowest,
 middle and highest design airspeed and roll 0 and 90 deg.
@@ -21,12 +21,12 @@ from typing import Any
 import control
 import numpy as np
 
-from controllers.axes import AXES, AXIS_OF, axes_of
-from controllers.base import LoopSpec
-from controllers.estimator import kalman_gain
-from controllers.model import design_model, loop_elements
-from controllers.signals import signal_scales
-from controllers.tuning import margins, plain
+from controllers.laws.axes import AXES, AXIS_OF, axes_of
+from controllers.laws.base import LoopSpec
+from controllers.laws.estimator import kalman_gain
+from controllers.design.model import design_model, loop_elements
+from controllers.design.signals import signal_scales
+from controllers.design.tuning import margins, plain
 from rig_env.params import JOINTS, RigParams
 
 MAX_DEVIATION = {  # Bryson: Q = 1 / max^2 (rad, rad/s, rad s)
@@ -119,7 +119,7 @@ def describe_point(d: Design, elements: dict[str, control.TransferFunction]) -> 
 
 
 def design_lqr(spec: LoopSpec, params: RigParams | None = None, *, link_delay_steps: int = 1, estimator: bool = True) -> dict[str, Any]:
-    """The tables of :class:`controllers.lqr.LQRTables` for ``spec`` (see the module docstring).
+    """The tables of :class:`controllers.laws.lqr.LQRTables` for ``spec`` (see the module docstring).
 
     Airspeed grid: every 2.5 m/s or finer over ``spec.airspeed_range`` (ValueError unless > 1 m/s).
     """

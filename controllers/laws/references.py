@@ -1,6 +1,6 @@
 """``DrivenReference``: the driven rig joint's reference (angle error, rate, acceleration) read off a heave/sway task's observation.
 
-The heave and sway laws (:mod:`controllers.heave_sway`) drive one rig joint (rig_pitch or rig_yaw)
+The heave and sway laws (:mod:`controllers.laws.heave_sway`) drive one rig joint (rig_pitch or rig_yaw)
 with rig_roll locked.  Each task states its reference differently (its class docstring gives the
 entries and their normalisations); this parser turns them into the same three signals, batched:
 
@@ -18,7 +18,7 @@ alpha the model feels is ``Theta - gamma`` with ``gamma = l theta' / V``, so a m
 error ``e_a`` is corrected by ``-c_alpha V e_a / l`` on the rate reference (:data:`C_ALPHA`).
 Arm length ``l`` is the design parameters' (``geometry.arm_length``).
 
-Runtime and design are apart (as :class:`controllers.signals.SignalScales`):
+Runtime and design are apart (as :class:`controllers.laws.signals.SignalScales`):
 :func:`reference_constants` reads every number the parser needs from ``rig_env`` (the driven joint,
 the sensors' scales, ``g``, the oscillation's ramp time, the arm length) into
 :class:`ReferenceConstants`, plain numbers; :class:`DrivenReference` parses with numpy alone from
@@ -30,14 +30,12 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from controllers.base import LoopSpec, UnsupportedTask
+from controllers.laws.base import LoopSpec, UnsupportedTask
 
-if TYPE_CHECKING:  # design-time types only: the parser itself never imports rig_env
-    from rig_env.params import RigParams
 
 D = math.pi / 180.0
 WASHOUT_S = 1.0
@@ -58,15 +56,6 @@ def check_task(spec: LoopSpec, joint: str) -> None:
         raise UnsupportedTask(f"free_dofs = {list(spec.free_dofs)}: task {spec.task!r} drives {joint}, which is locked")
 
 
-def driven_joint(spec: LoopSpec) -> str:
-    """The rig joint the task drives; UnsupportedTask for other tasks or with rig_roll free (design time: reads the task)."""
-    if spec.task not in TASKS:
-        raise UnsupportedTask(f"task {spec.task!r}: the heave/sway laws fly {list(TASKS)}")
-    from rig_env.envs.tasks.oscillation import AXES as OSC_AXES
-
-    j = OSC_AXES[spec.task_options.get("axis", "heave_pitch")][0] if spec.task == "forced_oscillation" else "rig_pitch"
-    check_task(spec, j)
-    return j
 
 
 @dataclass(frozen=True)
@@ -115,15 +104,6 @@ class ReferenceConstants:
         return cls(joint, **vals)
 
 
-def reference_constants(spec: LoopSpec, params: RigParams) -> ReferenceConstants:
-    """Read :class:`ReferenceConstants` for ``spec`` from ``rig_env`` and ``params`` (design time)."""
-    from rig_env.envs.sensors import AIRSPEED_SCALE, ANGLE_SCALE, RATE_SCALE
-    from rig_env.envs.tasks.base import G0
-    from rig_env.envs.tasks.oscillation import ForcedOscillation
-
-    j = driven_joint(spec)
-    return ReferenceConstants(j, float(ANGLE_SCALE), float(RATE_SCALE[j]), float(AIRSPEED_SCALE), float(G0),
-                              float(ForcedOscillation.T_RAMP), float(params.geometry.arm_length))
 
 
 def smooth_ramp(x: np.ndarray) -> np.ndarray:
@@ -135,14 +115,11 @@ def smooth_ramp(x: np.ndarray) -> np.ndarray:
 class DrivenReference:
     """Parser built once per law; :meth:`__call__` returns ``(e, w_ref, a_ref)`` (n,) each, rad, rad/s, rad/s^2.
 
-    ``constants`` (numpy only) or, at design time, ``params`` (the constants are then read from ``rig_env``).
+    ``constants``: its numbers (:func:`controllers.design.signals.reference_constants` reads them from
+    ``rig_env`` at design time).  Numpy only.
     """
 
-    def __init__(self, spec: LoopSpec, num_envs: int, params: RigParams | None = None, *, constants: ReferenceConstants | None = None) -> None:
-        if constants is None:
-            if params is None:
-                raise ValueError("DrivenReference: give params (design time) or constants")
-            constants = reference_constants(spec, params)
+    def __init__(self, spec: LoopSpec, num_envs: int, constants: ReferenceConstants) -> None:
         self.constants = c = constants
         self.spec, self.n, self.dt = spec, int(num_envs), float(spec.dt)
         self.joint = c.joint

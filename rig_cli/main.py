@@ -1,15 +1,20 @@
 """The ``rig`` command: the controller comparison, demonstrations and pictures of the rig model.
 
     rig compare [--quick] [--out DIR] [--episodes N] [--seed S] [--tasks T ...] [--controllers K ...]
-        every control law on every task, nominal and robust (controllers.compare): prints the
+        every control law on every task, nominal and robust (controllers.evaluation.compare): prints the
         tables, writes summary.json, summary.csv, plots and report.md into DIR (default out/compare)
     rig demo [--out DIR] [--t-final S] [--airspeed M/S] [--aileron DEG] [--no-plot] [--quiet]
         velocity-vector roll (paper Sec. VI, Fig. 7): rig roll and model pitch free, compensator
         aileron ramped to +20 deg over 1 s and held; prints a summary, writes DIR/demo_roll.png
     rig draw [--out DIR] [--q DEG DEG DEG DEG DEG] [--flaps DEG DEG DEG DEG]
         the rig picture with its frames (DIR/rig_frames.png)
+    rig train --algo ppo|sac --task NAME [...]
+        train a PPO or SAC law on the native batch and export it as a law artefact
+        (controllers.design.rl_train; ``rig train --help`` lists the options)
 
-``scripts/compare.py`` and ``scripts/demo_roll.py`` run the same code.
+This package sits above both ``rig_env`` (the model and environments) and ``controllers`` (the laws,
+their design, the comparison); neither imports it.  ``scripts/compare.py``, ``scripts/train.py`` and
+``scripts/demo_roll.py`` are thin wrappers over this command.
 """
 
 from __future__ import annotations
@@ -234,15 +239,21 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--q", type=float, nargs=5, metavar="DEG",
                    help="joint angles, deg: rig_roll rig_pitch rig_yaw model_pitch model_yaw (default: zero and an example pose)")
     r.add_argument("--flaps", type=float, nargs=4, metavar="DEG", help="compensator flaps 1-4, deg (with --q)")
+    sub.add_parser("train", help="train PPO or SAC on a task and export the law (rig train --help)", add_help=False)
     return ap
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Console entry point ``rig`` (pyproject: rig = "rig_env.cli:main")."""
+    """Console entry point ``rig`` (pyproject: rig = "rig_cli.main:main")."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["train"]:  # its own parser: every option after "train" is the trainer's
+        from controllers.design.rl_train import main as train
+
+        return train(argv[1:])
     args = _parser().parse_args(argv)
     try:
         if args.command == "compare":
-            from controllers.compare import compare
+            from controllers.evaluation.compare import compare
 
             compare(tasks=args.tasks, kinds=args.controllers, episodes=args.episodes, seed=args.seed, quick=args.quick,
                     modes=args.modes, out_dir=args.out)

@@ -1,12 +1,12 @@
-"""Design of the model-following LQR (:mod:`controllers.emulation`): the tables its numpy runtime executes.
+"""Design of the model-following LQR (:mod:`controllers.laws.emulation`): the tables its numpy runtime executes.
 
 Imported only when a law is designed (python-control, scipy, the numba model, ``rig_env``).  At every
-airspeed of a grid over ``spec.airspeed_range`` (:data:`controllers.emulation.V_STEP` apart):
+airspeed of a grid over ``spec.airspeed_range`` (:data:`controllers.laws.emulation.V_STEP` apart):
 
-1. :func:`continuous_model`: the rig at its zero-input trim (:func:`controllers.axis_design.axis_point`,
+1. :func:`continuous_model`: the rig at its zero-input trim (:func:`controllers.design.heave_sway.axis_point`,
    plus ``rig_env.linearize``'s Hawk-elevator column there), the compensator and Hawk servos, the free
    Hawk's short period (the task's ``FreeHawkShortPeriod.matrices``) and the pilot command, side by side
-   (the state table of :mod:`controllers.emulation`).
+   (the state table of :mod:`controllers.laws.emulation`).
 2. :func:`zoh_with_delay`: exact zero-order-hold discretisation at the control period with the loop's
    input delay (servo delay + ``link_delay_steps`` periods), the delay line appended to the state.
 3. ``control.dlqr`` with the Bryson weights of the module docstring; :func:`kalman_gain`, the estimator's.
@@ -23,9 +23,9 @@ import control
 import numpy as np
 from scipy.linalg import expm
 
-from controllers.axis_design import axis_point
-from controllers.base import LoopSpec
-from controllers.emulation import (
+from controllers.design.heave_sway import axis_point
+from controllers.laws.base import LoopSpec
+from controllers.laws.emulation import (
     BASE_STATES,
     MAX_DEVIATION,
     MAX_INPUT,
@@ -43,7 +43,7 @@ from controllers.emulation import (
     check_emulation,
     state_labels,
 )
-from controllers.signals import signal_scales
+from controllers.design.signals import signal_scales
 from rig_env import linearize, trim
 from rig_env.params import RigParams
 from rig_env.physics import layout as L
@@ -87,7 +87,7 @@ def servo_matrices(wn: float, zeta: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def continuous_model(params: RigParams, airspeed: float, dt: float, tau_pilot: float = TAU_PILOT) -> tuple[np.ndarray, np.ndarray, np.ndarray, Any]:
-    """Step 1: (A (11, 11), b (11,), q_op (5,), free-Hawk model) in the :data:`controllers.emulation.BASE_STATES` order; b: heave command (normalised)."""
+    """Step 1: (A (11, 11), b (11,), q_op (5,), free-Hawk model) in the :data:`controllers.laws.emulation.BASE_STATES` order; b: heave command (normalised)."""
     from rig_env.envs.tasks.freeflight import FreeHawkShortPeriod
 
     fd = ("rig_pitch", "model_pitch")
@@ -189,7 +189,7 @@ def loop_as_flown(pt: dict[str, Any], dt: float) -> dict[str, float]:
     reference and pilot states dropped: they do not depend on the command); out: the two angles and the
     flap position.  Controller: the estimator (prediction ``p`` from the model's rows, correction
     ``x = p + L (z - C p)``), ``K`` on its estimate and on the delay line of the law's own commands
-    (:meth:`controllers.emulation.EmulationLQR.act`): a dynamic system of its own, so this loop, not the
+    (:meth:`controllers.laws.emulation.EmulationLQR.act`): a dynamic system of its own, so this loop, not the
     state-feedback one, is the one the rig closes (an estimator can erode an LQR's margins; Doyle,
     "Guaranteed margins for LQG regulators", IEEE TAC 1978).
     """
@@ -243,7 +243,7 @@ def margins_discrete(L: control.StateSpace, dt: float, n_w: int = 4000) -> dict[
 
 def design_emulation_lqr(spec: LoopSpec, params: RigParams | None = None, *, link_delay_steps: int = 1,
                          max_deviation: dict[str, float] | None = None, max_input: float | None = None) -> EmulationTables:
-    """Tables of :class:`controllers.emulation.EmulationLQR` (steps 1-3 over the airspeed grid)."""
+    """Tables of :class:`controllers.laws.emulation.EmulationLQR` (steps 1-3 over the airspeed grid)."""
     from rig_env.envs.tasks.freeflight import FreeFlightEmulation
 
     check_emulation(spec)
@@ -284,7 +284,7 @@ def design_emulation_lqr(spec: LoopSpec, params: RigParams | None = None, *, lin
     design = {"airspeed_range": list(spec.airspeed_range), "link_delay_steps": int(link_delay_steps),
               "sigma_a": dict(zip(("rig_pitch", "model_pitch"), map(float, SIGMA_A))), "sigma_f": float(SIGMA_F), "sigma_z": float(SIGMA_Z),
               "sigma_zf": float(SIGMA_ZF), "params_default": params_default,
-              "method": "controllers.emulation_design (explicit model following: control.dlqr on the rig and the free Hawk's short period side by side, servo and delay in)",
+              "method": "controllers.design.emulation (explicit model following: control.dlqr on the rig and the free Hawk's short period side by side, servo and delay in)",
               "max_deviation": {k: float(v) for k, v in md.items()}, "weight_scale": scale, "targets": dict(TARGETS),
               "max_input": float(mi), "tau_pilot": float(TAU_PILOT),
               "states": list(state_labels(d)), "loop_delay_s": float(params.to_vector()[L.P_SERVOS_COMPENSATOR_DELAY_S]) + link_delay_steps * spec.dt,

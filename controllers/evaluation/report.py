@@ -1,4 +1,4 @@
-"""Plots and the one-page Markdown report of a comparison (:mod:`controllers.compare`).
+"""Plots and the one-page Markdown report of a comparison (:mod:`controllers.evaluation.compare`).
 
 Files: ``history_<task>.png`` (first recorded nominal episode, identical conditions for every law:
 the task's tracked quantity against its reference, the commanded rate when there is one, the
@@ -11,12 +11,11 @@ from __future__ import annotations
 import math
 import textwrap
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from controllers.compare import Comparison
+from controllers.evaluation.summary import COLUMNS, Comparison
 
 BAR_METRICS = (("success_rate", "success rate, %"), ("rms_error", "RMS tracking error, deg"), ("settling_time", "settling time, s"),
                ("overshoot_pct", "overshoot, %"), ("control_effort", "control effort, RMS action"), ("control_rate", "control rate, RMS 1/s"))
@@ -93,7 +92,7 @@ def plot_history(res: Any, path: Path) -> Path:
     return path
 
 
-def plot_metrics(cmp: "Comparison", path: Path) -> Path:
+def plot_metrics(cmp: Comparison, path: Path) -> Path:
     """Grouped bars: x = task, one bar per law, nominal solid and robust hatched."""
     plt = _plt()
     tasks = list(dict.fromkeys(r["task"] for r in cmp.rows))
@@ -133,7 +132,6 @@ def plot_metrics(cmp: "Comparison", path: Path) -> Path:
 
 
 def _md_table(rows: list[dict[str, Any]]) -> str:
-    from controllers.compare import COLUMNS
 
     head = "| task | law | " + " | ".join(f"{h} ({u})" for _, h, u, _ in COLUMNS) + " |"
     sep = "|---|---|" + "---:|" * len(COLUMNS)
@@ -181,7 +179,7 @@ def _f(x: Any) -> str:
         return str(x)
 
 
-def write(cmp: "Comparison", out: Path) -> list[Path]:
+def write(cmp: Comparison, out: Path) -> list[Path]:
     """Write the plots and report.md; returns the plot paths."""
     files = [plot_history(r, out / f"history_{r.task}.png") for r in cmp.results if r.conditions == "nominal"]
     files.append(plot_metrics(cmp, out / "metrics.png"))

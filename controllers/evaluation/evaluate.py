@@ -27,7 +27,7 @@ from typing import Any, Callable, Mapping, TextIO
 
 import numpy as np
 
-from controllers.base import Controller, LoopSpec, make_controller
+from controllers import Controller, LoopSpec, make_controller
 from rig_env.envs import RigVectorEnv
 from rig_env.params import JOINTS, RigParams
 

@@ -1,6 +1,6 @@
 """``Signals``: the observation vector turned back into physical signals, found by name (batched).
 
-Laws see only the observation (:class:`controllers.base.LoopSpec` names its entries).  The sensor
+Laws see only the observation (:class:`controllers.laws.base.LoopSpec` names its entries).  The sensor
 entries' normalisations are those of :mod:`rig_env.envs.sensors`; the task entries' are those the
 tasks document (:data:`REF_SCALES`); an entry a law does not know is ignored, and a joint without a
 reference is held at zero.
@@ -20,7 +20,7 @@ Scales of task entries: the task class's ``ref_scales`` mapping (label -> unit p
 value) when it has one, else :data:`REF_SCALES`.  A task entry named like a reference whose scale is
 unknown is ignored with a warning.
 
-Runtime and design are apart: :func:`signal_scales` reads every scale above from ``rig_env`` (the
+Runtime and design are apart: :func:`controllers.design.signals.signal_scales` reads every scale above from ``rig_env`` (the
 sensors, the mixer, the task) into :class:`SignalScales`, plain numbers; :class:`Signals` parses with
 numpy alone from those numbers, so a deployed law stores them (:meth:`SignalScales.to_data`) and
 parses exactly as in simulation without importing ``rig_env``.
@@ -29,14 +29,13 @@ parses exactly as in simulation without importing ``rig_env``.
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from controllers.base import LoopSpec, UnsupportedTask
+from controllers.laws.base import LoopSpec, UnsupportedTask
 
 REF_SCALES = {
     "roll_error": math.radians(45.0),
@@ -122,32 +121,6 @@ def table_array(d: Mapping[str, Any], k: str, shape: tuple[int | None, ...] | No
     return a
 
 
-def signal_scales(spec: LoopSpec) -> SignalScales:
-    """Read the scales of ``spec``'s observation from ``rig_env`` (design time; imports the environments)."""
-    from rig_env.envs import TASKS
-    from rig_env.envs.sensors import (
-        AIRSPEED_SCALE,
-        ANGLE_SCALE,
-        FLAP_SCALE,
-        RATE_SCALE,
-        UNLIMITED,
-    )
-    from rig_env.physics.aero import MIX_ELEVATOR, MIX_RUDDER
-
-    labels = set(spec.obs_labels)
-    task = TASKS.get(spec.task)
-    scales = {**REF_SCALES, **dict(getattr(task, "ref_scales", {}) or {})}
-    ref: dict[str, float] = {}
-    for j in TRACKED:
-        for label in (_ERROR_LABEL[j], _RATE_REF_LABEL[j]):
-            if label in labels and j in spec.free_dofs:
-                if label in scales:
-                    ref[label] = float(scales[label])
-                else:
-                    warnings.warn(f"task {spec.task!r}: observation entry {label!r} has no known scale; ignored", stacklevel=3)
-    unmix = np.array([[0.25] * 4, [0.25 * m for m in MIX_ELEVATOR], [0.25 * m for m in MIX_RUDDER]])
-    return SignalScales(float(ANGLE_SCALE), np.array([float(RATE_SCALE[j]) for j in spec.free_dofs]), float(AIRSPEED_SCALE),
-                        float(FLAP_SCALE), unmix, tuple(j for j in spec.free_dofs if j in UNLIMITED), tuple(ref), np.array(list(ref.values())))
 
 
 def require_roll(spec: LoopSpec) -> None:
@@ -157,13 +130,14 @@ def require_roll(spec: LoopSpec) -> None:
 
 
 class Signals:
-    """Parser built once per law from its :class:`LoopSpec` (and its :class:`SignalScales`, read from
-    ``rig_env`` when not given); :meth:`__call__` fills the attributes.  Numpy only."""
+    """Parser built once per law from its :class:`LoopSpec` and :class:`SignalScales`
+    (:func:`controllers.design.signals.signal_scales` reads them at design time); :meth:`__call__` fills
+    the attributes.  Numpy only."""
 
-    def __init__(self, spec: LoopSpec, scales: SignalScales | None = None) -> None:
+    def __init__(self, spec: LoopSpec, scales: SignalScales) -> None:
         require_roll(spec)
         self.spec = spec
-        self.scales = sc = scales if scales is not None else signal_scales(spec)
+        self.scales = sc = scales
         ix = spec.index
         self._angle: dict[str, tuple[int, ...]] = {}
         for j in spec.free_dofs:

@@ -1,4 +1,4 @@
-"""Training-side helpers of ``scripts/train.py``: success in the infos, evaluation, stopping, progress, the curve.
+"""Training-side helpers of ``rig train``: success in the infos, evaluation, stopping, progress, the curve.
 
 | piece | what |
 |---|---|

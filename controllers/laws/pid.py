@@ -6,21 +6,21 @@
 | heave | rig_pitch free | rig_pitch angle, rate | rate demand from the rig_pitch error (0 - angle unless the task sets a reference) | rig_pitch rate | elevator, resolved by roll angle |
 | sway | rig_yaw free | rig_yaw angle, rate | rate demand from the rig_yaw error (likewise) | rig_yaw rate | rudder, resolved by roll angle |
 
-Each loop is a :class:`controllers.pid_element.PID` (explicit dt, anti-windup by back-calculation,
+Each loop is a :class:`controllers.laws.pid_element.PID` (explicit dt, anti-windup by back-calculation,
 output limit +-1 = +-40 deg, rate limit = the servo's 350 deg/s, bumpless engagement).  Heave and
 sway demands are turned into elevator and rudder with the measured roll angle
-(:func:`controllers.axes.resolve`).  The rate loop acts on the measured, filtered rate, so the
+(:func:`controllers.laws.axes.resolve`).  The rate loop acts on the measured, filtered rate, so the
 cascade is a PID on the angle whose derivative is on the measurement, filtered by the sensor.
 
-Gains: :func:`controllers.tuning.tune_axis` at construction (stated margins; ``describe()`` gives
+Gains: :func:`controllers.design.tuning.tune_axis` at construction (stated margins; ``describe()`` gives
 gains and achieved margins) at the middle of ``spec.airspeed_range``; the rate-loop gains are
 scaled by ``(V_design / V)^2`` with the measured airspeed.  Feedforward on the roll axis: the trim
 aileron that holds the arm's gravity imbalance at the measured roll angle (a table over the roll
-angle from :func:`controllers.model.operating_point`), and, when the task gives a rate reference,
+angle from :func:`controllers.design.model.operating_point`), and, when the task gives a rate reference,
 the aileron that balances the roll damping at that rate plus its rate of change, from the linear
 model.  ``reset(mask)`` re-engages the masked environments bumplessly from the measured flaps.
 
-Design and runtime are apart: :func:`controllers.pid_design.design_pid` (python-control, the numba
+Design and runtime are apart: :func:`controllers.design.pid.design_pid` (python-control, the numba
 model; imported only when a law is designed) produces :class:`PIDTables`, plain data; this module
 runs them with numpy alone, in simulation and from a deployed artefact (kind ``"pid"``:
 ``law.to_data()`` / ``PIDLaw.from_data(data, spec)``), one implementation.
@@ -31,17 +31,15 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from controllers.axes import AXIS_OF, axes_of, resolve, unresolve
-from controllers.base import Controller, LoopSpec, register
-from controllers.pid_element import PID
-from controllers.signals import Signals, SignalScales, require_roll, table_array
+from controllers.laws.axes import AXIS_OF, axes_of, resolve, unresolve
+from controllers.laws.base import Controller, LoopSpec, register
+from controllers.laws.pid_element import PID
+from controllers.laws.signals import Signals, SignalScales, require_roll, table_array
 
-if TYPE_CHECKING:  # the design's types only; the runtime never imports rig_env
-    from rig_env.params import RigParams
 
 
 @dataclass(frozen=True)
@@ -50,7 +48,7 @@ class PIDTables:
 
     | field | shape | unit |
     |---|---|---|
-    | axes | names | tracked rig joints, :data:`controllers.axes.AXES` order |
+    | axes | names | tracked rig joints, :data:`controllers.laws.axes.AXES` order |
     | kp, ki | (n_axes,) | rate-loop PI: command per rad/s, per rad s |
     | k_angle | (n_axes,) | angle loop: rad/s per rad |
     | rate_demand_max | (n_axes,) | outer loops' output limits, rad/s |
@@ -87,7 +85,7 @@ class PIDTables:
 
     @classmethod
     def from_data(cls, d: Mapping[str, Any], spec: LoopSpec) -> PIDTables:
-        """Check ``d`` (from :func:`controllers.pid_design.design_pid` or an artefact); a ValueError names the entry."""
+        """Check ``d`` (from :func:`controllers.design.pid.design_pid` or an artefact); a ValueError names the entry."""
         missing = [k for k in ("axes", "kp", "ki", "k_angle", "rate_demand_max", "v_design", "rate_limit", "feedforward",
                                "phi_grid", "trim_roll", "b_roll", "damp_roll", "design") if k not in d]
         if missing:
@@ -115,30 +113,23 @@ class PIDTables:
 
 @register("pid")
 class PIDLaw(Controller):
-    """Cascaded PID family; see the module docstring.  Keyword arguments:
+    """Cascaded PID family; see the module docstring.
 
-    | argument | default | meaning |
-    |---|---|---|
-    | params | default rig | rig parameters of the design model |
-    | link_delay_steps | 1 | telemetry delay the tuning accounts for, control steps |
-    | rate_filter_hz | 10.0 | the rate sensor's filter the tuning accounts for, Hz |
-    | feedforward | True | trim and rate-reference feedforward on the roll axis |
-    | tables | None | a finished design (:class:`PIDTables` or its data); the arguments above must then be left at their defaults |
+    ``tables``: the design (:class:`PIDTables` or its data), made by
+    :func:`controllers.design.pid.design_pid` (or read from an artefact); ``make_controller("pid", spec)``
+    designs and builds in one call.
     """
 
     artefact_kind = "pid"
 
-    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
-                 rate_filter_hz: float = 10.0, feedforward: bool = True, tables: PIDTables | Mapping[str, Any] | None = None) -> None:
+    @classmethod
+    def supports(cls, spec: LoopSpec) -> str | None:
+        """The roll-axis cascade flies any task with rig_roll free."""
+        return None if "rig_roll" in spec.free_dofs else f"free_dofs = {list(spec.free_dofs)}: its roll loops need rig_roll free"
+
+    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, tables: PIDTables | Mapping[str, Any]) -> None:
         super().__init__(spec, num_envs)
         require_roll(spec)
-        if tables is None:
-            # design time only: python-control, scipy and the numba model
-            from controllers.pid_design import design_pid
-
-            tables = design_pid(spec, params, link_delay_steps=link_delay_steps, rate_filter_hz=rate_filter_hz, feedforward=feedforward)
-        elif params is not None or link_delay_steps != 1 or rate_filter_hz != 10.0 or feedforward is not True:
-            raise ValueError("tables given: params, link_delay_steps, rate_filter_hz and feedforward belong to the design and must not be passed too")
         t = self.tables = tables if isinstance(tables, PIDTables) else PIDTables.from_data(tables, spec)
         self.sig = Signals(spec, t.scales)
         self.v_design, self.feedforward = t.v_design, t.feedforward

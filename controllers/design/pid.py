@@ -1,10 +1,10 @@
-"""Design of the cascaded PID family (:class:`controllers.pid.PIDLaw`): every number its runtime needs.
+"""Design of the cascaded PID family (:class:`controllers.laws.pid.PIDLaw`): every number its runtime needs.
 
 :func:`design_pid` runs at construction in simulation and at export: it tunes each axis on the
-linearised rig (:func:`controllers.tuning.tune_axis`, python-control), tabulates the roll trim over
-the roll angle (:func:`controllers.model.operating_point`, the numba model) and reads the roll
+linearised rig (:func:`controllers.design.tuning.tune_axis`, python-control), tabulates the roll trim over
+the roll angle (:func:`controllers.design.model.operating_point`, the numba model) and reads the roll
 axis's damping and control power; the result is plain data (numpy arrays and JSON values) that
-:class:`controllers.pid.PIDTables` checks and the numpy-only runtime executes.  Design targets and
+:class:`controllers.laws.pid.PIDTables` checks and the numpy-only runtime executes.  Design targets and
 achieved margins travel with it under ``design`` (the artefact's provenance of the law).
 """
 
@@ -15,11 +15,11 @@ from typing import Any
 
 import numpy as np
 
-from controllers.axes import axes_of
-from controllers.base import LoopSpec
-from controllers.model import design_model, operating_point
-from controllers.signals import signal_scales
-from controllers.tuning import plain, tune_axis
+from controllers.laws.axes import axes_of
+from controllers.laws.base import LoopSpec
+from controllers.design.model import design_model, operating_point
+from controllers.design.signals import signal_scales
+from controllers.design.tuning import plain, tune_axis
 from rig_env.params import RigParams
 from rig_env.physics import layout as L
 
@@ -27,12 +27,12 @@ RATE_DEMAND_MAX = {"rig_roll": math.radians(400.0), "rig_pitch": math.radians(60
 """Limits of the outer loops' rate demands, rad/s."""
 N_PHI = 37  # roll-angle grid of the trim table, -180..180 deg every 10 deg
 TARGETS = {"pm_inner": 50.0, "gm_inner": 8.0, "pm_outer": 60.0, "gm_outer": 10.0}
-"""Margins the tuning must meet (deg, dB): :func:`controllers.tuning.tune_axis`'s defaults."""
+"""Margins the tuning must meet (deg, dB): :func:`controllers.design.tuning.tune_axis`'s defaults."""
 
 
 def design_pid(spec: LoopSpec, params: RigParams | None = None, *, link_delay_steps: int = 1, rate_filter_hz: float = 10.0,
                feedforward: bool = True) -> dict[str, Any]:
-    """The tables of :class:`controllers.pid.PIDTables` for ``spec`` (see the module docstring).
+    """The tables of :class:`controllers.laws.pid.PIDTables` for ``spec`` (see the module docstring).
 
     Design point: the middle of ``spec.airspeed_range`` (ValueError unless > 1 m/s) and roll 0.
     """
@@ -58,7 +58,7 @@ def design_pid(spec: LoopSpec, params: RigParams | None = None, *, link_delay_st
         "b_roll": float(sys.B[r, 0]),  # rad/s^2 per unit aileron at V_design
         "damp_roll": float(-sys.A[r, r]),  # 1/s at V_design
         **signal_scales(spec).to_data(),
-        "design": {"method": "controllers.tuning.tune_axis (loop shaping on the linearised rig)", "targets": dict(TARGETS),
+        "design": {"method": "controllers.design.tuning.tune_axis (loop shaping on the linearised rig)", "targets": dict(TARGETS),
                    "airspeed_design": float(v_design), "airspeed_range": list(spec.airspeed_range), "link_delay_steps": int(link_delay_steps),
                    "rate_filter_hz": float(rate_filter_hz), "params_default": params is None,
                    "tunings": plain({j: t.as_dict() for j, t in tunings.items()})},

@@ -2,12 +2,12 @@
 
 The compensator rolls with the rig, so its elevator and rudder act on rig_pitch and rig_yaw through
 the roll angle ``phi``.  The laws command *heave* ``h`` and *sway* ``s`` in the unrolled frame
-(derivation in :mod:`controllers.model`, checked in ``tests/test_controllers.py``):
+(derivation in :mod:`controllers.design.model`, checked in ``tests/test_controllers.py``):
 
     aileron = roll,    de = cos(phi) h + sin(phi) s,    dr = -sin(phi) h + cos(phi) s
 
 This module holds only that geometry, so the runtime laws (what a deployed artefact executes) need
-numpy alone; the design side (:mod:`controllers.model`, python-control, the numba model) re-exports it.
+numpy alone; the design side (:mod:`controllers.design.model`, python-control, the numba model) re-exports it.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """``LQRLaw`` (kind ``"lqr"``): gain-scheduled LQR with integral action and a delay-aware estimator.
 
-Design (:func:`controllers.lqr_design.design_lqr`, at construction): an LQR with integral action on
+Design (:func:`controllers.design.lqr.design_lqr`, at construction): an LQR with integral action on
 a grid of airspeeds ``V`` over ``spec.airspeed_range`` and roll angles ``phi`` every 30 deg,
 trimmed and linearised on the numba model the environment integrates.  The operating point moves
 with phi (the arm's gravity imbalance needs a steady aileron and changes the roll stiffness,
@@ -9,10 +9,10 @@ bilinearly in (V, phi) at the estimated state, periodically in phi.
 
 Law, per control period (batched, numpy):
 
-    (q, w)   = DelayedKalman(measured angles, measured surfaces)          (controllers.estimator)
+    (q, w)   = DelayedKalman(measured angles, measured surfaces)          (controllers.laws.estimator)
     e        = [q - q_ref, w - w_ref, integral of the tracked angle errors]
     v        = u_trim(V, phi) + u_ff - K(V, phi) e                        (virtual roll, heave, sway)
-    surfaces = resolve(phi, v)                                            (controllers.axes.resolve)
+    surfaces = resolve(phi, v)                                            (controllers.laws.axes.resolve)
 
 ``q_ref``: roll reference from the task's roll error (unwrapped against the estimate), rig_pitch and
 rig_yaw from the task's errors when it gives them (else 0), model joints at their trim; ``w_ref``:
@@ -24,7 +24,7 @@ Design and runtime are apart: the design (python-control, the numba model) is im
 law is designed; its result is :class:`LQRTables`, plain data, which this module runs with numpy
 alone, in simulation and from a deployed artefact (kind ``"lqr"``: ``law.to_data()`` /
 ``LQRLaw.from_data(data, spec)``), one implementation.  The design functions (``design_point``,
-``augmented``, ``MAX_DEVIATION``...) live in :mod:`controllers.lqr_design` and are re-exported
+``augmented``, ``MAX_DEVIATION``...) live in :mod:`controllers.design.lqr` and are re-exported
 here on first access.
 """
 
@@ -33,17 +33,15 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from controllers.axes import AXIS_OF, axes_of, resolve, unresolve
-from controllers.base import Controller, LoopSpec, register
-from controllers.estimator import DelayedKalman
-from controllers.signals import Signals, SignalScales, require_roll, table_array
+from controllers.laws.axes import AXIS_OF, axes_of, resolve, unresolve
+from controllers.laws.base import Controller, LoopSpec, register
+from controllers.laws.estimator import DelayedKalman
+from controllers.laws.signals import Signals, SignalScales, require_roll, table_array
 
-if TYPE_CHECKING:  # the design's types only; the runtime never imports rig_env
-    from rig_env.params import RigParams
 
 _TABLES = ("K", "u_trim", "q_op", "A_q", "A_w", "B")
 
@@ -94,7 +92,7 @@ class LQRTables:
 
     @classmethod
     def from_data(cls, d: Mapping[str, Any], spec: LoopSpec) -> LQRTables:
-        """Check ``d`` (from :func:`controllers.lqr_design.design_lqr` or an artefact); a ValueError names the entry."""
+        """Check ``d`` (from :func:`controllers.design.lqr.design_lqr` or an artefact); a ValueError names the entry."""
         missing = [k for k in ("airspeeds", "phis", "phi_step", "kalman_gain", "link_delay_steps", "estimator", "design", *_TABLES) if k not in d]
         if missing:
             raise ValueError(f"lqr: missing entries {missing}")
@@ -122,29 +120,23 @@ class LQRTables:
 
 @register("lqr")
 class LQRLaw(Controller):
-    """Gain-scheduled LQR; see the module docstring.  Keyword arguments:
+    """Gain-scheduled LQR; see the module docstring.
 
-    | argument | default | meaning |
-    |---|---|---|
-    | params | default rig | rig parameters of the design model |
-    | link_delay_steps | 1 | measurement delay the estimator predicts over, control steps |
-    | estimator | True | DelayedKalman; False: measured angles and filtered rates as they come |
-    | tables | None | a finished design (:class:`LQRTables` or its data); the arguments above must then be left at their defaults |
+    ``tables``: the design (:class:`LQRTables` or its data), made by
+    :func:`controllers.design.lqr.design_lqr` (or read from an artefact); ``make_controller("lqr", spec)``
+    designs and builds in one call.
     """
 
     artefact_kind = "lqr"
 
-    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, params: RigParams | None = None, link_delay_steps: int = 1,
-                 estimator: bool = True, tables: LQRTables | Mapping[str, Any] | None = None) -> None:
+    @classmethod
+    def supports(cls, spec: LoopSpec) -> str | None:
+        """The scheduled roll-axis LQR flies any task with rig_roll free."""
+        return None if "rig_roll" in spec.free_dofs else f"free_dofs = {list(spec.free_dofs)}: its roll loops need rig_roll free"
+
+    def __init__(self, spec: LoopSpec, num_envs: int = 1, *, tables: LQRTables | Mapping[str, Any]) -> None:
         super().__init__(spec, num_envs)
         require_roll(spec)
-        if tables is None:
-            # design time only: python-control, scipy and the numba model
-            from controllers.lqr_design import design_lqr
-
-            tables = design_lqr(spec, params, link_delay_steps=link_delay_steps, estimator=estimator)
-        elif params is not None or link_delay_steps != 1 or estimator is not True:
-            raise ValueError("tables given: params, link_delay_steps and estimator belong to the design and must not be passed too")
         t = self.tables = tables if isinstance(tables, LQRTables) else LQRTables.from_data(tables, spec)
         self.sig = Signals(spec, t.scales)
         fd = spec.free_dofs
@@ -247,15 +239,3 @@ class LQRLaw(Controller):
         roll 0 and 90 deg, as computed by the design (for the report; poles as [re, im])."""
         return {"points": list(self.tables.design["margins"])}
 
-
-_DESIGN_NAMES = ("Design", "augmented", "design_point", "design_grid", "loop_margins", "describe_point", "design_lqr",
-                 "MAX_DEVIATION", "MAX_INPUT", "V_REF", "PHI_STEP_DEG", "SIGMA_A", "SIGMA_Z")
-
-
-def __getattr__(name: str) -> Any:
-    """The design functions and constants, from :mod:`controllers.lqr_design` (imported on first use only)."""
-    if name not in _DESIGN_NAMES:
-        raise AttributeError(f"module 'controllers.lqr' has no attribute {name!r}")
-    from controllers import lqr_design
-
-    return getattr(lqr_design, name)

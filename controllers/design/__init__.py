@@ -1,0 +1,45 @@
+"""The laws' design: trim and linearisation of the numba model, python-control, scipy, RL training.
+
+Each law family's design sits beside its runtime by name (``controllers/design/lqr.py`` designs
+``controllers/laws/lqr.py``) and returns the tables the runtime executes, as plain data.
+:data:`DESIGNS` maps every model-based law class to its design function; :func:`make_controller`
+designs and builds in one call.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+from controllers.design.emulation import design_emulation_lqr
+from controllers.design.heave_sway import design_heave_sway_lqr, design_heave_sway_pid
+from controllers.design.lqr import design_lqr
+from controllers.design.pid import design_pid
+from controllers.laws import Controller, LoopSpec, law_for
+from controllers.laws.emulation import EmulationLQR
+from controllers.laws.heave_sway import HeaveSwayLQR, HeaveSwayPID
+from controllers.laws.lqr import LQRLaw
+from controllers.laws.pid import PIDLaw
+
+DESIGNS: dict[type[Controller], Callable[..., Any]] = {
+    PIDLaw: design_pid,
+    LQRLaw: design_lqr,
+    HeaveSwayPID: design_heave_sway_pid,
+    HeaveSwayLQR: design_heave_sway_lqr,
+    EmulationLQR: design_emulation_lqr,
+}
+"""Design function of each model-based law: ``design(spec, params=None, **options) -> tables``."""
+
+
+def make_controller(kind: str, spec: LoopSpec, num_envs: int = 1, **options: Any) -> Controller:
+    """The law of ``kind`` that takes ``spec`` (:func:`controllers.laws.law_for`), designed and built.
+
+    ``options`` go to the class's design function (``params``, ``link_delay_steps``... see
+    :data:`DESIGNS`); ``tables=`` skips the design.  Laws without a design (``"ppo"``, ``"sac"``:
+    ``path=``; ``"linear"``: ``K=``...) take ``options`` as constructor arguments.  ValueError for an
+    unknown kind; :class:`~controllers.laws.UnsupportedTask` when no law of the kind flies ``spec``.
+    """
+    cls = law_for(kind, spec)
+    design = DESIGNS.get(cls)
+    if design is None or "tables" in options:
+        return cls(spec, num_envs, **options)
+    return cls(spec, num_envs, tables=design(spec, **options))

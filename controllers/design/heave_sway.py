@@ -1,0 +1,307 @@
+"""Design of the heave and sway laws at the rig's own equilibrium: trim, linear model, PID tuning, LQR.
+
+The roll laws (:mod:`controllers.design.model`) trim with rig_pitch and rig_yaw held at 0 deg.  The heave
+and sway tasks fly around the rig's zero-input equilibrium instead (rig pitch about 7 deg at 20 m/s:
+the model's lift balances the arm's weight; rig yaw at 0), where holding 0 deg would cost some 27 deg
+of elevator.  So these designs trim there:
+
+1. :func:`axis_point`: ``rig_env.trim`` with the compensator surfaces at zero (all the task's free
+   joints settle), then ``rig_env.linearize`` (viscous friction kept) with the compensator elevator
+   and rudder in normalised units (1 = ``scale_deg``); at rig roll 0 the virtual heave and sway inputs
+   (:func:`controllers.design.model.resolve`) are the elevator and rudder themselves.
+2. :func:`tune_driven`: the loop-shaping procedure of :func:`controllers.design.tuning.tune_axis` (same loop
+   elements, grids and margin targets: inner PI PM >= 50 deg, GM >= 8 dB; outer P PM >= 60 deg,
+   GM >= 10 dB; :func:`controllers.design.tuning.margins`) applied to the driven joint's rate plant of step 1.
+3. :func:`lqr_point`: ``control.lqr`` on the model of step 1 augmented with the integral of the driven
+   joint's angle error (:func:`controllers.laws.lqr.augmented`), Bryson weights of :mod:`controllers.laws.lqr`
+   (:data:`controllers.laws.lqr.MAX_DEVIATION`, :data:`controllers.laws.lqr.MAX_INPUT` scaled with airspeed).
+
+The tables the numpy runtime (:mod:`controllers.laws.heave_sway`) executes, at every airspeed of a grid
+over ``spec.airspeed_range`` (:data:`controllers.laws.heave_sway.V_STEP` apart):
+at every airspeed of a grid over ``spec.airspeed_range`` (:data:`controllers.laws.heave_sway.V_STEP` apart):
+
+1. :func:`controllers.design.heave_sway.axis_point`: the zero-input trim and its linear model; from it the
+   driven joint's damping ``A'_jj``, control power ``b_j``, acceleration row, the trim angles and
+   the passive joints' static ratio ``S = G_p / G_j`` (``G = -A_q^-1 B_axis``).
+2. :func:`controllers.design.heave_sway.static_table`: the static input curve ``u_s(theta)``.
+3. PID: :func:`controllers.design.heave_sway.tune_driven` at the middle airspeed, the servo's rate limit,
+   and :func:`controllers.design.heave_sway.pid_margins_as_flown` for the report.  LQR: the weight search
+   of :class:`controllers.laws.heave_sway.HeaveSwayLQR` (:func:`controllers.design.heave_sway.lqr_point`,
+   :func:`controllers.design.heave_sway.lqr_margins`) and the estimator's Kalman gains
+   (:data:`controllers.design.lqr.SIGMA_A`, :data:`controllers.design.lqr.SIGMA_Z`).
+
+The reference parser's numbers (:func:`controllers.design.signals.reference_constants`) and the
+observation's scales (:func:`controllers.design.signals.signal_scales`) are read from ``rig_env`` here and
+stored in the tables, so the runtime never imports it.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import control
+import numpy as np
+
+from controllers.design.lqr import MAX_DEVIATION, MAX_INPUT, SIGMA_A, SIGMA_Z, V_REF, Design, augmented, loop_margins
+from controllers.design.model import INPUTS, loop_elements
+from controllers.design.signals import reference_constants, signal_scales
+from controllers.design.tuning import AxisTuning, margins, rate_tf, shape_loops
+from controllers.laws.axes import AXIS_OF
+from controllers.laws.base import LoopSpec
+from controllers.laws.estimator import kalman_gain
+from controllers.laws.heave_sway import ANGLE_MAX_DEG, LQR_TARGETS, V_STEP, HeaveSwayTables
+from rig_env import linearize, trim
+from rig_env.params import JOINTS, RigParams
+from rig_env.physics import layout as L
+
+DRIVEN = ("rig_pitch", "rig_yaw")
+"""Rig joints a heave/sway law drives (virtual input :data:`controllers.design.model.AXIS_OF`)."""
+Q_GUESS_DEG = {"rig_pitch": 7.0}  # where the trim search starts (the rig's zero-input trim, task docstrings)
+
+
+def axis_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: float, scale_deg: float = 40.0) -> tuple[np.ndarray, control.StateSpace]:
+    """Zero-input equilibrium (5,) joint angles, rad, and the linear model there.
+
+    Model states ``<joint>``, ``<joint>_rate`` of ``free_dofs``; inputs the virtual (roll, heave,
+    sway) in normalised units (roll column zero: the aileron is not used by these laws).
+    """
+    q0 = np.zeros(5)
+    for j, deg in Q_GUESS_DEG.items():
+        if j in free_dofs:  # a locked joint stays at its guess
+            q0[JOINTS.index(j)] = math.radians(deg)
+    op = trim(params, free_dofs=free_dofs, airspeed=float(airspeed), controls={}, q_guess=q0)
+    sys = linearize(params, op, inputs=INPUTS, friction="viscous")
+    B = np.asarray(sys.B) * math.radians(scale_deg)
+    B[:, 0] = 0.0
+    out = control.ss(sys.A, B, sys.C, np.zeros_like(B), states=sys.state_labels, inputs=["roll", "heave", "sway"],
+                     outputs=sys.output_labels)
+    return op.q.copy(), out
+
+
+def rate_plant(sys: control.StateSpace, joint: str) -> control.TransferFunction:
+    """Joint rate (rad/s) per normalised virtual input of its axis, from the model of :func:`axis_point`."""
+    return rate_tf(sys, joint)
+
+
+def tune_driven(params: RigParams, sys: control.StateSpace, joint: str, airspeed: float, dt: float, *,
+                link_delay_steps: int = 1, rate_filter_hz: float = 10.0, pm_inner: float = 50.0, gm_inner: float = 8.0,
+                pm_outer: float = 60.0, gm_outer: float = 10.0) -> AxisTuning:
+    """Step 2 of the module docstring (``tuning.tune_axis``'s procedure on this plant); ValueError if infeasible."""
+    if joint not in DRIVEN:
+        raise ValueError(f"joint = {joint!r}: driven joints are {list(DRIVEN)}")
+    el = loop_elements(params, dt, link_delay_steps, rate_filter_hz)
+    return shape_loops(rate_plant(sys, joint), el, joint, airspeed,
+                       pm_inner=pm_inner, gm_inner=gm_inner, pm_outer=pm_outer, gm_outer=gm_outer)
+
+
+def lqr_point(q_op: np.ndarray, sys: control.StateSpace, free_dofs: tuple[str, ...], airspeed: float,
+              max_deviation: dict[str, float] | None = None, max_input: dict[str, float] | None = None) -> Design:
+    """Step 3 of the module docstring at one airspeed; a :class:`controllers.laws.lqr.Design` (phi = 0).
+
+    ``max_deviation``, ``max_input``: Bryson maxima overriding :data:`controllers.laws.lqr.MAX_DEVIATION`
+    and :data:`controllers.laws.lqr.MAX_INPUT` entry by entry."""
+    md = {**MAX_DEVIATION, **(max_deviation or {})}
+    mi = {**MAX_INPUT, **(max_input or {})}
+    A, B = np.asarray(sys.A), np.asarray(sys.B)
+    Aa, Ba, ilabels = augmented(A, B, free_dofs)
+    labels = list(sys.state_labels) + ilabels
+    Q = np.diag([1.0 / md[s] ** 2 for s in labels])
+    used = [AXIS_OF[j] for j in DRIVEN if j in free_dofs]
+    axis_name = {1: "heave", 2: "sway"}
+    R = np.diag([1.0 / (mi[axis_name[k]] * V_REF / airspeed) ** 2 for k in used])
+    Kr, P, poles = control.lqr(Aa, Ba[:, used], Q, R)
+    K = np.zeros((3, Aa.shape[0]))
+    K[used] = Kr
+    q_free = q_op[[JOINTS.index(j) for j in free_dofs]]
+    return Design(tuple(free_dofs), float(airspeed), 0.0, K, np.zeros(3), q_free, A, B, Q, R, np.asarray(P), np.asarray(poles))
+
+
+def lqr_margins(d: Design, joint: str, params: RigParams, dt: float, link_delay_steps: int = 1,
+                hold_passive: bool = True) -> tuple[float, float, float]:
+    """(GM dB, PM deg, crossover rad/s) of the LQR loop broken at the driven joint's input, servo and delay in.
+
+    ``hold_passive=False``: the gains on the passive model joints are zeroed first (the law as flown
+    when it leaves the model free, free-flight emulation)."""
+    K = d.K.copy()
+    if not hold_passive:
+        nq = len(d.free_dofs)
+        for k, j in enumerate(d.free_dofs):
+            if j not in DRIVEN:
+                K[:, k] = 0.0
+                K[:, nq + k] = 0.0
+    dd = Design(d.free_dofs, d.airspeed, d.phi, K, d.u_trim, d.q_op, d.A, d.B, d.Q, d.R, d.P, d.poles)
+    return loop_margins(dd, AXIS_OF[joint], loop_elements(params, dt, link_delay_steps))
+
+
+U_TABLE = np.linspace(-0.9, 0.9, 19)
+"""Normalised driven-axis inputs of the static trim table (:func:`static_table`)."""
+
+
+def static_table(params: RigParams, free_dofs: tuple[str, ...], joint: str, airspeed: float,
+                 scale_deg: float = 40.0) -> tuple[np.ndarray, np.ndarray]:
+    """The rig's static input curve: (theta (m,) rad ascending, u (m,) normalised) with ``rig_env.trim``.
+
+    For each steady elevator (rig_pitch) or rudder (rig_yaw) input of :data:`U_TABLE` every free joint
+    settles (passive model joints included); ``u(theta)`` interpolated in this table is the input
+    that holds the driven joint at theta, the nonlinear (large-angle) form of the linear stiffness.
+    Inputs whose equilibrium lies beyond the joint's stops or is not found are left out.
+    """
+    surface = {"rig_pitch": "comp_elevator", "rig_yaw": "comp_rudder"}[joint]
+    jq = JOINTS.index(joint)
+    q0 = np.zeros(5)
+    for j, deg in Q_GUESS_DEG.items():
+        if j in free_dofs:  # a locked joint stays at its guess
+            q0[JOINTS.index(j)] = math.radians(deg)
+    th, us = [], []
+    for branch in (U_TABLE[U_TABLE >= 0], U_TABLE[U_TABLE < 0][::-1]):  # outward from 0, each trim from the last
+        guess = q0.copy()
+        for u in branch:
+            try:
+                op = trim(params, free_dofs=free_dofs, airspeed=float(airspeed), controls={surface: float(u) * scale_deg}, q_guess=guess)
+            except RuntimeError:
+                break
+            if abs(op.q[jq]) >= math.radians(30.0):
+                break
+            th.append(op.q[jq])
+            us.append(float(u))
+            guess = op.q.copy()
+    order = np.argsort(th)
+    th_a, u_a = np.asarray(th)[order], np.asarray(us)[order]
+    if th_a.size < 3 or np.any(np.diff(th_a) <= 0):
+        raise ValueError(f"{joint} at {airspeed} m/s: the static input curve is not monotonic ({np.degrees(th_a)} deg)")
+    return th_a, u_a
+
+
+def pid_margins_as_flown(params: RigParams, sys: control.StateSpace, joint: str, t: AxisTuning, dt: float, *,
+                         decouple: str | None = "passive", link_delay_steps: int = 1, rate_filter_hz: float = 10.0) -> tuple[float, float, float]:
+    """(GM dB, PM deg, crossover rad/s) of the heave/sway PID broken at the surface command, servo and delay in.
+
+    The cascade feeds back ``u = -C(s) (k_angle theta + H(s) theta')`` (``C = kp + ki / s``, ``H`` the rate
+    sensor) and, with ``decouple="passive"``, ``-(A_jp theta_p + A'_jp H(s) theta_p') / b_j`` on the passive
+    joints, so ``L(s) = [C (k_angle + H s) P_j + (A_jp + A'_jp H s) P_p / b_j] S D`` with ``P_j``, ``P_p`` the
+    angles per unit input of the model of :func:`axis_point`; ``decouple="all"`` adds the driven joint's own
+    row too (the inverse dynamics of free-flight emulation); None: the cascade alone."""
+    if decouple not in (None, "passive", "all"):
+        raise ValueError(f"decouple = {decouple!r}: allowed None, 'passive', 'all'")
+    el = loop_elements(params, dt, link_delay_steps, rate_filter_hz)
+    s = control.tf("s")
+    nq = len(sys.state_labels) // 2
+    k_in = AXIS_OF[joint]
+    k = sys.state_labels.index(joint)
+    A = np.asarray(sys.A)
+
+    def angle(i: int) -> control.TransferFunction:
+        return control.ss2tf(control.ss(sys.A, sys.B[:, [k_in]], np.eye(2 * nq)[[i]], 0.0))
+
+    H = el["rate_sensor"]
+    L = (t.kp + t.ki / s) * (t.k_angle + H * s) * angle(k)
+    if decouple:
+        b = float(sys.B[nq + k, k_in])
+        for i in range(nq):
+            if i != k or decouple == "all":
+                L = L + (A[nq + k, i] + A[nq + k, nq + i] * H * s) * angle(i) / b
+    return margins(L * el["servo"] * el["delay"])
+
+
+
+def _grid(spec: LoopSpec) -> np.ndarray:
+    lo, hi = spec.airspeed_range
+    if lo <= 1.0:
+        raise ValueError(f"airspeed_range = {spec.airspeed_range}: the heave/sway design needs airspeed > 1 m/s")
+    return np.linspace(lo, hi, max(2, math.ceil((hi - lo) / V_STEP) + 1)) if hi > lo else np.array([lo])
+
+
+def _model(spec: LoopSpec, params: RigParams) -> tuple[dict[str, Any], list, Any]:
+    """Steps 1-2 (shared by both laws): the model tables, the design points [(q_op (5,), sys)] and the reference constants."""
+    ref = reference_constants(spec, params)  # UnsupportedTask first: cheap
+    joint, fd = ref.joint, spec.free_dofs
+    V = _grid(spec)
+    points = [axis_point(params, fd, float(v), spec.action_scale_deg) for v in V]
+    nq, k = len(fd), fd.index(joint)
+    p = [i for i in range(nq) if i != k]
+    cw, b, S = [], [], []
+    for _, sys in points:
+        A, B = np.asarray(sys.A), np.asarray(sys.B)
+        G = -np.linalg.solve(A[nq:, :nq], B[nq:, AXIS_OF[joint]])  # static gain: joint angles per unit input
+        cw.append(A[nq:, nq:][k, k])
+        b.append(B[nq + k, AXIS_OF[joint]])
+        S.append(G[p] / G[k])
+    curves = [static_table(params, fd, joint, float(v), spec.action_scale_deg) for v in V]
+    m = max(t.size for t, _ in curves)
+    th, us = np.zeros((V.size, m)), np.zeros((V.size, m))
+    for i, (t, u) in enumerate(curves):  # padded with the last point; only the first static_n are read
+        th[i], us[i] = t[-1], u[-1]
+        th[i, : t.size], us[i, : u.size] = t, u
+    tables = {"airspeeds": V, "cw": np.array(cw), "b": np.array(b),
+              "A_row": np.array([np.asarray(sys.A)[nq + k] for _, sys in points]),
+              "q_op": np.array([q[[JOINTS.index(j) for j in fd]] for q, _ in points]),
+              "S": np.array(S).reshape(V.size, nq - 1), "static_theta": th, "static_u": us,
+              "static_n": np.array([t.size for t, _ in curves], dtype=np.int64)}
+    return tables, points, ref
+
+
+def _design(spec: LoopSpec, link_delay_steps: int, rate_filter_hz: float = 10.0, **extra: Any) -> dict[str, Any]:
+    return {"airspeed_range": list(spec.airspeed_range), "link_delay_steps": int(link_delay_steps), "rate_filter_hz": float(rate_filter_hz), **extra}
+
+
+def design_heave_sway_pid(spec: LoopSpec, params: RigParams | None = None, *, link_delay_steps: int = 1, rate_filter_hz: float = 10.0,
+                          feedforward: bool = True, decouple: bool = True, targets: dict[str, float] | None = None) -> HeaveSwayTables:
+    """Tables of :class:`controllers.laws.heave_sway.HeaveSwayPID` (steps 1-3)."""
+    params_default, params = params is None, params or RigParams.default()
+    model, points, ref = _model(spec, params)
+    V = model["airspeeds"]
+    i_mid = int(np.argmin(np.abs(V - 0.5 * (V[0] + V[-1]))))
+    v_design = float(V[i_mid])
+    t = tune_driven(params, points[i_mid][1], ref.joint, v_design, spec.dt, link_delay_steps=link_delay_steps,
+                    rate_filter_hz=rate_filter_hz, **(targets or {}))
+    rate_lim = math.degrees(params.to_vector()[L.P_SERVOS_COMPENSATOR_RATE_LIMIT_DEG_S]) / spec.action_scale_deg
+    emulate = spec.task == "free_flight_emulation"
+    gm, pm, wc = pid_margins_as_flown(params, points[i_mid][1], ref.joint, t, spec.dt,
+                                      decouple="all" if emulate else ("passive" if decouple else None), link_delay_steps=link_delay_steps)
+    law = {"kp": float(t.kp), "ki": float(t.ki), "k_angle": float(t.k_angle), "v_design": v_design, "rate_limit": float(rate_lim),
+           "feedforward": bool(feedforward), "decouple": bool(decouple)}
+    tuning = {**{k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in t.as_dict().items()},
+              "gm_input": float(gm), "pm_input": float(pm), "wc_input": float(wc)}
+    design = _design(spec, link_delay_steps, rate_filter_hz, params_default=params_default,
+                     method="controllers.design.heave_sway.tune_driven (loop shaping on the linearised rig at its zero-input trim)",
+                     targets=dict(targets or {}), tuning=tuning)
+    return HeaveSwayTables("pid", **model, reference=ref, scales=signal_scales(spec), law=law, design=design)
+
+
+def design_heave_sway_lqr(spec: LoopSpec, params: RigParams | None = None, *, link_delay_steps: int = 1,
+                          max_deviation: dict[str, float] | None = None) -> HeaveSwayTables:
+    """Tables of :class:`controllers.laws.heave_sway.HeaveSwayLQR` (steps 1-3; the weight search of its docstring)."""
+    params_default, params = params is None, params or RigParams.default()
+    model, points, ref = _model(spec, params)
+    fd, j, V = spec.free_dofs, ref.joint, model["airspeeds"]
+    hold_passive = spec.task != "free_flight_emulation"  # emulation: the model is free
+    candidates = [max_deviation] if max_deviation is not None else [
+        {j: math.radians(a), f"{j}_rate": math.radians(30.0), f"int_{j}": math.radians(a)} for a in ANGLE_MAX_DEG]
+    chosen = None
+    for md in candidates:  # loosest first: keep the tightest that meets the targets
+        designs = [lqr_point(q, sys, fd, float(v), md) for v, (q, sys) in zip(V, points)]
+        ok = all(gm >= LQR_TARGETS["gm_db"] and pm >= LQR_TARGETS["pm_deg"]
+                 for gm, pm, _ in (lqr_margins(d, j, params, spec.dt, link_delay_steps, hold_passive) for d in designs))
+        if ok or chosen is None:
+            chosen = (designs, md)
+        if not ok:
+            break
+    designs, md = chosen
+    nq = len(fd)
+    K = np.array([d.K[AXIS_OF[j]] for d in designs])  # (n_V, 2 nq + 1): this axis' row
+    if not hold_passive:
+        K[:, [i for i in range(2 * nq) if i % nq != fd.index(j)]] = 0.0
+    points_out = []
+    for d in designs:
+        gm, pm, wc = lqr_margins(d, j, params, spec.dt, link_delay_steps, hold_passive)
+        points_out.append({"airspeed": float(d.airspeed), "phi_deg": 0.0, "poles": [[float(p.real), float(p.imag)] for p in np.atleast_1d(d.poles)],
+                           j: {"gm_db": float(gm), "pm_deg": float(pm), "wc": float(wc)}})
+    gains = np.array([kalman_gain(spec.dt, SIGMA_A[x], SIGMA_Z) for x in fd])
+    law = {"K": K, "A_q": np.array([d.A[nq:, :nq] for d in designs]), "A_w": np.array([d.A[nq:, nq:] for d in designs]),
+           "B": np.array([d.B[nq:] for d in designs]), "kalman_gain": gains, "link_delay_steps": int(link_delay_steps)}
+    design = _design(spec, link_delay_steps, params_default=params_default,
+                     method="controllers.design.heave_sway.lqr_point (control.lqr, Bryson weights, integral of the driven joint)",
+                     max_deviation={k: float(v) for k, v in md.items()}, targets=dict(LQR_TARGETS),
+                     sigma_a={x: float(SIGMA_A[x]) for x in fd}, sigma_z=float(SIGMA_Z), points=points_out)
+    return HeaveSwayTables("lqr", **model, reference=ref, scales=signal_scales(spec), law=law, design=design)
