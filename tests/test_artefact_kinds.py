@@ -305,6 +305,7 @@ def test_heave_sway_tables_are_the_design_tools(kind, task, opts):
     (Free-flight emulation's registered LQR is the model-following one, tests/test_laws_emulation.py; the
     heave/sway LQR, which can still fly it when built directly, is checked here.)"""
     from controllers.design.heave_sway import axis_point, lqr_point, static_table, tune_driven
+    from controllers.design.heave_sway import design_heave_sway_lqr
     from controllers.laws.heave_sway import HeaveSwayLQR
     from rig_env.envs.sensors import RATE_SCALE
     from rig_env.envs.tasks.base import G0
@@ -312,7 +313,7 @@ def test_heave_sway_tables_are_the_design_tools(kind, task, opts):
     from rig_env.params import RigParams
 
     spec = LoopSpec.from_env(RigVectorEnv(1, task=task, task_options=opts))
-    law = HeaveSwayLQR(spec, 1) if kind == "lqr" else make_controller(kind, spec, 1)
+    law = HeaveSwayLQR(spec, 1, tables=design_heave_sway_lqr(spec)) if kind == "lqr" else make_controller(kind, spec, 1)
     t, p = law.tables, RigParams.default()
     j, fd = t.reference.joint, spec.free_dofs
     assert (t.reference.arm_length, t.reference.g0, t.reference.t_ramp) == (p.geometry.arm_length, G0, ForcedOscillation.T_RAMP)

@@ -26,6 +26,7 @@ from controllers.laws.emulation import (
     EmulationTables,
 )
 from controllers.design.emulation import (
+    design_emulation_lqr,
     continuous_model,
     design_point,
     margins_discrete,
@@ -303,17 +304,17 @@ def test_registry_and_bad_input(params):
     wide = LoopSpec.from_env(RigVectorEnv(2, task="free_flight_emulation", free_dofs=("rig_pitch", "rig_yaw", "model_pitch")))
     assert type(make_controller("lqr", wide, 2)) is HeaveSwayLQR  # other joint sets: the heave/sway LQR
     with pytest.raises(UnsupportedTask, match="free_flight_emulation"):
-        EmulationLQR(LoopSpec.from_env(RigVectorEnv(1, task="pull_up_push_over")), 1)
+        design_emulation_lqr(LoopSpec.from_env(RigVectorEnv(1, task="pull_up_push_over")))
     with pytest.raises(ValueError, match="max_deviation: unknown entries \\['alpha'\\]"):
-        EmulationLQR(spec, 1, max_deviation={"alpha": 0.01})
+        make_controller("lqr", spec, 1, max_deviation={"alpha": 0.01})
     with pytest.raises(ValueError, match="every maximum must be finite and > 0"):
-        EmulationLQR(spec, 1, max_input=0.0)
+        make_controller("lqr", spec, 1, max_input=0.0)
     with pytest.raises(ValueError, match="link_delay_steps"):
-        EmulationLQR(spec, 1, link_delay_steps=-1)
-    law = EmulationLQR(spec, 2)
+        make_controller("lqr", spec, 1, link_delay_steps=-1)
+    law = make_controller("lqr", spec, 2)
     data = law.to_data()
     with pytest.raises(ValueError, match="tables given"):
-        EmulationLQR(spec, 1, tables=data, max_input=0.3)
+        make_controller("lqr", spec, 1, tables=data, max_input=0.3)
     with pytest.raises(ValueError, match="missing entries \\['K'\\]"):
         EmulationTables.from_data({k: v for k, v in data.items() if k != "K"}, spec)
     bad = dict(data, K=np.zeros((2, 3)))

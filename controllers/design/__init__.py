@@ -40,6 +40,8 @@ def make_controller(kind: str, spec: LoopSpec, num_envs: int = 1, **options: Any
     """
     cls = law_for(kind, spec)
     design = DESIGNS.get(cls)
+    if design is not None and "tables" in options and len(options) > 1:
+        raise ValueError(f"tables given: {sorted(set(options) - {'tables'})} belong to the design and must not be passed too")
     if design is None or "tables" in options:
         return cls(spec, num_envs, **options)
     return cls(spec, num_envs, tables=design(spec, **options))

@@ -58,6 +58,7 @@ import numpy as np
 
 from controllers.laws.axes import AXIS_OF
 from controllers.laws.base import Controller, LoopSpec, register
+from controllers.laws.emulation import EmulationLQR
 from controllers.laws.estimator import DelayedKalman
 from controllers.laws.pid_element import PID
 from controllers.laws.references import TASKS, DrivenReference, ReferenceConstants
@@ -339,8 +340,9 @@ class HeaveSwayLQR(_HeaveSwayBase):
 
     @classmethod
     def supports(cls, spec: LoopSpec) -> str | None:
-        if spec.task == "free_flight_emulation":
-            return "free-flight emulation's 'lqr' is the model-following EmulationLQR"
+        """As the heave/sway PID, except free-flight emulation on the model-following law's joint set."""
+        if EmulationLQR.supports(spec) is None:
+            return "free-flight emulation on rig_pitch and model_pitch flies the model-following EmulationLQR"
         return _HeaveSwayBase.supports.__func__(cls, spec)
 
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, tables: HeaveSwayTables | Mapping[str, Any]) -> None:
