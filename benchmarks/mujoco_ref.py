@@ -8,7 +8,7 @@ the physics step of 2.5 ms, one env-step = one 12.5 ms control step = 5 physics 
   :func:`rig_env.physics.aero.hawk_aero` and :func:`rig_env.physics.aero.comp_aero` from MuJoCo's body
   poses and velocities and applied through ``qfrc_applied`` (``mj_applyFT``).  The loads are held
   over each step, including across MuJoCo's four RK4 stages (a zero-order hold: first order in the
-  step, see NUMERICS_NOTES), and there is no friction, stop or servo model.
+  step, about 1e-3 rad over 5 s at 2.5 ms, see docs/MODEL.md section 7), and there is no friction, stop or servo model.
 * :func:`mujoco_rollout_env_steps_per_s`: the bare mechanism (no aero) through ``mujoco.rollout`` on
   a thread pool, MuJoCo's fastest batch path.
 

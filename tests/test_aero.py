@@ -147,7 +147,7 @@ def test_compensator_roll_from_strip_theory(params):
 
 
 def test_mixing_signs_match_rig_code():
-    # flap_i = da +- de +- dr with signs (+,+,-), (+,-,-), (+,-,+), (+,+,+) (RIG_DATA, rig-code)
+    # flap_i = da +- de +- dr with signs (+,+,-), (+,-,-), (+,-,+), (+,+,+) (rig-code, docs/PARAMETERS.md)
     signs = [(1, 1, -1), (1, -1, -1), (1, -1, 1), (1, 1, 1)]
     for i, (sa, se, sr) in enumerate(signs):
         assert aero.mix(1.0, 0.0, 0.0, i) == sa

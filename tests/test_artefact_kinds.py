@@ -1,4 +1,4 @@
-"""Artefact kinds "pid", "lqr", "pid_heave_sway", "lqr_heave_sway" and "ppo"/"sac" (issue 5): the laws as
+"""Artefact kinds "pid", "lqr", "pid_heave_sway", "lqr_heave_sway" and "ppo"/"sac": the laws as
 plain data, run by their numpy runtime.
 
 The runtime is the law's own class built from the designed tables (``PIDLaw.from_data``,

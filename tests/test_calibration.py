@@ -1,4 +1,4 @@
-"""Behaviours of the paper's rig (RIG_DATA calibration targets), checked against theory where it exists."""
+"""Behaviours of the paper's rig (the calibration targets of docs/PARAMETERS.md), checked against theory where it exists."""
 
 import math
 

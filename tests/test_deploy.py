@@ -1,4 +1,4 @@
-"""Deployment (issue 5): protocol, artefact, numpy runtime, and the real-time loop flying the simulated rig.
+"""Deployment: protocol, artefact, numpy runtime, and the real-time loop flying the simulated rig.
 
 Every network test runs over loopback (127.0.0.1) with the sim rig in a subprocess
 (``scripts/deploy.py sim-rig --port 0``) and the loop in a thread of the test; each run is bounded by

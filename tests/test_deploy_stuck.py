@@ -214,7 +214,7 @@ def test_default_span_is_more_than_roll_friction_can_hold():
     """stuck_cmd_deg = 2 deg at 18 m/s: more than the command change the rig roll's breakaway friction can hold still.
 
     Friction holds the rig through a moment change of at most 2 Fs; on the smallest roll inertia (0.14 kg m^2,
-    RIG_DATA, without the model) that is an acceleration of 2 Fs / 0.14, which one rad of compensator aileron
+    docs/PARAMETERS.md, without the model) that is an acceleration of 2 Fs / 0.14, which one rad of compensator aileron
     matches with B = d(roll acceleration)/d(aileron) from the linear model at rest.  The evidence is scaled by
     (18 / U)^2, so the margin is the same at every airspeed if B grows as U^2 (checked at 12 m/s).
     """
@@ -223,7 +223,7 @@ def test_default_span_is_more_than_roll_friction_can_hold():
 
     p = RigParams.default()
     fs = p.friction.rig_roll.Fs
-    assert 0.058 <= fs <= 0.061  # RIG_DATA: Coulomb 0.058-0.060 N m, breakaway / Coulomb 1.01
+    assert 0.058 <= fs <= 0.061  # docs/PARAMETERS.md: Coulomb 0.058-0.060 N m, breakaway / Coulomb 1.01
     for u in (18.0, 12.0):
         b = float(linearize(p, trim(p, free_dofs=("rig_roll",), airspeed=u)).B[1, 0])  # rad/s^2 per rad of comp_aileron
         held = 2.0 * fs / 0.14 / b  # rad

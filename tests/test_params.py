@@ -75,7 +75,7 @@ def test_bad_files(tmp_path: Path):
     bad.write_text(text + "\n[extra]\nx = 1\n")
     with pytest.raises(ParameterError, match="unknown field"):
         RigParams.from_toml(bad)
-    bad.write_text(text.replace('note = "RIG_DATA: about 1.0 kg (0.8-1.5)"', 'note = ""'))
+    bad.write_text(text.replace('note = "about 1.0 kg, range 0.8-1.5 kg (docs/PARAMETERS.md)"', 'note = ""'))
     with pytest.raises(ParameterError, match="mass.hawk_mass is an estimate and needs a 'note'"):
         RigParams.from_toml(bad)
     with pytest.raises(ParameterError, match="not found"):
