@@ -21,7 +21,7 @@ that evidence false-trips on every joint that comes to rest under a noise-free c
 change is evidence the rig cannot ignore: at 18 m/s (the bottom of velocity_vector_roll's airspeed
 range) one degree of compensator aileron gives 1.16 rad/s^2 of rig-roll acceleration
 (``rig_env.linear.linearize`` at rest), while the rig roll's breakaway friction (0.0596 N m in the
-model; RIG_DATA 0.058-0.061) on its inertia of at least 0.14 kg m^2 (RIG_DATA, without the model) gives
+model; 0.058-0.061 measured, docs/PARAMETERS.md) on its inertia of at least 0.14 kg m^2 (without the model) gives
 at most 0.43 rad/s^2, so friction can hold the rig still through a command change of at most
 2 x 0.43 / 1.16 = 0.73 deg; the default ``cmd_span`` of 2 deg is 2.7 times that.  The aerodynamic moment
 of a deflection grows as U^2 delta (the linear model's B: 66.5 rad/s^2/rad at 18 m/s, 29.6 at 12 m/s),

@@ -1,7 +1,6 @@
-"""Several seeds of one training configuration: their final metrics, spread and curves (``train.py --seeds``).
+"""Several seeds of one training configuration: their final metrics, spread and curves (``rig train --seeds``).
 
-One training run is an anecdote: PPO and SAC runs of the same settings differ by seed (PEERS.md, "seeds
-and sweeps"; Henderson et al., *Deep Reinforcement Learning that Matters*, AAAI 2018).  :func:`summarise`
+One training run is an anecdote: PPO and SAC runs of the same settings differ by seed (Henderson et al., *Deep Reinforcement Learning that Matters*, AAAI 2018).  :func:`summarise`
 reads the policy files the runs wrote (their provenance holds the final evaluation of the exported
 policy and the evaluation curve) and writes
 

@@ -14,7 +14,7 @@ Conditions (:class:`Conditions`; :data:`NOMINAL` and :data:`ROBUST`):
 
 | mode | airspeed | gusts | sensors | parameters drawn per episode, uniform |
 |---|---|---|---|---|
-| nominal | U(15, 25) m/s | 1 % of airspeed, 1 sigma, 0.2 s (the upper end of a low-speed tunnel's turbulence intensity) | env defaults: 0.05 deg noise, quantised, one period delay | Hawk mass +-10 %, servo delay 10-20 ms, servo bandwidth 5-8 Hz (RIG_DATA ranges) |
+| nominal | U(15, 25) m/s | 1 % of airspeed, 1 sigma, 0.2 s (the upper end of a low-speed tunnel's turbulence intensity) | env defaults: 0.05 deg noise, quantised, one period delay | Hawk mass +-10 %, servo delay 10-20 ms, servo bandwidth 5-8 Hz (the measured ranges of docs/PARAMETERS.md) |
 | robust | same | same | same | nominal, plus +-20 % on every non-zero aerodynamic derivative (Hawk and compensator) and on the friction Fs, Fc, sigma2 of every joint |
 """
 

@@ -50,7 +50,7 @@ from controllers.laws.base import Controller, LoopSpec, register
 
 FORMAT = "rig_env.rl_policy"
 FORMAT_VERSION = 1
-POLICY_DIR = Path(__file__).resolve().parent / "policies"
+POLICY_DIR = Path(__file__).resolve().parents[1] / "policies"
 ACTIVATIONS = {"tanh": np.tanh, "relu": lambda x: np.maximum(x, 0.0)}
 POSTPROCESS = {"ppo": "clip", "sac": "tanh_unscale"}
 

@@ -8,8 +8,8 @@ that new IR to ``inline_ir``, which deep-copies it twice before use: once to mut
 unmutated original that this caller throws away.  The copies are made block by block, each with its own
 memo, so the callee's whole variable scope is copied again for every block: quadratic in the size of
 the callee.  Profiled on a cold compile of the lane kernel (numba 0.68): 294 s of 386 s in those copies
-(``copy.deepcopy``, 120 million calls), 10 s in LLVM.  numba issue 8989 ("Spurious deep copies in
-inlining") describes the same; numba's own fix removed one of three copies and the two left remain.
+(``copy.deepcopy``, 120 million calls), 10 s in LLVM.  numba's own fix of these spurious deep copies removed one of three; the two left
+remain.
 
 :func:`install` makes ``inline_function`` call ``inline_ir`` with a thread-local flag set, under which
 ``ir.Block.__deepcopy__`` returns the block itself: the IR that call made is mutated in place and

@@ -22,7 +22,7 @@ Why the layout is what it is (each rule was found by making a probe's loop fail 
 
 A choice that is the same for every lane still costs both sides inside such a loop (the vectoriser
 turns it into a select).  So the joints' friction and bristle updates, the costliest part of the
-right-hand side per joint (NUMERICS_NOTES: friction's exponentials), run in loops of their own, one per
+right-hand side per joint (friction's exponentials), run in loops of their own, one per
 joint, entered only for the free joints (:func:`stage_friction`, :func:`bristles`): a locked joint's
 friction is never computed.  With two free joints (velocity-vector roll) that made the lane kernel
 about 12 % faster (median of four alternating A/B runs, ``benchmarks/RESULTS.md``).
