@@ -178,11 +178,12 @@ def simulate(
     control_rate: Hz; physics_dt: s, default the largest step <= 2.5 ms dividing the control step.
     overrides: per-environment parameter overrides (see rig_env.param_batch).
 
-    Initial servo state (the environments' convention, :mod:`rig_env.physics.pipeline`): the servos start
-    at rest at zero deflection with zero demands in their delay lines, as if every surface command had
-    been zero before t = 0; a command from t = 0 on reaches them after the servo delay and then moves them
-    through their lag and rate limit (``flaps`` of the result shows it).  "joint" runs the per-environment
-    kernel (:func:`rig_env.physics.pipeline.choose_kernel`), "dae" the DAE kernel.
+    Initial servo state (the environments' convention, :meth:`rig_env.physics.pipeline.PhysicsBatch.reset`):
+    the servos start in equilibrium with the commands of t = 0, as if those had been held since forever
+    (at rest at the limited demand, the delay lines full of it), so a constant command holds from the
+    start (a trim stays a trim) and a later change reaches the servos after their transport delay; with
+    zero commands at t = 0 they start at rest at zero, as an environment's do at every reset.  "joint"
+    runs the per-environment kernel (:func:`rig_env.physics.pipeline.choose_kernel`), "dae" the DAE kernel.
     """
     free = check_free_dofs(free_dofs)
     if formulation not in ("joint", "dae"):
@@ -202,8 +203,9 @@ def simulate(
     free_idx = np.array([JOINTS.index(j) for j in free], dtype=np.int64)
     n_t = int(round(t_final / control_dt)) + 1
     batch = PhysicsBatch(P, tabs, free_idx, flags, h, n_sub, kind=formulation)
-    batch.reset(np.arange(n), X[:, L.X_Q : L.X_Q + 5], X[:, L.X_QD : L.X_QD + 5])  # servos at rest at zero
     U = batch.U
+    fill_inputs(U, 0.0, controls, airspeed, gust)
+    batch.reset(np.arange(n), X[:, L.X_Q : L.X_Q + 5], X[:, L.X_QD : L.X_QD + 5])  # servos at rest at the first command
     status = batch.status
     fail_time = np.full(n, np.nan)
 

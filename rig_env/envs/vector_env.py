@@ -5,7 +5,7 @@ parameters ``P``, inputs ``U``, servo delay lines, status; the same pipeline :fu
 runs), advanced with the lane kernel (eight environments per SIMD register), or with the
 per-environment kernel when the model has the high-incidence tables
 (:func:`rig_env.physics.pipeline.choose_kernel`).  Servos start every episode at rest at zero
-deflection (the pipeline's convention).  The task
+deflection (the pipeline's convention with the zero commands of a reset).  The task
 (:mod:`rig_env.envs.tasks`) supplies references, rewards, initial states and success; the sensor model
 (:mod:`rig_env.envs.sensors`) turns the state into what the real-time loop measures.
 
@@ -241,11 +241,11 @@ class RigVectorEnv(VectorEnv):
         q0, qd0 = self.task.reset(idx, rs.uniform(keys, ep, 0, rs.S_REFERENCE, self.task.n_draws))
         q0[:, self.locked] = self.q_locked[self.locked]
         qd0[:, self.locked] = 0.0
-        self.physics.reset(idx, q0, qd0)  # bristles zero, servos at rest at 0, delay lines zero, status ok
         self.gust[idx] = self.config.turbulence * self.airspeed[idx, None] * rs.normal(keys, ep, 0, rs.S_TURBULENCE, 3)
-        self.U[idx] = 0.0
+        self.U[idx] = 0.0  # zero surface commands: the reset below starts the servos at rest at 0
         self.U[idx, L.U_GUST : L.U_GUST + 3] = self.gust[idx]
         self.U[idx, L.U_AIRSPEED] = self.airspeed[idx]
+        self.physics.reset(idx, q0, qd0)  # bristles zero, servos at rest at 0, delay lines zero, status ok
         self.steps[idx], self.t[idx], self.prev_action[idx] = 0, 0.0, 0.0
         noise = rs.normal(keys, ep, 0, rs.S_SENSOR, self.sensors.n_channels) if self._noisy else None
         x = self.X[idx]

@@ -77,11 +77,13 @@ def body_matrices(y):
 
 @njit(**_JIT)
 def vec3(y, i):
+    """The 3-tuple y[i:i + 3] (a position in m or a velocity in m/s or rad/s of the state row y)."""
     return (y[i], y[i + 1], y[i + 2])
 
 
 @njit(**_JIT)
 def normalise_quats(y):
+    """Both bodies' Euler parameters of the state row y scaled to unit norm, in place."""
     for b in (Y_QA, Y_QS):
         n = math.sqrt(y[b] ** 2 + y[b + 1] ** 2 + y[b + 2] ** 2 + y[b + 3] ** 2)
         for k in range(4):
@@ -156,12 +158,15 @@ def joint_rates(Aa, As, w_a, w_s, bases):
 
 @njit(**_JIT)
 def world_rates(y, Aa, As):
+    """(w_a, w_s): the aircraft's and the arm's angular velocities (rad/s) in world axes, from the body-axis
+    ones of the state row y and the rotations Aa, As (9-tuples)."""
     return mv(Aa, vec3(y, Y_WA)), mv(As, vec3(y, Y_WS))
 
 
 
 @njit(**_JIT)
 def current_joint_rates(y):
+    """Joint rates (rad/s, JOINTS order, a 5-tuple) of the DAE state row y."""
     Aa, As = body_matrices(y)
     w_a, w_s = world_rates(y, Aa, As)
     return joint_rates(Aa, As, w_a, w_s, joint_bases(Aa, As))

@@ -23,10 +23,13 @@ parallel launch costs more than it saves there).  The lane kernel's results equa
 kernel's to rounding, not bit for bit; a batch of one on a given kernel equals environment i of a
 larger batch on the same kernel bit for bit.
 
-Initial servo state (one convention for every caller): a (re)started environment's servos are at rest
-at zero deflection, and its delay lines hold zero demands, as if the surface commands had been zero
-since forever.  A command given from t = 0 on therefore reaches the servos after their transport
-delay and then moves them through their lag and rate limit.  The LuGre bristle states start at zero.
+Initial servo state (one convention for every caller, :meth:`PhysicsBatch.reset`): a (re)started
+environment is in servo equilibrium with the surface commands it holds in ``U`` at the reset, as if
+they had been held since forever: each servo at rest at its limited demand, every slot of its delay
+line holding that demand.  The environments reset with zero commands, so their servos start at rest at
+zero deflection (neutral); :func:`rig_env.simulate` resets with the commands of t = 0, so a constant
+command holds from the start (a trim stays a trim) and a later change reaches the servos after their
+transport delay.  The LuGre bristle states start at zero.
 
 Hot path: :meth:`PhysicsBatch.step` is one kernel call on arrays allocated once (no per-environment
 Python loop, no copy; the DAE adds one conversion kernel to joint space).
@@ -39,6 +42,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+from numba import njit
 
 from rig_env.physics import integrator as integ
 from rig_env.physics import lanes
@@ -101,6 +105,21 @@ def delay_line(P: np.ndarray, physics_dt: float) -> tuple[np.ndarray, int]:
     return steps, int(steps.max()) + 1
 
 
+@njit(cache=True, error_model="numpy", _nrt=False)
+def hold_demands(idx, U, P, X, dbuf):
+    """Servo equilibrium of environments idx (m,) int64 with the surface commands of U (n, N_INPUTS), rad:
+    servo positions in X (n, N_STATE) at the limited demands (rad), servo rates 0, and every slot of the
+    delay lines dbuf (n, n_buf, 7) holding those demands; P (n, N_PARAMS).  In place."""
+    for i in idx:
+        d = integ.limited_demands(U[i], P[i])
+        for a in range(7):
+            v = d[a] + 0.0  # a zero demand as +0.0
+            X[i, L.X_SERVO + a] = v
+            X[i, L.X_SERVO_RATE + a] = 0.0
+            for s in range(dbuf.shape[1]):
+                dbuf[i, s, a] = v
+
+
 @dataclass(frozen=True)
 class Kernel:
     """A chosen physics kernel: ``kind`` (one of :data:`KINDS`), whether it is the ``parallel`` version,
@@ -160,7 +179,7 @@ class PhysicsBatch:
     must also hold (e.g. the corners of a randomisation range, for rows :meth:`set_params` writes later).
 
     Every environment starts at rest at zero angles with zero inputs; :meth:`reset` sets initial states
-    (servos at rest at zero, see the module docstring).
+    (servos in equilibrium with the commands in U, see the module docstring).
     """
 
     def __init__(
@@ -234,17 +253,18 @@ class PhysicsBatch:
 
     def reset(self, idx: np.ndarray, q: np.ndarray, qd: np.ndarray) -> None:
         """Restart environments idx (m,) at joint angles q (m, 5), rad, and rates qd (m, 5), rad/s (JOINTS
-        order; locked joints: their angle, rate 0), with bristles at zero, servos at rest at zero
-        deflection and zero demands in their delay lines, status ok.  Inputs U are left to the caller."""
+        order; locked joints: their angle, rate 0), with bristles at zero and status ok.  The servos start
+        in equilibrium with the surface commands in U[idx] (set them first): at rest at the limited
+        demands, which fill the delay lines (:func:`hold_demands`; zero commands: servos at zero)."""
+        idx = np.atleast_1d(np.arange(self.n_envs)[idx])
         self.X[idx] = 0.0
         self.X[idx, L.X_Q : L.X_Q + 5] = q
         self.X[idx, L.X_QD : L.X_QD + 5] = qd
-        self.dbuf[idx] = 0.0  # zero surface commands since forever: servos at rest at 0
+        hold_demands(idx, self.U, self.P, self.X, self.dbuf)
         self.status[idx] = L.S_OK
         if self._dae:
             from rig_env.physics import dae
 
-            idx = np.atleast_1d(np.arange(self.n_envs)[idx])
             Yi = np.zeros((idx.size, dae.N_DAE))
             dae.from_joint_state(np.ascontiguousarray(self.X[idx]), np.ascontiguousarray(self.P[idx]), Yi)
             self.Y[idx] = Yi
