@@ -4,8 +4,8 @@
 
 All in the same run (the machines are shared and noisy: compare ratios).  Compile and cache
 load happen before timing (their time is printed apart).  Steps/s counts environment control steps (80 Hz, 5 physics
-substeps each) per wall-clock second.  The raw batch is ``RigVectorEnv.advance_physics`` (the lane kernel,
-``rig_env.physics.lanes``) on the environment's own arrays: the cost of the physics alone; "env overhead" is the wall time per batch step of
+substeps each) per wall-clock second.  The raw batch is ``RigVectorEnv.advance_physics`` (its
+``rig_env.physics.pipeline.PhysicsBatch`` on the lane kernel, ``rig_env.physics.lanes``) on the environment's own arrays: the cost of the physics alone; "env overhead" is the wall time per batch step of
 RigVectorEnv minus that of the raw batch (the environment's own bookkeeping: sensors, noise, task, metrics).
 "raw / sync" is the ceiling of "vector / sync": the ratio were that bookkeeping free (the scalar env's
 step is mostly per-call Python and one block of the lane kernel, so the ratio cannot exceed it; see
@@ -56,7 +56,7 @@ def per_env_kernel_rig_env() -> RigEnv:
     """A RigEnv whose batch of one runs the per-environment kernel (``integrator.step_serial``) rather than
     the lane kernel: the fastest scalar environment this code could make, for the table's information column."""
     env = RigEnv()
-    env.vec._select_kernel(False)
+    env.vec.physics.select_kernel("joint")
     return env
 
 

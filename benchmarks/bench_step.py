@@ -6,8 +6,9 @@ LuGre friction, stops, servos), all five joints free.  Measured:
 * the joint-space model in SIMD lanes (``rig_env.physics.lanes.step_lanes``, eight environments per
   register: what the environments run), the same model one environment per ``prange`` iteration
   (``rig_env.physics.integrator.step_batch``, "joint") and, when present, the DAE kernel
-  (``rig_env.physics.dae.step_batch_dae``), called directly (no Python bookkeeping per step)
-  at batch sizes 1, 64, 1024, 4096, 16384 (``--quick``: up to 4096, shorter windows), each through
+  (``rig_env.physics.dae.step_batch_dae``, plus its conversion to joint space after every step),
+  each through ``rig_env.physics.pipeline.PhysicsBatch.step`` (one kernel call, no other Python
+  bookkeeping per step) at batch sizes 1, 64, 1024, 4096, 16384 (``--quick``: up to 4096, shorter windows), each through
   the serial twin below ``integrator.PARALLEL_MIN_ENVS`` environments as rig_env itself does; the
   best wall rate of three windows, and the rate per CPU-second (``env_steps_per_cpu_s``, which other
   jobs on a shared machine do not inflate);
@@ -58,9 +59,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from rig_env import RigParams, param_batch  # noqa: E402
-from rig_env.physics import integrator as integ  # noqa: E402
 from rig_env.physics import layout as L  # noqa: E402
-from rig_env.simulate import _initial_demand, delay_line, flags_of  # noqa: E402
+from rig_env.physics.pipeline import PhysicsBatch, flags_of  # noqa: E402
 
 H = 0.0025  # physics step, s
 N_SUB = 5  # physics steps per env-step
@@ -115,66 +115,38 @@ def at_least_one(text: str) -> int:
 
 
 def setup(params: RigParams, n: int, seed: int = 0) -> dict:
-    """Kernel arguments for n environments near trim, as rig_env.simulate lays them out."""
+    """A physics batch of n environments near trim (all joints free, servos at rest at zero, AIRSPEED):
+    ``batch`` (:class:`rig_env.physics.pipeline.PhysicsBatch`) and its arrays ``X``, ``P``, ``U``, ``status``."""
     rng = np.random.default_rng(seed)
-    X = np.zeros((n, L.N_STATE))
-    X[:, 0:5] = rng.uniform(-0.2, 0.2, (n, 5))
-    X[:, 5:10] = rng.uniform(-0.5, 0.5, (n, 5))
-    P = param_batch(params, n)
-    U = np.zeros((n, L.N_INPUTS))
-    U[:, L.U_AIRSPEED] = AIRSPEED
-    delay_steps, n_buf = delay_line(P, H)
-    dbuf = np.zeros((n, n_buf, 7))
-    for k in range(7):
-        dbuf[:, :, k] = _initial_demand(U[0], P[0], k)
-    X[:, L.X_SERVO : L.X_SERVO + 7] = dbuf[:, 0, :]
-    free_idx = np.arange(5, dtype=np.int64)
-    W, MW = integ.new_work(n)
-    return dict(X=X, P=P, U=U, dbuf=dbuf, delay_steps=delay_steps, free_idx=free_idx, W=W, MW=MW, tabs=params.tables(), status=np.zeros(n, dtype=np.int8))
+    q = rng.uniform(-0.2, 0.2, (n, 5))
+    qd = rng.uniform(-0.5, 0.5, (n, 5))
+    batch = PhysicsBatch(param_batch(params, n), params.tables(), np.arange(5, dtype=np.int64), FLAGS, H, N_SUB, kind="joint")
+    batch.reset(np.arange(n), q, qd)
+    batch.U[:, L.U_AIRSPEED] = AIRSPEED
+    return dict(batch=batch, X=batch.X, P=batch.P, U=batch.U, status=batch.status)
+
+
+def _stepper(a: dict, kind: str):
+    """One env-step of every environment of setup's batch on the kernel of ``kind``, in its serial twin below
+    ``integrator.PARALLEL_MIN_ENVS`` environments as rig_env itself does (``pipeline.choose_kernel``)."""
+    batch: PhysicsBatch = a["batch"]
+    batch.select_kernel(kind)
+    return batch.step
 
 
 def joint_stepper(a: dict):
-    """One env-step of every environment with the kernel rig_env itself picks for this batch size."""
-    kernel = integ.step_batch if a["X"].shape[0] >= integ.PARALLEL_MIN_ENVS else integ.step_serial
-    k = [0]
-
-    def step() -> None:
-        kernel(a["X"], a["dbuf"], k[0], a["delay_steps"], a["P"], a["U"], FLAGS, a["free_idx"], 5, a["tabs"], H, N_SUB, a["status"], a["W"], a["MW"])
-        k[0] += N_SUB
-
-    return step
+    """One env-step of every environment with the per-environment kernel (``integrator.step_batch``)."""
+    return _stepper(a, "joint")
 
 
 def lanes_stepper(a: dict):
     """The same env-step with the lane kernel (eight environments per SIMD register), as the environments use it."""
-    from rig_env.physics import lanes
-
-    S = lanes.new_work(a["X"].shape[0], N_SUB)
-    kernel = lanes.step_lanes if a["X"].shape[0] >= integ.PARALLEL_MIN_ENVS else lanes.step_lanes_serial
-    k = [0]
-
-    def step() -> None:
-        kernel(a["X"], a["dbuf"], k[0], a["delay_steps"], a["P"], a["U"], FLAGS, a["free_idx"], 5, a["tabs"], H, N_SUB, a["status"], S, k[0] == 0)
-        k[0] += N_SUB
-
-    return step
+    return _stepper(a, "lanes")
 
 
 def dae_stepper(a: dict):
-    from rig_env.physics import dae
-
-    n = a["X"].shape[0]
-    Y = np.zeros((n, dae.N_DAE))
-    dae.from_joint_state(a["X"], a["P"], Y)
-    work = dae.new_work_dae(n)
-    kernel = dae.step_batch_dae if n >= integ.PARALLEL_MIN_ENVS else dae.step_serial_dae
-    k = [0]
-
-    def step() -> None:
-        kernel(Y, a["dbuf"], k[0], a["delay_steps"], a["P"], a["U"], FLAGS, a["free_idx"], 5, a["tabs"], H, N_SUB, a["status"], *work)
-        k[0] += N_SUB
-
-    return step
+    """The same env-step with the DAE kernel (its state starts from setup's joint state)."""
+    return _stepper(a, "dae")
 
 
 def rate(step, n: int, seconds: float, min_calls: int = 3, repeats: int = 3) -> tuple[float, float]:

@@ -43,7 +43,7 @@ def child(n: int, seconds: float) -> None:
     from rig_env.physics import lanes
 
     env = RigVectorEnv(n)
-    env._kernel = lanes.step_lanes_serial  # one thread: the samples are the kernel's alone
+    env.physics.select_kernel("lanes", parallel=False)  # one thread: the samples are the kernel's alone
     env.reset(seed=0)
     a = np.random.default_rng(0).uniform(-1, 1, (n, 3))
     for _ in range(20):

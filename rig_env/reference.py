@@ -35,7 +35,8 @@ from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.joint_space import accelerations
-from rig_env.simulate import check_controls, check_free_dofs, flags_of, initial_state
+from rig_env.physics.pipeline import flags_of
+from rig_env.simulate import check_controls, check_free_dofs, initial_state
 
 _JIT = dict(cache=True, error_model="numpy", _nrt=False)
 

@@ -1,6 +1,7 @@
 """``simulate``: run the rig model for a fixed time, batched or single, in either formulation.
 
-This is the Python layer over the numba kernels: it checks inputs, lays out the batch, evaluates the
+This is the Python layer over the physics pipeline (:class:`rig_env.physics.pipeline.PhysicsBatch`, the
+same batch and kernels the environments step): it checks inputs, lays out the batch, evaluates the
 control and gust schedules once per control step, and collects the trajectory at the control rate.
 """
 
@@ -14,8 +15,8 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from rig_env.params import JOINTS, SURFACES, ParameterError, RigParams, param_batch
-from rig_env.physics import integrator as integ
 from rig_env.physics import layout as L
+from rig_env.physics.pipeline import PhysicsBatch, delay_line, flags_of, rates  # noqa: F401  (delay_line: re-exported)
 
 Schedule = float | np.ndarray | Callable[[float], "float | np.ndarray"]
 
@@ -71,25 +72,6 @@ def check_free_dofs(free_dofs: Sequence[str]) -> tuple[str, ...]:
     if not names:
         raise ValueError("free_dofs: at least one joint must be free (locking all five leaves nothing to simulate)")
     return tuple(j for j in JOINTS if j in names)
-
-
-def rates(control_rate: float, physics_dt: float | None) -> tuple[float, float, int]:
-    """(control_dt, physics_dt, n_sub); the control step must be an integer multiple of the physics step."""
-    if not (math.isfinite(control_rate) and 1.0 <= control_rate <= 2000.0):
-        raise ValueError(f"control_rate = {control_rate} Hz is outside the allowed range [1, 2000] Hz")
-    control_dt = 1.0 / control_rate
-    if physics_dt is None:
-        n_sub = max(1, int(math.ceil(control_dt / 0.0025 - 1e-9)))
-        return control_dt, control_dt / n_sub, n_sub
-    if not (math.isfinite(physics_dt) and 1e-6 <= physics_dt <= 0.05):
-        raise ValueError(f"physics_dt = {physics_dt} s is outside the allowed range [1e-6, 0.05] s")
-    ratio = control_dt / physics_dt
-    n_sub = int(round(ratio))
-    if n_sub < 1 or abs(ratio - n_sub) > 1e-9 * ratio:
-        raise ValueError(
-            f"the control step 1/{control_rate} s must be an integer multiple of physics_dt = {physics_dt} s (ratio {ratio:.6g})"
-        )
-    return control_dt, physics_dt, n_sub
 
 
 def _as_batch(name: str, a, n_free: int) -> np.ndarray:
@@ -165,23 +147,6 @@ def fill_inputs(U: np.ndarray, t: float, controls: Mapping[str, Schedule], airsp
     U[:, L.U_AIRSPEED] = a
 
 
-def flags_of(aero: bool, friction: bool, stops: bool, servo: bool, nonlinear_aero: bool) -> int:
-    return (
-        (L.F_AERO if aero else 0)
-        | (L.F_FRICTION if friction else 0)
-        | (L.F_STOPS if stops else 0)
-        | (L.F_SERVO if servo else 0)
-        | (L.F_NONLINEAR if nonlinear_aero else 0)
-    )
-
-
-def delay_line(P: np.ndarray, physics_dt: float) -> tuple[np.ndarray, int]:
-    """Per-environment servo delays in whole physics steps (nearest) and the delay-line length."""
-    d = np.stack([P[:, L.P_SERVOS_COMPENSATOR_DELAY_S], P[:, L.P_SERVOS_HAWK_DELAY_S]], axis=1)
-    steps = np.rint(d / physics_dt).astype(np.int64)
-    return steps, int(steps.max()) + 1
-
-
 def simulate(
     params: RigParams | Sequence[RigParams],
     q0,
@@ -212,6 +177,13 @@ def simulate(
     formulation: "joint" (fast joint-space model) or "dae" (the paper's body-coordinate DAE).
     control_rate: Hz; physics_dt: s, default the largest step <= 2.5 ms dividing the control step.
     overrides: per-environment parameter overrides (see rig_env.param_batch).
+
+    Initial servo state (the environments' convention, :meth:`rig_env.physics.pipeline.PhysicsBatch.reset`):
+    the servos start in equilibrium with the commands of t = 0, as if those had been held since forever
+    (at rest at the limited demand, the delay lines full of it), so a constant command holds from the
+    start (a trim stays a trim) and a later change reaches the servos after their transport delay; with
+    zero commands at t = 0 they start at rest at zero, as an environment's do at every reset.  "joint"
+    runs the per-environment kernel (:func:`rig_env.physics.pipeline.choose_kernel`), "dae" the DAE kernel.
     """
     free = check_free_dofs(free_dofs)
     if formulation not in ("joint", "dae"):
@@ -230,56 +202,29 @@ def simulate(
     flags = flags_of(aero, friction, stops, servo, nonlinear_aero)
     free_idx = np.array([JOINTS.index(j) for j in free], dtype=np.int64)
     n_t = int(round(t_final / control_dt)) + 1
-    U = np.zeros((n, L.N_INPUTS))
+    batch = PhysicsBatch(P, tabs, free_idx, flags, h, n_sub, kind=formulation)
+    U = batch.U
     fill_inputs(U, 0.0, controls, airspeed, gust)
-    delay_steps, n_buf = delay_line(P, h)
-    dbuf = np.zeros((n, n_buf, 7))
-    for i in range(n):  # demands before t = 0 equal the first command
-        for k in range(7):
-            dbuf[i, :, k] = _initial_demand(U[i], P[i], k)
-    # servos start at their initial demand, at rest
-    X[:, L.X_SERVO : L.X_SERVO + 7] = dbuf[:, 0, :]
-    status = np.zeros(n, dtype=np.int8)
+    batch.reset(np.arange(n), X[:, L.X_Q : L.X_Q + 5], X[:, L.X_QD : L.X_QD + 5])  # servos at rest at the first command
+    status = batch.status
     fail_time = np.full(n, np.nan)
 
     Xs = np.empty((n_t, n, L.N_STATE))
     E = np.empty((n_t, n))
     R = np.empty((n_t, n)) if formulation == "dae" else None
-    if formulation == "joint":
-        W, MW = integ.new_work(n)
-        step_kernel = integ.step_batch if n >= integ.PARALLEL_MIN_ENVS else integ.step_serial
-        energy_kernel = integ.energy_batch if n >= integ.PARALLEL_MIN_ENVS else integ.energy_serial
 
-        def step(k0: int) -> None:
-            step_kernel(X, dbuf, k0, delay_steps, P, U, flags, free_idx, len(free_idx), tabs, h, n_sub, status, W, MW)
-
-        def record(i: int) -> None:
-            Xs[i] = X
-            energy_kernel(X, P, E[i], W, MW)
-
-    else:
-        from rig_env.physics import dae
-
-        Y = np.zeros((n, dae.N_DAE))
-        dae.from_joint_state(X, P, Y)
-        work = dae.new_work_dae(n)
-        Wj, MWj = integ.new_work(n)
-
-        def step(k0: int) -> None:
-            (dae.step_batch_dae if n >= integ.PARALLEL_MIN_ENVS else dae.step_serial_dae)(Y, dbuf, k0, delay_steps, P, U, flags, free_idx, len(free_idx), tabs, h, n_sub, status, *work)
-            dae.to_joint_state(Y, P, X)
-
-        def record(i: int) -> None:
-            Xs[i] = X
-            (integ.energy_batch if n >= integ.PARALLEL_MIN_ENVS else integ.energy_serial)(X, P, E[i], Wj, MWj)
-            dae.constraint_residual_batch(Y, P, free_idx, len(free_idx), R[i])
+    def record(i: int) -> None:
+        Xs[i] = batch.X
+        batch.energy(E[i])
+        if R is not None:
+            batch.constraint_residual(R[i])
 
     record(0)
     for i in range(1, n_t):
         t_prev = (i - 1) * control_dt
         fill_inputs(U, t_prev, controls, airspeed, gust)
         before = status.copy()
-        step((i - 1) * n_sub)
+        batch.step()
         newly = (status != L.S_OK) & (before == L.S_OK)
         fail_time[newly] = i * control_dt
         record(i)
@@ -319,8 +264,3 @@ def simulate(
         **out,
     )
 
-
-def _initial_demand(u: np.ndarray, p: np.ndarray, k: int) -> float:
-    from rig_env.physics import servo as sv
-
-    return float(sv.limited(p, k, sv.demand(u, k)))

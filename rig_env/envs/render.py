@@ -37,7 +37,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg, RendererAgg
@@ -51,9 +51,6 @@ from rig_env.params import JOINTS
 from rig_env.physics import layout as L
 from rig_env.plotting import RIG_COLORS, VIEWS, rig_outline
 
-if TYPE_CHECKING:
-    from rig_env.envs.vector_env import RigVectorEnv
-
 RENDER_MODES = ("rgb_array", "human")
 NEEDLE_M_PER_DEG = 0.004  # length of a flap's deflection needle in the view from behind
 _XLIM = {"side": (-0.72, 1.28), "behind": (-0.78, 0.78)}  # m, world x resp. y
@@ -62,6 +59,31 @@ _STATUS = {L.S_OK: "ok", L.S_NONFINITE: "FAILED: non-finite state", L.S_RUNAWAY:
            L.S_CONSTRAINT: "FAILED: constraint residual"}
 _RGB_OF_RGBA = np.dtype({"names": ["rgb"], "formats": ["V3"], "offsets": [0], "itemsize": 4})
 _DPI = 100.0
+
+
+class RenderedBatch(Protocol):
+    """What a frame needs of a batch of environments (:class:`rig_env.envs.vector_env.RigVectorEnv` is one;
+    declared here so that this module does not import the environment that imports it).
+
+    X: (num_envs, N_STATE) physics state; P: (num_envs, N_PARAMS) parameter rows; status: (num_envs,)
+    integrator status; t: (num_envs,) or scalar time, s; airspeed: (num_envs,) m/s; keys: the episode
+    streams, None before the first reset; task: the task (``tracked`` and ``reference`` give the error).
+    """
+
+    num_envs: int
+    keys: np.ndarray | None
+    t: np.ndarray
+    airspeed: np.ndarray
+    task: Any
+
+    @property
+    def X(self) -> np.ndarray: ...
+
+    @property
+    def P(self) -> np.ndarray: ...
+
+    @property
+    def status(self) -> np.ndarray: ...
 
 
 def check_render_mode(render_mode: str | None) -> str | None:
@@ -89,7 +111,7 @@ class Snapshot:
     status: np.ndarray
 
     @classmethod
-    def of(cls, vec: RigVectorEnv, rows: np.ndarray) -> Snapshot:
+    def of(cls, vec: RenderedBatch, rows: np.ndarray) -> Snapshot:
         X = vec.X
         if vec.keys is None:  # never reset: no task state yet
             err = np.full(rows.size, np.nan)
@@ -323,7 +345,8 @@ class EnvFrames(Sequence):
 
 
 class EnvViewer:
-    """Rendering of a :class:`RigVectorEnv`: frames, the episode's last state, the human window.
+    """Rendering of a batch of environments (:class:`RenderedBatch`, e.g. a ``RigVectorEnv``): frames, the
+    episode's last state, the human window.
 
     A frame taken after a step shows each environment's current state, except that an environment
     whose episode ended on that step shows the ended episode's last state (held before the same-step
@@ -345,11 +368,11 @@ class EnvViewer:
     def clear_held(self) -> None:
         self._held = None
 
-    def hold(self, vec: RigVectorEnv, idx: np.ndarray) -> None:
+    def hold(self, vec: RenderedBatch, idx: np.ndarray) -> None:
         """Keep the last state of environments idx, whose episodes end now (before their reset)."""
         self._held = (np.asarray(idx).copy(), Snapshot.of(vec, np.asarray(idx)))
 
-    def snapshot(self, vec: RigVectorEnv, rows: np.ndarray) -> Snapshot:
+    def snapshot(self, vec: RenderedBatch, rows: np.ndarray) -> Snapshot:
         snap = Snapshot.of(vec, rows)
         if self._held is not None:
             idx, held = self._held
@@ -360,14 +383,14 @@ class EnvViewer:
                 snap.replace_rows(r, Snapshot(*(getattr(held, f)[k] for f in ("p", "q", "servo", "t", "airspeed", "err", "status"))))
         return snap
 
-    def frame(self, vec: RigVectorEnv, i: int = 0) -> np.ndarray:
+    def frame(self, vec: RenderedBatch, i: int = 0) -> np.ndarray:
         """(H, W, 3) uint8 frame of environment i."""
         return EnvFrames(self.renderer, self.snapshot(vec, np.array([i])))[0]
 
-    def frames(self, vec: RigVectorEnv) -> EnvFrames:
+    def frames(self, vec: RenderedBatch) -> EnvFrames:
         return EnvFrames(self.renderer, self.snapshot(vec, np.arange(vec.num_envs)))
 
-    def show(self, vec: RigVectorEnv, i: int = 0) -> None:
+    def show(self, vec: RenderedBatch, i: int = 0) -> None:
         """Human mode: environment i in a pyplot window at ``fps`` (:mod:`rig_env.envs.human_window`)."""
         if self._window is None:
             self._window = HumanWindow(self.fps)

@@ -1,9 +1,11 @@
 """``RigVectorEnv``: a batch of rig environments over one physics batch (Gymnasium VectorEnv, same-step autoreset).
 
-The environment owns the batch arrays of :mod:`rig_env.physics` (state ``X``, parameters ``P``,
-inputs ``U``, servo delay lines, status) and advances them with ``lanes.step_lanes`` (eight
-environments per SIMD register), or with ``integrator.step_batch`` when the model has the
-high-incidence tables (``step_serial`` twins below a parallel launch's worth of environments).  The task
+The physics is a :class:`rig_env.physics.pipeline.PhysicsBatch` (``self.physics``: state ``X``,
+parameters ``P``, inputs ``U``, servo delay lines, status; the same pipeline :func:`rig_env.simulate`
+runs), advanced with the lane kernel (eight environments per SIMD register), or with the
+per-environment kernel when the model has the high-incidence tables
+(:func:`rig_env.physics.pipeline.choose_kernel`).  Servos start every episode at rest at zero
+deflection (the pipeline's convention with the zero commands of a reset).  The task
 (:mod:`rig_env.envs.tasks`) supplies references, rewards, initial states and success; the sensor model
 (:mod:`rig_env.envs.sensors`) turns the state into what the real-time loop measures.
 
@@ -50,16 +52,13 @@ from rig_env.envs.render import RENDER_MODES, EnvFrames, EnvViewer, check_render
 from rig_env.envs.sensors import Sensors
 from rig_env.envs.tasks import TASKS
 from rig_env.params import JOINTS, PARAM_INDEX, RigParams, param_batch
-from rig_env.physics import integrator as integ
-from rig_env.physics import lanes
 from rig_env.physics import layout as L
-from rig_env.simulate import flags_of, rates
+from rig_env.physics.pipeline import PhysicsBatch, flags_of, rates
 
 ACTION_SCALE_DEG = 40.0
 _RAD_PER_ACTION = math.radians(ACTION_SCALE_DEG)
 COMP_ACTIONS = ("comp_aileron", "comp_elevator", "comp_rudder")
 HAWK_ACTIONS = ("hawk_elevator", "hawk_aileron", "hawk_rudder")
-_DELAY_COLS = (L.P_SERVOS_COMPENSATOR_DELAY_S, L.P_SERVOS_HAWK_DELAY_S)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -156,21 +155,15 @@ class RigVectorEnv(VectorEnv):
             corners = param_batch(self.params, 2, {k: [cfg.randomise[k][0], cfg.randomise[k][1]] for k in names})
         else:
             corners = self.base_row[None]
-        self.P = np.ascontiguousarray(np.repeat(self.base_row[None], n, axis=0))
-        self.tabs = self.params.tables()
         self.nonlinear_aero = task_cls.default_nonlinear_aero if cfg.nonlinear_aero is None else cfg.nonlinear_aero
-        self.flags = flags_of(True, True, True, True, self.nonlinear_aero)
-        self.delay_steps = np.ascontiguousarray(np.rint(self.P[:, _DELAY_COLS] / self.h).astype(np.int64))  # C order: one kernel specialisation
-        n_buf = int(np.rint(np.concatenate([corners[:, _DELAY_COLS], self.base_row[None, _DELAY_COLS]]) / self.h).max()) + 1
-        self.X = np.zeros((n, L.N_STATE))
-        self.U = np.zeros((n, L.N_INPUTS))
-        self.dbuf = np.zeros((n, n_buf, L.N_SERVOS))
-        self.status = np.zeros(n, dtype=np.int8)
         # the physics: eight environments per SIMD register (rig_env.physics.lanes) unless the model has the
         # high-incidence tables, which only the per-environment kernel runs; chosen by the model alone, not
-        # by the batch size, so a RigEnv (the batch of one) steps exactly as environment i of a batch
-        self._select_kernel(lanes.supports(self.flags))
-        self._k0 = 0
+        # by the batch size, so a RigEnv (the batch of one) steps exactly as environment i of a batch.  The
+        # delay lines hold the longest servo delay of the randomisation range (its corners).
+        self.physics = PhysicsBatch(
+            np.repeat(self.base_row[None], n, axis=0), self.params.tables(), self.free_idx,
+            flags_of(True, True, True, True, self.nonlinear_aero), self.h, self.n_sub, kind="lanes", delay_rows=corners,
+        )
 
         self.task = task_cls(n, self.free_dofs, self.dt, self.episode_seconds, **cfg.task_options)
         self.sensors = Sensors(
@@ -242,9 +235,7 @@ class RigVectorEnv(VectorEnv):
             u = rs.uniform(keys, ep, 0, rs.S_PARAMS, self._rand_cols.size)
             rows = np.repeat(self.base_row[None], idx.size, axis=0)
             rows[:, self._rand_cols] = self._rand_lo + (self._rand_hi - self._rand_lo) * u
-            self.P[idx] = rows
-            self._params_changed = True
-            self.delay_steps[idx] = np.rint(rows[:, _DELAY_COLS] / self.h).astype(np.int64)
+            self.physics.set_params(idx, rows)
         u = rs.uniform(keys, ep, 0, rs.S_INITIAL, 1)
         lo, hi = self.airspeed_range
         self.airspeed[idx] = lo + (hi - lo) * u[:, 0]
@@ -252,20 +243,57 @@ class RigVectorEnv(VectorEnv):
         q0, qd0 = self.task.reset(idx, rs.uniform(keys, ep, 0, rs.S_REFERENCE, self.task.n_draws))
         q0[:, self.locked] = self.q_locked[self.locked]
         qd0[:, self.locked] = 0.0
-        self.X[idx] = 0.0
-        self.X[idx, L.X_Q : L.X_Q + 5] = q0
-        self.X[idx, L.X_QD : L.X_QD + 5] = qd0
-        self.dbuf[idx] = 0.0  # zero surface commands since forever: servos at rest at 0
         self.gust[idx] = self.config.turbulence * self.airspeed[idx, None] * rs.normal(keys, ep, 0, rs.S_TURBULENCE, 3)
-        self.U[idx] = 0.0
+        self.U[idx] = 0.0  # zero surface commands: the reset below starts the servos at rest at 0
         self.U[idx, L.U_GUST : L.U_GUST + 3] = self.gust[idx]
         self.U[idx, L.U_AIRSPEED] = self.airspeed[idx]
-        self.status[idx] = L.S_OK
+        self.physics.reset(idx, q0, qd0)  # bristles zero, servos at rest at 0, delay lines zero, status ok
         self.steps[idx], self.t[idx], self.prev_action[idx] = 0, 0.0, 0.0
         noise = rs.normal(keys, ep, 0, rs.S_SENSOR, self.sensors.n_channels) if self._noisy else None
         x = self.X[idx]
         self.sensors.reset(idx, x[:, self.free_idx], x[:, L.X_SERVO : L.X_SERVO + 4], self.airspeed[idx], noise)
         self.metrics.reset(idx)
+
+    # ------------------------------------------------------------------ the physics batch's arrays and settings
+    @property
+    def X(self) -> np.ndarray:
+        """(num_envs, N_STATE) physics state (``layout.X_*``): the batch's own array, changed in place."""
+        return self.physics.X
+
+    @property
+    def P(self) -> np.ndarray:
+        """(num_envs, N_PARAMS) parameter rows, SI units and rad: the batch's own array."""
+        return self.physics.P
+
+    @property
+    def U(self) -> np.ndarray:
+        """(num_envs, N_INPUTS) inputs of the next control step (``layout.U_*``): the batch's own array."""
+        return self.physics.U
+
+    @property
+    def status(self) -> np.ndarray:
+        """(num_envs,) int8 integrator status (0 ok, ``layout.S_*``): the batch's own array."""
+        return self.physics.status
+
+    @property
+    def dbuf(self) -> np.ndarray:
+        """(num_envs, n_buf, 7) servo delay lines of limited demands, rad."""
+        return self.physics.dbuf
+
+    @property
+    def delay_steps(self) -> np.ndarray:
+        """(num_envs, 2) int64 compensator and Hawk servo delays, physics steps."""
+        return self.physics.delay_steps
+
+    @property
+    def tabs(self) -> tuple[np.ndarray, ...]:
+        """The aerodynamic tables of the model (``RigParams.tables()``)."""
+        return self.physics.tabs
+
+    @property
+    def flags(self) -> int:
+        """The physics feature flags (``layout.F_*`` bits)."""
+        return self.physics.flags
 
     # ------------------------------------------------------------------ read-only views for analysis and plots
     @property
@@ -299,31 +327,10 @@ class RigVectorEnv(VectorEnv):
             raise ValueError(f"actions: non-finite value(s) in environment(s) {np.flatnonzero(bad)[:10].tolist()}; actions must be finite numbers in [-1, 1]")
         return out
 
-    def _select_kernel(self, use_lanes: bool) -> None:
-        """Physics kernel and its scratch: the lane kernel (``use_lanes``, which needs ``lanes.supports(flags)``)
-        or the per-environment one; each the parallel version from ``integrator.PARALLEL_MIN_ENVS`` environments.
-        (``benchmarks/bench_env.py`` switches a RigEnv to the per-environment kernel through this.)"""
-        n = self.num_envs
-        self._lanes = use_lanes
-        self._params_changed = True  # P not yet packed into the lane kernel's scratch
-        if use_lanes:
-            self._work: tuple[np.ndarray, ...] = (lanes.new_work(n, self.n_sub),)
-            self._kernel = lanes.step_lanes if n >= integ.PARALLEL_MIN_ENVS else lanes.step_lanes_serial
-        else:
-            self._work = integ.new_work(n)
-            self._kernel = integ.step_batch if n >= integ.PARALLEL_MIN_ENVS else integ.step_serial
-
     def advance_physics(self) -> None:
         """Advance the physics batch by one control step with the inputs in ``U`` (no task, sensors or
         bookkeeping: the environment's own step calls this; benchmarks time it alone)."""
-        if self._lanes:  # the lane kernel keeps the parameters packed between steps: repacked after a reset wrote P
-            self._kernel(self.X, self.dbuf, self._k0, self.delay_steps, self.P, self.U, self.flags, self.free_idx,
-                         len(self.free_idx), self.tabs, self.h, self.n_sub, self.status, *self._work, self._params_changed)
-            self._params_changed = False
-        else:
-            self._kernel(self.X, self.dbuf, self._k0, self.delay_steps, self.P, self.U, self.flags, self.free_idx,
-                         len(self.free_idx), self.tabs, self.h, self.n_sub, self.status, *self._work)
-        self._k0 += self.n_sub
+        self.physics.step()
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if self.keys is None:
