@@ -11,7 +11,16 @@ import numpy as np
 import pytest
 
 from controllers import LoopSpec, make_controller
-from controllers.design.heave_sway import axis_point, lqr_margins, lqr_point, pid_margins_as_flown, static_table, tune_driven
+from controllers.design.heave_sway import (
+    axis_point,
+    design_heave_sway_lqr,
+    design_heave_sway_pid,
+    lqr_margins,
+    lqr_point,
+    pid_margins_as_flown,
+    static_table,
+    tune_driven,
+)
 from controllers.evaluation.evaluate import GUSTY, NOMINAL, evaluate
 from controllers.laws.heave_sway import HeaveSwayLQR, HeaveSwayPID
 from controllers.laws.lqr import LQRLaw
@@ -95,7 +104,7 @@ def test_lqr_law_as_built_meets_its_margin_targets(task, opts):
     next tighter candidate would not (so the search did tighten as far as the targets allow)."""
     from controllers.laws.heave_sway import ANGLE_MAX_DEG, LQR_TARGETS
     _, spec = _spec(task, opts)
-    law = HeaveSwayLQR(spec, 1)
+    law = HeaveSwayLQR(spec, 1, tables=design_heave_sway_lqr(spec))
     j = law.joint
     for point in law.describe()["points"]:
         assert point[j]["gm_db"] >= LQR_TARGETS["gm_db"] and point[j]["pm_deg"] >= LQR_TARGETS["pm_deg"]
@@ -103,7 +112,7 @@ def test_lqr_law_as_built_meets_its_margin_targets(task, opts):
     tighter = [a for a in ANGLE_MAX_DEG if a < chosen - 1e-9]
     if tighter:
         md = {j: math.radians(tighter[0]), f"{j}_rate": math.radians(30.0), f"int_{j}": math.radians(tighter[0])}
-        worst = [(p[j]["gm_db"], p[j]["pm_deg"]) for p in HeaveSwayLQR(spec, 1, max_deviation=md).describe()["points"]]
+        worst = [(p[j]["gm_db"], p[j]["pm_deg"]) for p in HeaveSwayLQR(spec, 1, tables=design_heave_sway_lqr(spec, max_deviation=md)).describe()["points"]]
         assert any(gm < LQR_TARGETS["gm_db"] or pm < LQR_TARGETS["pm_deg"] for gm, pm in worst)
 
 
@@ -173,7 +182,7 @@ def test_laws_refuse_a_locked_driven_joint():
     spec = replace(LoopSpec.from_env(env), task_options={"axis": "sway_yaw"})
     from controllers.laws.base import UnsupportedTask
     with pytest.raises(UnsupportedTask, match="rig_yaw"):
-        HeaveSwayPID(spec, 2)
+        HeaveSwayPID(spec, 2, tables=design_heave_sway_pid(spec))
 
 
 # --------------------------------------------------------------------------------------------- closed loop
