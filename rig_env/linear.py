@@ -1,7 +1,9 @@
 """Trim and linearisation of the joint-space model, through the same numba kernels that simulate it.
 
 ``trim`` finds joint angles at which the free joints are in equilibrium (zero rates, zero
-accelerations) for given surface deflections and airspeed.  ``linearize`` differentiates the
+accelerations) for given surface deflections and airspeed, or, with some free joints held at
+targets, the angles of the others and the inputs (surfaces, or named mixes of surfaces:
+:class:`InputMix`) that hold them there.  ``linearize`` differentiates the
 accelerations by central differences about an operating point and returns a python-control
 ``StateSpace`` with named states ``<joint>`` (rad) and ``<joint>_rate`` (rad/s) and named inputs
 (surface deflections in rad, servos taken as ideal: flap = mixed command).  Friction is left out of
@@ -11,7 +13,8 @@ keeps its viscous term sigma2.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
 import control
@@ -46,7 +49,12 @@ def joint_accelerations(q, qd, u, p, flags, free_idx, tabs):
 
 @dataclass(frozen=True)
 class OperatingPoint:
-    """An equilibrium: joint angles and rates (rad, rad/s, all five joints), inputs, residual."""
+    """An equilibrium: joint angles and rates (rad, rad/s, all five joints), inputs, residual.
+
+    ``controls_deg``: surface deflections, deg (the given ones and those of the mixed inputs);
+    ``inputs``: the value of every input of the trim's :class:`InputMix` (given and solved), in its
+    ``unit_deg`` units (empty without a mix).
+    """
 
     q: np.ndarray
     qd: np.ndarray
@@ -54,6 +62,41 @@ class OperatingPoint:
     airspeed: float
     free_dofs: tuple[str, ...]
     residual: float  # max |qdd| of the free joints at the solution, rad/s^2
+    inputs: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class InputMix:
+    """Named inputs that each move several surfaces: ``surface_k (rad) = radians(unit_deg) * (weights[k] @ v)``.
+
+    ``names``: the inputs, the order of ``v``; ``surfaces``: the surfaces they drive (names of
+    :data:`~rig_env.params.SURFACES`); ``weights``: (len(surfaces), len(names)), surface deflection per
+    input, in units of ``unit_deg`` (deg) per unit input.  E.g. a compensator rolled with the rig by
+    phi: heave moves its elevator by cos(phi) and its rudder by -sin(phi).
+    """
+
+    names: tuple[str, ...]
+    surfaces: tuple[str, ...]
+    weights: np.ndarray
+    unit_deg: float = 1.0
+
+    def __post_init__(self) -> None:
+        unknown = [n for n in self.surfaces if n not in SURFACES]
+        if unknown:
+            raise ValueError(f"InputMix.surfaces: unknown surface(s) {unknown}; valid names: {list(SURFACES)}")
+        if len(set(self.names)) != len(self.names) or len(set(self.surfaces)) != len(self.surfaces):
+            raise ValueError("InputMix: duplicate input or surface names")
+        w = np.ascontiguousarray(self.weights, dtype=np.float64)
+        if w.shape != (len(self.surfaces), len(self.names)) or not np.all(np.isfinite(w)):
+            raise ValueError(f"InputMix.weights: expected finite ({len(self.surfaces)}, {len(self.names)}), got {w.shape}")
+        if not (np.isfinite(self.unit_deg) and self.unit_deg > 0):
+            raise ValueError(f"InputMix.unit_deg = {self.unit_deg}: must be > 0")
+        object.__setattr__(self, "weights", w)
+
+    def deflections(self, v: np.ndarray) -> np.ndarray:
+        """(len(surfaces),) deflections, rad, of the input values v (len(names),)."""
+        scale = math.radians(self.unit_deg)
+        return np.array([scale * (self.weights[k] @ v) for k in range(len(self.surfaces))])
 
 
 def _inputs(controls_deg: Mapping[str, float], airspeed: float) -> np.ndarray:
@@ -70,48 +113,100 @@ def _flags(aero: bool, friction: str | bool) -> int:
 
 def trim(
     params: RigParams,
-    *,
     free_dofs: Sequence[str],
+    q_guess: Sequence[float] | None = None,
+    *,
     airspeed: float = 20.0,
     controls: Mapping[str, float] | None = None,
-    q_guess: Sequence[float] | None = None,
+    mix: InputMix | None = None,
+    inputs: Mapping[str, float] | None = None,
+    unknown_inputs: Sequence[str] = (),
+    hold: Mapping[str, float] | None = None,
     aero: bool = True,
     tol: float = 1e-10,
+    max_residual: float | None = 1e-6,
 ) -> OperatingPoint:
-    """Equilibrium angles of the free joints (rates zero) for fixed surface deflections (deg).
+    """Equilibrium of the free joints (rates zero): their angles, and the inputs that hold some at targets.
 
-    q_guess: all five joint angles (rad); locked joints stay at their guess.  Raises RuntimeError
-    when no equilibrium with max |qdd| < 1e-6 rad/s^2 is found.
+    Plain use: the angles of the free joints for fixed surface deflections ``controls`` (deg).
+    ``q_guess``: all five joint angles (rad, JOINTS order); locked joints stay at their guess.
+
+    With ``hold`` (free joint -> angle, rad) those joints are held at their targets and as many inputs,
+    ``unknown_inputs``, are solved for instead (a square system: the residual is every free joint's
+    acceleration).  The inputs are surface names (deg) without ``mix``, or names of ``mix`` (an
+    :class:`InputMix`, values in its ``unit_deg``) whose other inputs take their ``inputs`` value (0 if
+    not given); mixed surfaces may not also be in ``controls``.  Unknowns: the inputs (from 0) then the
+    free joints not held (from their guess), solved by MINPACK's Levenberg-Marquardt to ``tol``.
+    Returns the :class:`OperatingPoint`, with the solved inputs in ``inputs`` (surface names: in
+    ``controls_deg``).  RuntimeError when max |qdd| > ``max_residual`` rad/s^2 (None: return the
+    solver's point anyway, the caller checks ``residual``).
     """
     free = check_free_dofs(free_dofs)
     controls = {k: float(v) for k, v in check_controls(controls).items()}
-    q0 = np.zeros(5) if q_guess is None else np.asarray(q_guess, dtype=np.float64)
+    q0 = np.zeros(5) if q_guess is None else np.array(q_guess, dtype=np.float64)
     if q0.shape != (5,) or not np.all(np.isfinite(q0)):
         raise ValueError("q_guess: expected 5 finite joint angles (rad, JOINTS order)")
     if not (0.0 <= airspeed <= 60.0):
         raise ValueError(f"airspeed = {airspeed} m/s is outside the allowed range [0, 60] m/s")
+    hold = {j: float(a) for j, a in (hold or {}).items()}
+    bad = [j for j in hold if j not in free]
+    if bad:
+        raise ValueError(f"hold: joint(s) {bad} are not free (free_dofs = {list(free)})")
+    if mix is None:
+        mix = InputMix(tuple(n for n in SURFACES if n not in controls), tuple(n for n in SURFACES if n not in controls),
+                       np.eye(len(SURFACES) - len(controls))) if unknown_inputs else None
+    given = dict(inputs or {})
+    names = mix.names if mix is not None else ()
+    bad = [n for n in (*unknown_inputs, *given) if n not in names]
+    if bad:
+        raise ValueError(f"inputs: unknown name(s) {bad}; this trim's inputs: {list(names)}")
+    if set(unknown_inputs) & set(given) or len(set(unknown_inputs)) != len(tuple(unknown_inputs)):
+        raise ValueError("unknown_inputs: each input once, and not also given in inputs")
+    if len(tuple(unknown_inputs)) != len(hold):
+        raise ValueError(f"trim: {len(hold)} held joint(s) need as many unknown inputs, got {list(unknown_inputs)}")
+    if mix is not None and set(mix.surfaces) & set(controls):
+        raise ValueError(f"controls: {sorted(set(mix.surfaces) & set(controls))} are driven by the input mix")
     p = params.to_vector()
     tabs = params.tables()
     idx = np.array([JOINTS.index(j) for j in free], dtype=np.int64)
-    u = _inputs(controls, airspeed)
+    for j, a in hold.items():
+        q0[JOINTS.index(j)] = a
+    moved = np.array([JOINTS.index(j) for j in free if j not in hold], dtype=np.int64)
+    u0 = _inputs(controls, airspeed)
+    cols = [SURFACES.index(n) for n in mix.surfaces] if mix is not None else []
+    v0 = np.zeros(len(names))
+    for n, val in given.items():
+        v0[names.index(n)] = float(val)
+    solved = [names.index(n) for n in unknown_inputs]
+    n_in = len(solved)
     flags = _flags(aero, False)
     qd = np.zeros(5)
 
-    def residual(y: np.ndarray) -> np.ndarray:
-        q = q0.copy()
-        q[idx] += y
+    def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        q, u, v = q0.copy(), u0.copy(), v0.copy()
+        q[moved] += x[n_in:]
+        v[solved] = x[:n_in]
+        if mix is not None:
+            u[cols] = mix.deflections(v)
+        return q, u, v
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        q, u, _ = unpack(x)
         return joint_accelerations(q, qd, u, p, flags, idx, tabs)[idx]
 
     # solved for the change y from the guess, starting at y = 0: MINPACK's Levenberg-Marquardt sizes its
     # first step in proportion to the starting point's norm (100 |x0|, or 100 when x0 = 0), so a guess
     # of angles near 1e-17 rad (a trim of rounding-level asymmetry) would leave it no room to move
-    sol = least_squares(residual, np.zeros(idx.size), xtol=tol, ftol=tol, gtol=tol, method="lm")
-    q = q0.copy()
-    q[idx] += sol.x
+    sol = least_squares(residual, np.zeros(n_in + moved.size), xtol=tol, ftol=tol, gtol=tol, method="lm")
+    q, u, v = unpack(sol.x)
     res = float(np.max(np.abs(residual(sol.x))))
-    if res > 1e-6:
+    if max_residual is not None and res > max_residual:
         raise RuntimeError(f"trim: no equilibrium found for free_dofs={list(free)} (max |qdd| = {res:.3g} rad/s^2)")
-    return OperatingPoint(q=q, qd=qd, controls_deg=controls, airspeed=float(airspeed), free_dofs=free, residual=res)
+    out_controls = dict(controls)
+    if mix is not None:
+        out_controls.update({n: math.degrees(u[c]) for n, c in zip(mix.surfaces, cols) if u[c] != 0.0})
+    return OperatingPoint(q=q, qd=qd, controls_deg=out_controls, airspeed=float(airspeed), free_dofs=free, residual=res,
+                          inputs={n: float(v[k]) for k, n in enumerate(names)})
 
 
 def linearize(

@@ -304,8 +304,7 @@ def test_heave_sway_tables_are_the_design_tools(kind, task, opts):
     and the arm's; PID gains are tune_driven's, LQR gains control.lqr's (lqr_point with the chosen weights).
     (Free-flight emulation's registered LQR is the model-following one, tests/test_laws_emulation.py; the
     heave/sway LQR, which can still fly it when built directly, is checked here.)"""
-    from controllers.design.heave_sway import axis_point, lqr_point, static_table, tune_driven
-    from controllers.design.heave_sway import design_heave_sway_lqr
+    from controllers.design.heave_sway import axis_point, design_heave_sway_lqr, lqr_point, static_table, tune_driven
     from controllers.laws.heave_sway import HeaveSwayLQR
     from rig_env.envs.sensors import RATE_SCALE
     from rig_env.envs.tasks.base import G0
@@ -338,9 +337,12 @@ def test_heave_sway_tables_are_the_design_tools(kind, task, opts):
 
 
 def test_smooth_ramp_copy_is_the_tasks():
-    """The reference parser's numpy copy of the tasks' ramp (its runtime cannot import rig_env) is the same function."""
-    from controllers.laws.references import smooth_ramp
+    """The reference parser's envelope (its runtime cannot import rig_env) is the tasks' ramp at unit ramp time."""
+    from controllers.laws.references import ramp_envelope
     from rig_env.envs.tasks.base import smooth_ramp as task_ramp
+
+    def smooth_ramp(x: np.ndarray) -> np.ndarray:
+        return ramp_envelope(x, 1.0)[0]
 
     x = np.linspace(-0.5, 1.5, 201)
     np.testing.assert_array_equal(smooth_ramp(x), task_ramp(x))

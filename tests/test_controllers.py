@@ -13,8 +13,7 @@ from scipy.integrate import solve_ivp
 from controllers import LoopSpec, make_controller
 from controllers.laws.estimator import DelayedKalman, kalman_gain
 from controllers.design.lqr import augmented, design_point
-from controllers.design.model import loop_elements
-from controllers.laws.axes import resolve, rotation
+from controllers.design.model import loop_elements, resolve, rotation
 from controllers.laws.pid_element import PID
 from controllers.design.tuning import margins, tune_axis
 from rig_env import RigParams, linearize

@@ -11,12 +11,20 @@ import numpy as np
 import pytest
 
 from controllers import LoopSpec, make_controller
-from controllers.design.heave_sway import axis_point, lqr_margins, lqr_point, pid_margins_as_flown, static_table, tune_driven
+from controllers.design.heave_sway import (
+    axis_point,
+    design_heave_sway_lqr,
+    design_heave_sway_pid,
+    lqr_margins,
+    lqr_point,
+    pid_margins_as_flown,
+    static_table,
+    tune_driven,
+)
 from controllers.evaluation.evaluate import GUSTY, NOMINAL, evaluate
 from controllers.laws.heave_sway import HeaveSwayLQR, HeaveSwayPID
-from controllers.design.heave_sway import design_heave_sway_lqr, design_heave_sway_pid
-from controllers.design.lqr import augmented
 from controllers.laws.lqr import LQRLaw
+from controllers.design.lqr import augmented
 from controllers.design.model import loop_elements
 from controllers.laws.pid import PIDLaw
 from controllers.laws.references import DrivenReference
@@ -174,7 +182,7 @@ def test_laws_refuse_a_locked_driven_joint():
     spec = replace(LoopSpec.from_env(env), task_options={"axis": "sway_yaw"})
     from controllers.laws.base import UnsupportedTask
     with pytest.raises(UnsupportedTask, match="rig_yaw"):
-        design_heave_sway_pid(spec)
+        HeaveSwayPID(spec, 2, tables=design_heave_sway_pid(spec))
 
 
 # --------------------------------------------------------------------------------------------- closed loop

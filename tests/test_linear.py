@@ -62,3 +62,37 @@ def test_trim_from_a_guess_of_rounding_level_angles(params, tiny):
     # the equilibrium of exact zeros: the arm at -1.08 deg of yaw, the model at +1.08 deg relative to it
     assert np.degrees(op.q[2]) == pytest.approx(-1.0799, abs=1e-3)
     assert np.degrees(op.q[4]) == pytest.approx(1.0799, abs=1e-3)
+
+
+def test_trim_holds_joints_with_surfaces_as_unknowns(params):
+    """Held rig_pitch at 3 deg by the compensator elevator (solved, deg); a plain trim with that elevator
+    finds the same equilibrium, and the model joint settles where it did."""
+    free = ["rig_pitch", "model_pitch"]
+    op = rig_env.trim(params, free, [0, 0.1, 0, 0.1, 0], unknown_inputs=["comp_elevator"], hold={"rig_pitch": np.radians(3.0)})
+    assert op.q[1] == np.radians(3.0) and op.residual < 1e-9
+    de = op.controls_deg["comp_elevator"]
+    assert op.inputs["comp_elevator"] == pytest.approx(de, rel=1e-12)
+    plain = rig_env.trim(params, free_dofs=free, controls={"comp_elevator": de}, q_guess=op.q)
+    np.testing.assert_allclose(plain.q, op.q, atol=1e-9)
+
+
+def test_trim_with_an_input_mix_matches_the_surfaces(params):
+    """A mix that rotates (heave, sway) onto (elevator, rudder) by 30 deg: the solved mix inputs give the
+    surfaces in controls_deg, and holding rig_pitch and rig_yaw at 0 deg with them is an equilibrium."""
+    from rig_env.linear import InputMix
+
+    c, s = np.cos(np.radians(30.0)), np.sin(np.radians(30.0))
+    mix = InputMix(("heave", "sway"), ("comp_elevator", "comp_rudder"), np.array([[c, s], [-s, c]]), unit_deg=40.0)
+    free = ["rig_pitch", "rig_yaw", "model_pitch"]
+    op = rig_env.trim(params, free, None, mix=mix, unknown_inputs=["heave", "sway"], hold={"rig_pitch": 0.0, "rig_yaw": 0.0})
+    h, w = op.inputs["heave"], op.inputs["sway"]
+    assert op.controls_deg["comp_elevator"] == pytest.approx(40.0 * (c * h + s * w), rel=1e-12)
+    assert op.controls_deg["comp_rudder"] == pytest.approx(40.0 * (-s * h + c * w), abs=1e-9)
+    plain = rig_env.trim(params, free_dofs=free, controls=op.controls_deg, q_guess=op.q)
+    np.testing.assert_allclose(plain.q, op.q, atol=1e-8)
+    with pytest.raises(ValueError, match="as many unknown inputs"):
+        rig_env.trim(params, free, None, mix=mix, unknown_inputs=["heave"], hold={"rig_pitch": 0.0, "rig_yaw": 0.0})
+    with pytest.raises(ValueError, match="not free"):
+        rig_env.trim(params, free, None, mix=mix, unknown_inputs=["heave"], hold={"rig_roll": 0.0})
+    with pytest.raises(ValueError, match="driven by the input mix"):
+        rig_env.trim(params, free, None, controls={"comp_rudder": 1.0}, mix=mix, inputs={"sway": 0.1})

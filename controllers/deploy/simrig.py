@@ -44,7 +44,6 @@ import numpy as np
 from controllers.deploy import protocol as pr
 from rig_env.envs.vector_env import ACTION_SCALE_DEG, RigVectorEnv
 from rig_env.params import JOINTS
-from rig_env.physics import layout as L
 
 
 @dataclass(frozen=True)
@@ -84,7 +83,7 @@ def make_env(task: str, rate_hz: float, duration: float, **fields: Any) -> RigVe
 
 def frame_values(env: RigVectorEnv) -> tuple[np.ndarray, np.ndarray, float]:
     """(angles (5,) rad with the measured free joints and the true locked ones, flaps (4,) rad, airspeed m/s)."""
-    ang = env.X[0, L.X_Q : L.X_Q + 5].copy()
+    ang = env.joint_angles[0]
     ang[env.free_idx] = env.sensors.angles[0]
     return ang, env.sensors.flaps[0].copy(), float(env.sensors.airspeed[0])
 
@@ -189,8 +188,8 @@ class SimRig:
     # ------------------------------------------------------------------ internals
     def _record(self, rec: dict[str, np.ndarray], k: int) -> None:
         rec["t"][k] = k * self.period
-        rec["q"][k] = self.env.X[0, L.X_Q : L.X_Q + 5]
-        rec["qd"][k] = self.env.X[0, L.X_QD : L.X_QD + 5]
+        rec["q"][k] = self.env.joint_angles[0]
+        rec["qd"][k] = self.env.joint_rates[0]
 
     def _record_cmd(self, rec: dict[str, np.ndarray], k: int, a: np.ndarray) -> None:
         rec["cmd"][k, : a.shape[1]] = a[0] * math.radians(ACTION_SCALE_DEG)
@@ -295,7 +294,7 @@ def fly_offline(artefact: Any, task: str, rate_hz: float, duration: float, seed:
     final: dict[str, Any] = {}
     scale = math.radians(artefact.spec.action_scale_deg)
     for k in range(n):
-        out["t"][k], out["q"][k], out["qd"][k] = k * env.dt, env.X[0, L.X_Q : L.X_Q + 5], env.X[0, L.X_QD : L.X_QD + 5]
+        out["t"][k], out["q"][k], out["qd"][k] = k * env.dt, env.joint_angles[0], env.joint_rates[0]
         target = np.zeros(6)
         target[:n_a] = law.act(obs.astype(np.float64))[0] * scale
         cmd = lim.apply(target)

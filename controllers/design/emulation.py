@@ -46,7 +46,6 @@ from controllers.laws.emulation import (
 from controllers.design.signals import signal_scales
 from rig_env import linearize, trim
 from rig_env.params import RigParams
-from rig_env.physics import layout as L
 
 _S = {k: i for i, k in enumerate(BASE_STATES)}
 
@@ -103,7 +102,7 @@ def continuous_model(params: RigParams, airspeed: float, dt: float, tau_pilot: f
     A[r:4, r:4] = np.asarray(sys.A)
     A[r:4, f] = np.asarray(sys.B)[:, 1]  # heave column, per normalised input
     A[r:4, hw] = b_hawk
-    A[f:f + 2, f:f + 2], b[f:f + 2] = servo_matrices(2 * math.pi * P[L.P_SERVOS_COMPENSATOR_NATURAL_FREQ_HZ], P[L.P_SERVOS_COMPENSATOR_DAMPING])
+    A[f:f + 2, f:f + 2], b[f:f + 2] = servo_matrices(2 * math.pi * params.servos.compensator.natural_freq_hz, params.servos.compensator.damping)
     sub = [0, 1, 4, 5]  # alpha, q, delta, delta': theta and h do not feed back
     A[m:m + 4, m:m + 4] = Am[np.ix_(sub, sub)]  # includes the Hawk servo rows of the reference
     A[hw + 1, w] = ref.wn[0] ** 2
@@ -156,8 +155,7 @@ def design_point(params: RigParams, airspeed: float, dt: float, link_delay_steps
                  sigma_a: tuple[float, float] = SIGMA_A, sigma_f: float = SIGMA_F, sigma_z: float = SIGMA_Z, sigma_zf: float = SIGMA_ZF) -> dict[str, Any]:
     """Steps 1-4 at one airspeed: the augmented discrete model, the gain, the estimator's gain and the margins of the loop as flown (:func:`loop_as_flown`)."""
     A, b, q_op, ref = continuous_model(params, airspeed, dt)
-    P = params.to_vector()
-    tau = float(P[L.P_SERVOS_COMPENSATOR_DELAY_S]) + link_delay_steps * dt
+    tau = params.servos.compensator.delay_s + link_delay_steps * dt
     Phi, G = zoh_with_delay(A, b, dt, tau)
     n, d = A.shape[0], G.shape[0] - 1
     N = n + d
@@ -287,7 +285,7 @@ def design_emulation_lqr(spec: LoopSpec, params: RigParams | None = None, *, lin
               "method": "controllers.design.emulation (explicit model following: control.dlqr on the rig and the free Hawk's short period side by side, servo and delay in)",
               "max_deviation": {k: float(v) for k, v in md.items()}, "weight_scale": scale, "targets": dict(TARGETS),
               "max_input": float(mi), "tau_pilot": float(TAU_PILOT),
-              "states": list(state_labels(d)), "loop_delay_s": float(params.to_vector()[L.P_SERVOS_COMPENSATOR_DELAY_S]) + link_delay_steps * spec.dt,
+              "states": list(state_labels(d)), "loop_delay_s": params.servos.compensator.delay_s + link_delay_steps * spec.dt,
               "points": points}
     return EmulationTables(V, np.array([p["K"] for p in pts]), np.array([p["q_op"] for p in pts]), hawk_phi, hawk_gamma[0],
                            int(hawk["hawk_delay_steps"]), float(params.geometry.arm_length), ref_scales,

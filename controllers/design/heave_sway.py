@@ -53,7 +53,6 @@ from controllers.laws.estimator import kalman_gain
 from controllers.laws.heave_sway import ANGLE_MAX_DEG, LQR_TARGETS, V_STEP, HeaveSwayTables
 from rig_env import linearize, trim
 from rig_env.params import JOINTS, RigParams
-from rig_env.physics import layout as L
 
 DRIVEN = ("rig_pitch", "rig_yaw")
 """Rig joints a heave/sway law drives (virtual input :data:`controllers.design.model.AXIS_OF`)."""
@@ -255,7 +254,7 @@ def design_heave_sway_pid(spec: LoopSpec, params: RigParams | None = None, *, li
     v_design = float(V[i_mid])
     t = tune_driven(params, points[i_mid][1], ref.joint, v_design, spec.dt, link_delay_steps=link_delay_steps,
                     rate_filter_hz=rate_filter_hz, **(targets or {}))
-    rate_lim = math.degrees(params.to_vector()[L.P_SERVOS_COMPENSATOR_RATE_LIMIT_DEG_S]) / spec.action_scale_deg
+    rate_lim = params.servos.compensator.rate_limit_deg_s / spec.action_scale_deg
     emulate = spec.task == "free_flight_emulation"
     gm, pm, wc = pid_margins_as_flown(params, points[i_mid][1], ref.joint, t, spec.dt,
                                       decouple="all" if emulate else ("passive" if decouple else None), link_delay_steps=link_delay_steps)

@@ -3,10 +3,10 @@
 Laws are designed on the same numba model the environment integrates (``rig_env.linear``), never on
 a second copy.  This module adds what the designs need around it:
 
-* :func:`operating_point`: trim at a task's operating point ``(airspeed V, rig roll angle phi)``:
-  the actuated rig joints are held at their targets (rig_roll at ``phi``, rig_pitch and rig_yaw at
-  0) by the compensator aileron, elevator and rudder, and the passive model joints (model_pitch,
-  model_yaw) settle at their equilibrium.  Away from phi = 0 the arm's gravity imbalance needs a
+* :func:`operating_point`: trim (``rig_env.trim``) at a task's operating point ``(airspeed V, rig
+  roll angle phi)``: the actuated rig joints are held at their targets (rig_roll at ``phi``,
+  rig_pitch and rig_yaw at 0) by the compensator aileron, elevator and rudder, and the passive model
+  joints (model_pitch, model_yaw) settle at their equilibrium.  Away from phi = 0 the arm's gravity imbalance needs a
   steady aileron, so the operating point and its linearisation move with phi.
 * :func:`design_model`: the linearisation there, inputs in normalised action units (1 = 40 deg).
 * :func:`loop_elements`: servo (second order, ``servos.compensator`` parameters), the total transport
@@ -33,15 +33,12 @@ from dataclasses import dataclass
 
 import control
 import numpy as np
-from scipy.optimize import least_squares
 
 from controllers.laws.axes import AXES, AXIS_OF, resolve, rotation  # noqa: F401  (re-exported: the numpy-only geometry)
-from rig_env.linear import OperatingPoint, joint_accelerations, linearize
-from rig_env.params import JOINTS, SURFACES, RigParams
-from rig_env.physics import layout as L
+from rig_env.linear import InputMix, OperatingPoint, linearize, trim
+from rig_env.params import JOINTS, RigParams
 
 INPUTS = ("comp_aileron", "comp_elevator", "comp_rudder")
-PASSIVE = ("model_pitch", "model_yaw")
 
 
 @dataclass(frozen=True)
@@ -60,65 +57,50 @@ class DesignPoint:
     sys: control.StateSpace
 
 
+def compensator_mix(phi: float, scale_deg: float = 40.0) -> InputMix:
+    """The virtual inputs (:data:`AXES`, normalised: 1 = ``scale_deg``) as ``rig_env``'s :class:`~rig_env.linear.InputMix`
+    of the compensator surfaces at rig roll ``phi`` (rad): the rows of :func:`rotation`."""
+    return InputMix(AXES, INPUTS, rotation(phi), scale_deg)
+
+
 def operating_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: float, phi: float,
                     scale_deg: float = 40.0) -> tuple[OperatingPoint, np.ndarray]:
-    """Trim at rig roll ``phi`` (rad): rig joints at their targets, passive joints at equilibrium.
+    """Trim at rig roll ``phi`` (rad): rig joints at their targets, passive joints at equilibrium (``rig_env.trim``).
 
-    Unknowns: the virtual input of every free rig joint (:data:`AXIS_OF`) and the angles of the free
-    passive joints; residual: the free joints' accelerations.  Where holding rig_pitch or rig_yaw at
-    zero would need more than the flaps can give (a flap is aileron +- elevator +- rudder, limited
-    to +-1), heave and sway are scaled back until the most loaded flap is at 0.95 and their rig
-    joints settle instead (the rig weathercocks).  Returns the operating point and the normalised
-    virtual inputs (3,).  RuntimeError if no trim with max |qdd| < 1e-6 rad/s^2 exists.
+    ``rig_env.trim`` holds every free rig joint at its target (rig_roll at ``phi``, rig_pitch and
+    rig_yaw at 0) with its virtual input (:data:`AXIS_OF`, :func:`compensator_mix`) as the unknown and
+    lets the free passive joints settle.  Where holding rig_pitch or rig_yaw at zero would need more
+    than the flaps can give (a flap is aileron +- elevator +- rudder, limited to +-1), heave and sway are
+    scaled back until the most loaded flap is at 0.95 and their rig joints settle instead (the rig
+    weathercocks): a loop around the trim, which then takes those inputs as given.  Returns the
+    operating point and the normalised virtual inputs (3,).  RuntimeError if no trim with max |qdd| <
+    1e-6 rad/s^2 exists.
     """
-    p, tabs = params.to_vector(), params.tables()
-    idx = np.array([JOINTS.index(j) for j in free_dofs], dtype=np.int64)
-    R = rotation(phi)
-    scale = math.radians(scale_deg)
-    q0 = np.zeros(5)
-    q0[0] = phi
-    u0 = np.zeros(L.N_INPUTS)
-    u0[L.U_AIRSPEED] = airspeed
+    mix = compensator_mix(phi, scale_deg)
+    q_guess = np.zeros(5)
+    q_guess[0] = phi
+    targets = {j: float(q_guess[JOINTS.index(j)]) for j in AXIS_OF}
 
-    def solve(fixed: dict[int, float]) -> tuple[np.ndarray, np.ndarray, float]:
-        v_cols = [AXIS_OF[j] for j in free_dofs if j in AXIS_OF and AXIS_OF[j] not in fixed]
-        q_cols = [JOINTS.index(j) for j in free_dofs if j in PASSIVE or (j in AXIS_OF and AXIS_OF[j] in fixed)]
+    def solve(fixed: dict[int, float]) -> tuple[OperatingPoint, np.ndarray]:
+        held = [j for j in free_dofs if j in AXIS_OF and AXIS_OF[j] not in fixed]
+        op = trim(params, free_dofs, q_guess, airspeed=airspeed, mix=mix, inputs={AXES[k]: val for k, val in fixed.items()},
+                  unknown_inputs=[AXES[AXIS_OF[j]] for j in held], hold={j: targets[j] for j in held}, tol=1e-12, max_residual=None)
+        return op, np.array([op.inputs[a] for a in AXES])
 
-        def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-            q, u, v = q0.copy(), u0.copy(), np.zeros(3)
-            q[q_cols] = x[len(v_cols):]
-            v[v_cols] = x[: len(v_cols)]
-            for k, val in fixed.items():
-                v[k] = val
-            for k, name in enumerate(INPUTS):
-                u[SURFACES.index(name)] = scale * (R[k] @ v)
-            return q, u, v
-
-        def resid(x: np.ndarray) -> np.ndarray:
-            q, u, _ = unpack(x)
-            return joint_accelerations(q, np.zeros(5), u, p, L.F_AERO, idx, tabs)[idx]
-
-        sol = least_squares(resid, np.zeros(len(v_cols) + len(q_cols)), xtol=1e-12, ftol=1e-12, gtol=1e-12, method="lm")
-        q, _, v = unpack(sol.x)
-        return q, v, float(np.max(np.abs(resid(sol.x))))
-
-    q, v, res = solve({})
+    op, v = solve({})
     for _ in range(3):  # flaps beyond their limit: scale heave and sway back, let their joints settle
         surf = rotation(phi) @ v
         need = abs(surf[0]) + abs(surf[1]) + abs(surf[2])  # the most loaded flap (mixing signs +-1)
-        if res <= 1e-6 and need <= 1.0:
+        if op.residual <= 1e-6 and need <= 1.0:
             break
         hs = abs(surf[1]) + abs(surf[2])
         c = max(0.0, 0.95 - abs(surf[0])) / hs if hs > 0 else 0.0
         fixed = {k: c * v[k] for k in (1, 2) if v[k] != 0.0}
         if not fixed:
             break
-        q, v, res = solve(fixed)
-    if res > 1e-6:
-        raise RuntimeError(f"no trim at V = {airspeed} m/s, phi = {math.degrees(phi):.1f} deg (max |qdd| {res:.2g} rad/s^2)")
-    u = np.array([scale * (R[k] @ v) for k in range(3)])
-    controls = {name: math.degrees(u[k]) for k, name in enumerate(INPUTS) if u[k] != 0.0}
-    op = OperatingPoint(q=q, qd=np.zeros(5), controls_deg=controls, airspeed=float(airspeed), free_dofs=tuple(free_dofs), residual=res)
+        op, v = solve(fixed)
+    if op.residual > 1e-6:
+        raise RuntimeError(f"no trim at V = {airspeed} m/s, phi = {math.degrees(phi):.1f} deg (max |qdd| {op.residual:.2g} rad/s^2)")
     return op, v
 
 
@@ -141,10 +123,10 @@ def loop_elements(params: RigParams, dt: float, link_delay_steps: int = 1, rate_
     ``rate_sensor``: 1 / (tau s + 1) (tau = 1 / (2 pi rate_filter_hz)) times Pade of dt / 2 (backward
     difference).  ``total_delay`` is returned as a 1x1 constant in seconds for the report.
     """
-    c = params.to_vector()
-    wn = 2 * math.pi * c[L.P_SERVOS_COMPENSATOR_NATURAL_FREQ_HZ]
-    zeta = c[L.P_SERVOS_COMPENSATOR_DAMPING]
-    tau_d = c[L.P_SERVOS_COMPENSATOR_DELAY_S] + link_delay_steps * dt + 0.5 * dt
+    comp = params.servos.compensator
+    wn = 2 * math.pi * comp.natural_freq_hz
+    zeta = comp.damping
+    tau_d = comp.delay_s + link_delay_steps * dt + 0.5 * dt
     servo = control.tf([wn**2], [1.0, 2 * zeta * wn, wn**2])
     delay = control.tf(*control.pade(tau_d, pade_order))
     tau_f = 1.0 / (2 * math.pi * rate_filter_hz)

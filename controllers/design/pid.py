@@ -21,7 +21,6 @@ from controllers.design.model import design_model, operating_point
 from controllers.design.signals import signal_scales
 from controllers.design.tuning import plain, tune_axis
 from rig_env.params import RigParams
-from rig_env.physics import layout as L
 
 RATE_DEMAND_MAX = {"rig_roll": math.radians(400.0), "rig_pitch": math.radians(60.0), "rig_yaw": math.radians(60.0)}
 """Limits of the outer loops' rate demands, rad/s."""
@@ -43,7 +42,7 @@ def design_pid(spec: LoopSpec, params: RigParams | None = None, *, link_delay_st
     axes = axes_of(spec.free_dofs)
     tunings = {j: tune_axis(p, spec.free_dofs, j, v_design, spec.dt, link_delay_steps=link_delay_steps, rate_filter_hz=rate_filter_hz, **TARGETS)
                for j in axes}
-    rate_lim = math.degrees(p.to_vector()[L.P_SERVOS_COMPENSATOR_RATE_LIMIT_DEG_S]) / spec.action_scale_deg  # 1/s, normalised (vector in rad/s)
+    rate_lim = p.servos.compensator.rate_limit_deg_s / spec.action_scale_deg  # 1/s, normalised
     phi_grid = np.linspace(-math.pi, math.pi, N_PHI)
     trim_roll = np.array([operating_point(p, spec.free_dofs, v_design, f)[1][0] for f in phi_grid])
     sys = design_model(p, spec.free_dofs, v_design, 0.0).sys

@@ -2,9 +2,11 @@
 
 :func:`signal_scales` reads the observation's normalisation (sensors, mixer, the task's declared
 reference scales) into :class:`controllers.laws.signals.SignalScales`; :func:`reference_constants`
-reads the heave/sway reference parser's numbers (driven joint, sensor scales, g, the oscillation's
-ramp time, the arm length) into :class:`controllers.laws.references.ReferenceConstants`.  The laws
-store them in their tables, so the runtime parses observations with numpy alone.
+reads the heave/sway reference parser's numbers (the task's driven joint, the sensor scales, the
+task's entry scales, ``G0``, the oscillation's ramp time, the arm length) into
+:class:`controllers.laws.references.ReferenceConstants`.  Every task number is read by name from the
+task class (``ref_scales``, ``driven_joint``, ``T_RAMP``), none is copied here.  The laws store them
+in their tables, so the runtime parses observations with numpy alone.
 """
 
 from __future__ import annotations
@@ -15,8 +17,8 @@ import numpy as np
 
 from controllers.laws.base import LoopSpec, UnsupportedTask
 from controllers.laws.references import TASKS as HEAVE_SWAY_TASKS
-from controllers.laws.references import ReferenceConstants, check_task
-from controllers.laws.signals import _ERROR_LABEL, _RATE_REF_LABEL, REF_SCALES, TRACKED, SignalScales
+from controllers.laws.references import ENTRIES, ReferenceConstants, check_task
+from controllers.laws.signals import _ERROR_LABEL, _RATE_REF_LABEL, TRACKED, SignalScales
 from rig_env.params import RigParams
 
 
@@ -34,7 +36,7 @@ def signal_scales(spec: LoopSpec) -> SignalScales:
 
     labels = set(spec.obs_labels)
     task = TASKS.get(spec.task)
-    scales = {**REF_SCALES, **dict(getattr(task, "ref_scales", {}) or {})}
+    scales = dict(getattr(task, "ref_scales", {}) or {})
     ref: dict[str, float] = {}
     for j in TRACKED:
         for label in (_ERROR_LABEL[j], _RATE_REF_LABEL[j]):
@@ -52,19 +54,24 @@ def driven_joint(spec: LoopSpec) -> str:
     """The rig joint the task drives; UnsupportedTask for other tasks or with rig_roll free (design time: reads the task)."""
     if spec.task not in HEAVE_SWAY_TASKS:
         raise UnsupportedTask(f"task {spec.task!r}: the heave/sway laws fly {list(HEAVE_SWAY_TASKS)}")
-    from rig_env.envs.tasks.oscillation import AXES as OSC_AXES
+    from rig_env.envs import TASKS
 
-    j = OSC_AXES[spec.task_options.get("axis", "heave_pitch")][0] if spec.task == "forced_oscillation" else "rig_pitch"
+    j = TASKS[spec.task].driven_joint(spec.task_options)
+    if j is None:
+        raise UnsupportedTask(f"task {spec.task!r} drives no rig joint")
     check_task(spec, j)
     return j
 
 
 def reference_constants(spec: LoopSpec, params: RigParams) -> ReferenceConstants:
     """Read :class:`ReferenceConstants` for ``spec`` from ``rig_env`` and ``params`` (design time)."""
+    from rig_env.envs import TASKS
     from rig_env.envs.sensors import AIRSPEED_SCALE, ANGLE_SCALE, RATE_SCALE
     from rig_env.envs.tasks.base import G0
     from rig_env.envs.tasks.oscillation import ForcedOscillation
 
     j = driven_joint(spec)
+    declared = TASKS[spec.task].ref_scales
     return ReferenceConstants(j, float(ANGLE_SCALE), float(RATE_SCALE[j]), float(AIRSPEED_SCALE), float(G0),
-                              float(ForcedOscillation.T_RAMP), float(params.geometry.arm_length))
+                              float(ForcedOscillation.T_RAMP), float(params.geometry.arm_length),
+                              {k: float(declared[k]) for k in ENTRIES[spec.task]})

@@ -2,13 +2,19 @@
 
 The heave and sway laws (:mod:`controllers.laws.heave_sway`) drive one rig joint (rig_pitch or rig_yaw)
 with rig_roll locked.  Each task states its reference differently (its class docstring gives the
-entries and their normalisations); this parser turns them into the same three signals, batched:
+entries; its ``ref_scales`` declares each entry's unit per normalised value); this parser turns them
+into the same three signals, batched.  Every task entry is read by name and multiplied by the scale
+the task declares for it (stored in :attr:`ReferenceConstants.scales`); ``T_RAMP`` and ``G0`` below are
+the tasks' named constants, stored likewise:
 
 | task | driven joint | e = theta_ref - theta (rad) | w_ref (rad/s) | a_ref (rad/s^2) |
 |---|---|---|---|---|
-| pull_up_push_over | rig_pitch | heave_error x 10 deg | heave_rate_ref x 5 | accel_ref g / (l cos theta_ref) (h = l sin theta) |
-| forced_oscillation | rig_pitch (heave_pitch) or rig_yaw (sway_yaw) | osc_error x 10 deg | osc_rate_error x 5 + measured rate | A ((e'' - e w^2) sin(phi) + 2 e' w cos(phi)), envelope e(t) (the task's smooth ramp) from the parser's own clock since osc_sin/osc_cos turned on |
-| free_flight_emulation | rig_pitch | theta_ref - theta; theta_ref' = w_ref - (theta_ref - theta_0) / T_w from theta_0, the measured angle at reset | washed-out integral of a_ref, minus (V / l) c_alpha alpha_error | accel_ref g / (l cos theta) |
+| pull_up_push_over | rig_pitch | heave_error | heave_rate_ref | accel_ref / (l cos theta_ref) (h = l sin theta, the task's geometry) |
+| forced_oscillation | rig_pitch (heave_pitch) or rig_yaw (sway_yaw) | osc_error | osc_rate_error + measured rate | A ((e'' - e w^2) sin(phi) + 2 e' w cos(phi)), A = osc_amplitude, w = 2 pi osc_frequency, envelope e(t) over the task's ``T_RAMP`` (its smooth step x^2 (3 - 2 x)) from the parser's own clock since osc_sin/osc_cos turned on |
+| free_flight_emulation | rig_pitch | theta_ref - theta; theta_ref' = w_ref - (theta_ref - theta_0) / T_w from theta_0, the measured angle at reset | washed-out integral of a_ref, minus (V / l) c_alpha alpha_error | accel_ref / (l cos theta) |
+
+The acceleration formulas are the laws' own: each is derived from the task's reference definition
+(its class docstring) and uses only the constants the task declares.
 
 Free-flight emulation: the rig matches the free Hawk's flight path when the model gimbal's vertical
 acceleration is the free Hawk's a_n (``h = l sin theta``, so ``theta'' = a_n / (l cos theta)``); its
@@ -19,10 +25,11 @@ error ``e_a`` is corrected by ``-c_alpha V e_a / l`` on the rate reference (:dat
 Arm length ``l`` is the design parameters' (``geometry.arm_length``).
 
 Runtime and design are apart (as :class:`controllers.laws.signals.SignalScales`):
-:func:`reference_constants` reads every number the parser needs from ``rig_env`` (the driven joint,
-the sensors' scales, ``g``, the oscillation's ramp time, the arm length) into
-:class:`ReferenceConstants`, plain numbers; :class:`DrivenReference` parses with numpy alone from
-them, so a deployed heave/sway law stores them (``ref_*`` entries) and never imports ``rig_env``.
+:func:`controllers.design.signals.reference_constants` reads every number the parser needs from
+``rig_env`` (the driven joint, the sensors' scales, the task's entry scales, ``G0``, the
+oscillation's ramp time, the arm length) into :class:`ReferenceConstants`, plain numbers;
+:class:`DrivenReference` parses with numpy alone from them, so a deployed heave/sway law stores them
+(``ref_*`` entries) and never imports ``rig_env``.
 """
 
 from __future__ import annotations
@@ -44,6 +51,14 @@ C_ALPHA = 2.0
 """Gain of the alpha-error correction on the rate reference, in units of V / l (hand-searched over 0.5-4 on 12 episodes, gusts off: 2 gave the lowest median emulation error, 0.72)."""
 TASKS = ("pull_up_push_over", "forced_oscillation", "free_flight_emulation")
 DRIVEN = ("rig_pitch", "rig_yaw")
+ENTRIES = {"pull_up_push_over": ("heave_error", "heave_rate_ref", "accel_ref"),
+           "forced_oscillation": ("osc_error", "osc_rate_error", "osc_sin", "osc_cos", "osc_amplitude", "osc_frequency"),
+           "free_flight_emulation": ("alpha_error", "accel_ref", "input_active")}
+"""Task entries the parser reads, per task (their scales are the task's declared ``ref_scales``)."""
+ANGLES = frozenset({"heave_error", "osc_error", "osc_amplitude", "alpha_error"})
+"""Entries in rad: applied as ``x * degrees(scale) * D`` (the unit the tasks state, deg, then to rad): the
+same rounding as the tasks' ``/ 10 deg`` stated in degrees, so the parse is bit for bit that of a
+parser with the literal degrees."""
 
 
 def check_task(spec: LoopSpec, joint: str) -> None:
@@ -68,9 +83,10 @@ class ReferenceConstants:
     | angle_scale | rad per ``<joint>_angle`` unit |
     | rate_scale | rad/s per ``<joint>_rate`` unit |
     | airspeed_scale | m/s per ``airspeed`` unit |
-    | g0 | m/s^2, the tasks' ``accel_ref`` unit |
+    | g0 | m/s^2, the tasks' standard gravity ``G0`` (``rig_env.envs.tasks.base``): the load-factor unit, recorded (the parser scales ``accel_ref`` by its declared scale, ``G0`` in every task) |
     | t_ramp | s, forced oscillation's amplitude ramp (``ForcedOscillation.T_RAMP``) |
     | arm_length | m, the design parameters' ``geometry.arm_length`` |
+    | scales | task entry name -> its unit per normalised value (the task's ``ref_scales``), for every entry of :data:`ENTRIES` |
     """
 
     joint: str
@@ -80,10 +96,11 @@ class ReferenceConstants:
     g0: float
     t_ramp: float
     arm_length: float
+    scales: Mapping[str, float]
 
     def to_data(self) -> dict[str, Any]:
-        """Artefact entries (``ref_*``), JSON values."""
-        return {f"ref_{k}": getattr(self, k) for k in self.__dataclass_fields__}
+        """Artefact entries (``ref_*``), JSON values (``ref_scales``: an object name -> number)."""
+        return {f"ref_{k}": (dict(getattr(self, k)) if k == "scales" else getattr(self, k)) for k in self.__dataclass_fields__}
 
     @classmethod
     def from_data(cls, d: Mapping[str, Any], spec: LoopSpec) -> ReferenceConstants:
@@ -101,15 +118,28 @@ class ReferenceConstants:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 raise ValueError(f"ref_{k} = {v!r}: must be a finite number > 0")
             vals[k] = float(v)
-        return cls(joint, **vals)
+        scales = d["ref_scales"]
+        need = ENTRIES[spec.task]
+        if not isinstance(scales, Mapping) or any(k not in scales for k in need):
+            raise ValueError(f"ref_scales: expected an object with the scales of {list(need)}, got {scales!r}")
+        for k in need:
+            v = scales[k]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"ref_scales[{k!r}] = {v!r}: must be a finite number > 0")
+        return cls(joint, **vals, scales={k: float(scales[k]) for k in need})
 
 
 
 
-def smooth_ramp(x: np.ndarray) -> np.ndarray:
-    """0 for x <= 0, 1 for x >= 1, ``x^2 (3 - 2 x)`` between: the tasks' ramp (``rig_env.envs.tasks.base.smooth_ramp``)."""
+def ramp_envelope(x: np.ndarray, T: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Forced oscillation's amplitude envelope at ``x`` = time since onset / ramp time ``T`` (s): (e, e' 1/s, e'' 1/s^2).
+
+    The task's envelope is its smooth step over ``T_RAMP``: ``e = s^2 (3 - 2 s)``, ``s = clip(x, 0, 1)``
+    (zero slope at both ends); the derivatives are those of that polynomial, zero for x >= 1.
+    """
     s = np.clip(x, 0.0, 1.0)
-    return s * s * (3.0 - 2.0 * s)
+    e = s * s * (3.0 - 2.0 * s)
+    return e, np.where(x < 1.0, 6.0 * x * (1.0 - x), 0.0) / T, np.where(x < 1.0, 6.0 * (1.0 - 2.0 * x), 0.0) / T**2
 
 
 class DrivenReference:
@@ -129,11 +159,9 @@ class DrivenReference:
         self._air = ix("airspeed")
         self.l = c.arm_length
         self._scale = (c.angle_scale, c.rate_scale, c.airspeed_scale)
-        self._g0, self._t_ramp = c.g0, c.t_ramp
-        cols = {"pull_up_push_over": ("heave_error", "heave_rate_ref", "accel_ref"),
-                "forced_oscillation": ("osc_error", "osc_rate_error", "osc_sin", "osc_cos", "osc_amplitude", "osc_frequency"),
-                "free_flight_emulation": ("alpha_error", "accel_ref", "input_active")}[spec.task]
-        self._c = {name: ix(name) for name in cols}
+        self._t_ramp = c.t_ramp
+        self._c = {name: ix(name) for name in ENTRIES[spec.task]}
+        self._k = {name: (math.degrees(c.scales[name]) if name in ANGLES else c.scales[name]) for name in ENTRIES[spec.task]}
         self.clock = np.zeros(self.n)  # forced oscillation: time since the oscillation started, s
         self.w_ref = np.zeros(self.n)  # free-flight emulation: washed-out references
         self.th_ref = np.zeros(self.n)
@@ -152,31 +180,28 @@ class DrivenReference:
 
     def __call__(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         th, rate = self.theta(obs)
-        c = self._c
+        c, k = self._c, self._k
         if self.spec.task == "pull_up_push_over":
-            e = obs[:, c["heave_error"]] * 10.0 * D
-            w = obs[:, c["heave_rate_ref"]] * 5.0
-            a = obs[:, c["accel_ref"]] * self._g0 / (self.l * np.cos(th + e))
+            e = obs[:, c["heave_error"]] * k["heave_error"] * D
+            w = obs[:, c["heave_rate_ref"]] * k["heave_rate_ref"]
+            a = obs[:, c["accel_ref"]] * k["accel_ref"] / (self.l * np.cos(th + e))
         elif self.spec.task == "forced_oscillation":
-            e = obs[:, c["osc_error"]] * 10.0 * D
-            w = obs[:, c["osc_rate_error"]] * 5.0 + rate
-            sn, cs = obs[:, c["osc_sin"]], obs[:, c["osc_cos"]]
+            e = obs[:, c["osc_error"]] * k["osc_error"] * D
+            w = obs[:, c["osc_rate_error"]] * k["osc_rate_error"] + rate
+            sn, cs = obs[:, c["osc_sin"]] * k["osc_sin"], obs[:, c["osc_cos"]] * k["osc_cos"]
             on = (sn != 0.0) | (cs != 0.0)
-            amp, om = obs[:, c["osc_amplitude"]] * 10.0 * D, 2.0 * math.pi * obs[:, c["osc_frequency"]]
-            T = self._t_ramp
-            x = self.clock / T
-            env, denv = smooth_ramp(x), np.where(x < 1.0, 6.0 * x * (1.0 - x), 0.0) / T
-            ddenv = np.where(x < 1.0, 6.0 * (1.0 - 2.0 * x), 0.0) / T**2
+            amp, om = obs[:, c["osc_amplitude"]] * k["osc_amplitude"] * D, 2.0 * math.pi * (obs[:, c["osc_frequency"]] * k["osc_frequency"])
+            env, denv, ddenv = ramp_envelope(self.clock / self._t_ramp, self._t_ramp)
             a = np.where(on, amp * ((ddenv - env * om**2) * sn + 2.0 * denv * om * cs), 0.0)
             self.clock = np.where(on, self.clock + self.dt, 0.0)
         else:
             V = np.maximum(obs[:, self._air] * self._scale[2], 5.0)
             self.th_ref = np.where(self.fresh, th, self.th_ref)
             self.th_base = np.where(self.fresh, th, self.th_base)
-            on = obs[:, c["input_active"]] > 0.5
-            a = np.where(on, obs[:, c["accel_ref"]] * self._g0 / (self.l * np.cos(th)), 0.0)
+            on = obs[:, c["input_active"]] * k["input_active"] > 0.5
+            a = np.where(on, obs[:, c["accel_ref"]] * k["accel_ref"] / (self.l * np.cos(th)), 0.0)
             self.w_ref = self.w_ref + self.dt * (a - self.w_ref / WASHOUT_S)
-            w = self.w_ref - self.c_alpha * (V / self.l) * obs[:, c["alpha_error"]] * 5.0 * D
+            w = self.w_ref - self.c_alpha * (V / self.l) * obs[:, c["alpha_error"]] * k["alpha_error"] * D
             e = self.th_ref - th
             self.th_ref = self.th_ref + self.dt * (w - (self.th_ref - self.th_base) / WASHOUT_S)
         self.fresh[:] = False

@@ -2,8 +2,8 @@
 
 Laws see only the observation (:class:`controllers.laws.base.LoopSpec` names its entries).  The sensor
 entries' normalisations are those of :mod:`rig_env.envs.sensors`; the task entries' are those the
-tasks document (:data:`REF_SCALES`); an entry a law does not know is ignored, and a joint without a
-reference is held at zero.
+task class declares by name (``Task.ref_scales``); an entry a law does not know is ignored, and a
+joint without a reference is held at zero.
 
 | attribute | shape | unit | from |
 |---|---|---|---|
@@ -17,8 +17,8 @@ reference is held at zero.
 | ``rate_ref[j]`` | (n,) | rad/s | ``roll_rate_ref`` / ``<j>_rate_ref``; zeros when the task gives none |
 
 Scales of task entries: the task class's ``ref_scales`` mapping (label -> unit per normalised
-value) when it has one, else :data:`REF_SCALES`.  A task entry named like a reference whose scale is
-unknown is ignored with a warning.
+value).  A task entry named like a reference whose scale the task does not declare is ignored with a
+warning.
 
 Runtime and design are apart: :func:`controllers.design.signals.signal_scales` reads every scale above from ``rig_env`` (the
 sensors, the mixer, the task) into :class:`SignalScales`, plain numbers; :class:`Signals` parses with
@@ -36,14 +36,6 @@ from typing import Any
 import numpy as np
 
 from controllers.laws.base import LoopSpec, UnsupportedTask
-
-REF_SCALES = {
-    "roll_error": math.radians(45.0),
-    "roll_rate_ref": 12.0,
-    "roll_rate_error": 12.0,
-    "roll_ref": math.radians(90.0),
-}
-"""Units per normalised task entry (rad or rad/s), as the task docstrings in ``rig_env.envs.tasks`` state."""
 
 TRACKED = ("rig_roll", "rig_pitch", "rig_yaw")
 _ERROR_LABEL = {"rig_roll": "roll_error", "rig_pitch": "rig_pitch_error", "rig_yaw": "rig_yaw_error"}

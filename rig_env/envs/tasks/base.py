@@ -78,10 +78,15 @@ class Task:
     | default_nonlinear_aero | high-incidence tables on when ``nonlinear_aero`` is ``None`` |
     | required | joints that must be free (a ``ValueError`` otherwise) |
     | ref_labels | names of the observation entries the task appends (bounds ``obs_low``/``obs_high``) |
+    | ref_scales | every appended entry by name -> its unit per normalised value (rad, rad/s, m/s^2, Hz, 1), in ``ref_labels`` order: the entry times its scale is the physical quantity the class docstring's table names (laws read them at design time) |
     | n_draws | uniforms consumed per reset |
     | display_label | what :meth:`display` returns, for plots (e.g. "roll angle, deg") |
     | display_joint | index in ``JOINTS`` of the joint :meth:`display` shows (None: a derived quantity) |
     | display_rate | (joint index, reference column) of a commanded rate to plot beside it, or None |
+
+    Named constants a control law needs to rebuild a task's reference from its observation are class
+    attributes too (e.g. ``ForcedOscillation.T_RAMP``, :data:`G0`); :meth:`driven_joint` names the rig
+    joint a heave or sway task drives.
 
     Options (``task_options`` of the configuration) are checked by :meth:`check_options`; the base
     class accepts none.  Per-episode conditions set by the environment before :meth:`reset`
@@ -96,11 +101,20 @@ class Task:
     default_nonlinear_aero: ClassVar[bool] = False
     required: ClassVar[tuple[str, ...]] = ()
     ref_labels: ClassVar[tuple[str, ...]]
+    ref_scales: ClassVar[Mapping[str, float]]
     n_draws: ClassVar[int]
     reward_range: ClassVar[tuple[float, float]] = (0.0, 1.0)
     display_label: str = "tracked quantity, deg"
     display_joint: int | None = None
     display_rate: tuple[int, int] | None = None
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """A task class that sets ``ref_labels`` must declare a scale for every one of them, in that order."""
+        super().__init_subclass__(**kwargs)
+        labels = cls.__dict__.get("ref_labels")
+        if labels is not None and tuple(getattr(cls, "ref_scales", {})) != tuple(labels):
+            raise TypeError(f"task class {cls.__name__}: ref_scales must name every entry of ref_labels {list(labels)} "
+                            f"in that order, got {list(getattr(cls, 'ref_scales', {}))}")
 
     def __init__(self, n_envs: int, free_dofs: tuple[str, ...], dt: float, episode_seconds: float, **options: Any) -> None:
         missing = [j for j in self.required if j not in free_dofs]
@@ -130,6 +144,12 @@ class Task:
     def free_dofs_for(cls, options: Mapping[str, Any]) -> tuple[str, ...]:
         """Default free joints for these options (most tasks: ``default_free_dofs``)."""
         return cls.default_free_dofs
+
+    @classmethod
+    def driven_joint(cls, options: Mapping[str, Any]) -> str | None:
+        """The rig joint whose angle the task's reference drives (heave: rig_pitch, sway: rig_yaw) with these
+        options, or None when the task drives none (the roll tasks track rig_roll; departure recovery levels the rig)."""
+        return None
 
     # ------------------------------------------------------------------ shared pieces
     def col(self, joint: str) -> int:

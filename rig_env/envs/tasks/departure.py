@@ -84,6 +84,8 @@ class DepartureRecovery(Task):
     default_nonlinear_aero = True
     required = ("model_pitch",)
     ref_labels = ("alpha_est", "alpha_excess", "level_error", "elevator_cmd")
+    ref_scales = {"alpha_est": 30.0 * D, "alpha_excess": 10.0 * D, "level_error": 30.0 * D, "elevator_cmd": 10.0 * D}
+    """Units (rad) per normalised value of the appended entries (the table above); the observation divides by them."""
     n_draws = 8 + 2
     # (low, high) of the initial angle and rate draws, deg and deg/s, JOINTS order
     IC_ANGLE = ((-30.0, 30.0), (4.0, 10.0), (0.0, 0.0), (16.0, 22.0), (-20.0, 20.0))
@@ -129,7 +131,8 @@ class DepartureRecovery(Task):
         alpha = static_alpha(q)
         level = np.hypot(wrap(q[:, 0]), q[:, 1])
         excess = np.maximum(np.abs(alpha) - ALPHA_RECOVERED, 0.0)
-        obs = np.stack([alpha / (30.0 * D), excess / (10.0 * D), level / (30.0 * D), ref[:, 0] / (10.0 * D)], axis=1)
+        sc = self.ref_scales
+        obs = np.stack([alpha / sc["alpha_est"], excess / sc["alpha_excess"], level / sc["level_error"], ref[:, 0] / sc["elevator_cmd"]], axis=1)
         return np.clip(obs, self.obs_low, self.obs_high)
 
     @staticmethod

@@ -7,6 +7,8 @@ Hawk from its own derivatives (no rig), advanced at the control rate for all env
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -196,9 +198,15 @@ class FreeFlightEmulation(Task):
     required = ("rig_pitch", "model_pitch")
     ref_labels = ("alpha_error", "q_ref", "q_error", "accel_ref", "elevator_cmd", "input_active")
     ref_scales = {"alpha_error": 5.0 * D, "q_ref": 1.0, "q_error": 1.0, "accel_ref": G0, "elevator_cmd": 5.0 * D, "input_active": 1.0}
-    """Units (rad, rad/s, m/s^2, -) per normalised value of the appended entries (the table above), for the laws."""
+    """Units (rad, rad/s, m/s^2, -) per normalised value of the appended entries (the table above); the observation
+    divides by them."""
     n_draws = 3 + 5
     FIT_LIMIT = 0.5
+
+    @classmethod
+    def driven_joint(cls, options: Mapping[str, Any]) -> str:
+        """rig_pitch: the rig emulates the free Hawk's heave with it."""
+        return "rig_pitch"
 
     def __init__(self, n_envs: int, free_dofs: tuple[str, ...], dt: float, episode_seconds: float) -> None:
         super().__init__(n_envs, free_dofs, dt, episode_seconds)
@@ -256,13 +264,14 @@ class FreeFlightEmulation(Task):
         alpha = th + angles[:, self.cm] - gamma
         q = thd + rates[:, self.cm]
         on = ref[:, 4] > 0.5
+        sc = self.ref_scales
         obs = np.stack([
-            np.where(on, ref[:, 0] - (alpha - ref[:, 5]), 0.0) / (5.0 * D),
-            ref[:, 1],
-            ref[:, 1] - q,
-            ref[:, 2] / G0,
-            ref[:, 3] / (5.0 * D),
-            ref[:, 4],
+            np.where(on, ref[:, 0] - (alpha - ref[:, 5]), 0.0) / sc["alpha_error"],
+            ref[:, 1] / sc["q_ref"],
+            (ref[:, 1] - q) / sc["q_error"],
+            ref[:, 2] / sc["accel_ref"],
+            ref[:, 3] / sc["elevator_cmd"],
+            ref[:, 4] / sc["input_active"],
         ], axis=1)
         return np.clip(obs, self.obs_low, self.obs_high)
 

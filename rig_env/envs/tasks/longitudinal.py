@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -71,8 +73,17 @@ class PullUpPushOver(Task):
     default_episode_seconds = 8.0
     required = ("rig_pitch",)
     ref_labels = ("heave_error", "heave_rate_ref", "heave_rate_error", "accel_ref")
+    ref_scales = {"heave_error": 10.0 * D, "heave_rate_ref": 5.0, "heave_rate_error": 5.0, "accel_ref": G0}
+    """Units (rad, rad/s, m/s^2) per normalised value of the appended entries (the table above); the observation
+    divides by them.  A law rebuilding theta_ref'' = a_n / (l cos theta_ref) from ``accel_ref`` uses the
+    gimbal's geometry ``h = l sin theta`` of the class docstring."""
     n_draws = 5 + 5
     T_LEAD = 1.0
+
+    @classmethod
+    def driven_joint(cls, options: Mapping[str, Any]) -> str:
+        """rig_pitch: the heave joint."""
+        return "rig_pitch"
 
     def __init__(self, n_envs: int, free_dofs: tuple[str, ...], dt: float, episode_seconds: float) -> None:
         super().__init__(n_envs, free_dofs, dt, episode_seconds)
@@ -105,9 +116,10 @@ class PullUpPushOver(Task):
         return np.stack([th, (v1 - v2) / (self.l * np.cos(th)), a1 - a2], axis=1)
 
     def observation(self, ref: np.ndarray, angles: np.ndarray, rates: np.ndarray) -> np.ndarray:
-        e = (ref[:, 0] - angles[:, self.rp]) / (10.0 * D)
-        er = (ref[:, 1] - rates[:, self.rp]) / 5.0
-        obs = np.stack([e, ref[:, 1] / 5.0, er, ref[:, 2] / G0], axis=1)
+        sc = self.ref_scales
+        e = (ref[:, 0] - angles[:, self.rp]) / sc["heave_error"]
+        er = (ref[:, 1] - rates[:, self.rp]) / sc["heave_rate_error"]
+        obs = np.stack([e, ref[:, 1] / sc["heave_rate_ref"], er, ref[:, 2] / sc["accel_ref"]], axis=1)
         return np.clip(obs, self.obs_low, self.obs_high)
 
     def reward(self, q, qd, ref, a, a_prev):

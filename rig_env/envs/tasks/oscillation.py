@@ -58,8 +58,14 @@ class ForcedOscillation(Task):
     default_airspeed = (18.0, 22.0)
     default_episode_seconds = 10.0
     ref_labels = ("osc_error", "osc_rate_error", "osc_sin", "osc_cos", "osc_amplitude", "osc_frequency")
+    ref_scales = {"osc_error": 10.0 * D, "osc_rate_error": 5.0, "osc_sin": 1.0, "osc_cos": 1.0, "osc_amplitude": 10.0 * D,
+                  "osc_frequency": 1.0}
+    """Units (rad, rad/s, -, rad, Hz) per normalised value of the appended entries (the table above); the
+    observation divides by them."""
     n_draws = 3 + 5
     T_LEAD, T_RAMP = 0.5, 1.0
+    """s: the oscillation starts T_LEAD after the episode's start and its envelope e(t) rises over T_RAMP
+    (``smooth_ramp``); a law rebuilding theta_ref'' from osc_sin / osc_cos times the envelope from their onset."""
 
     @classmethod
     def check_options(cls, options: Mapping[str, Any]) -> dict[str, Any]:
@@ -74,6 +80,11 @@ class ForcedOscillation(Task):
     @classmethod
     def free_dofs_for(cls, options: Mapping[str, Any]) -> tuple[str, ...]:
         return AXES[cls.check_options(options)["axis"]][1]
+
+    @classmethod
+    def driven_joint(cls, options: Mapping[str, Any]) -> str:
+        """rig_pitch for ``axis="heave_pitch"`` (the default), rig_yaw for ``"sway_yaw"``."""
+        return AXES[cls.check_options(options)["axis"]][0]
 
     def __init__(self, n_envs: int, free_dofs: tuple[str, ...], dt: float, episode_seconds: float, **options: Any) -> None:
         super().__init__(n_envs, free_dofs, dt, episode_seconds, **options)
@@ -130,13 +141,14 @@ class ForcedOscillation(Task):
 
     def observation(self, ref: np.ndarray, angles: np.ndarray, rates: np.ndarray) -> np.ndarray:
         on = ref[:, 2] > 0.0
+        sc = self.ref_scales
         obs = np.stack([
-            (ref[:, 0] - angles[:, self.c]) / (10.0 * D),
-            (ref[:, 1] - rates[:, self.c]) / 5.0,
-            np.where(on, np.sin(ref[:, 2]), 0.0),
-            np.where(on, np.cos(ref[:, 2]), 0.0),
-            ref[:, 3] / (10.0 * D),
-            ref[:, 4],
+            (ref[:, 0] - angles[:, self.c]) / sc["osc_error"],
+            (ref[:, 1] - rates[:, self.c]) / sc["osc_rate_error"],
+            np.where(on, np.sin(ref[:, 2]), 0.0) / sc["osc_sin"],
+            np.where(on, np.cos(ref[:, 2]), 0.0) / sc["osc_cos"],
+            ref[:, 3] / sc["osc_amplitude"],
+            ref[:, 4] / sc["osc_frequency"],
         ], axis=1)
         return np.clip(obs, self.obs_low, self.obs_high)
 

@@ -105,6 +105,9 @@ class VelocityVectorRoll(Task):
     default_episode_seconds = 8.0
     required = ("rig_roll",)
     ref_labels = ("roll_error", "roll_rate_ref", "roll_rate_error")
+    ref_scales = {"roll_error": 45.0 * D, "roll_rate_ref": 12.0, "roll_rate_error": 12.0}
+    """Units (rad, rad/s) per normalised value of the appended entries (the table above); the observation divides
+    by them (``roll_rate_ref`` and ``roll_rate_error`` share one scale in the kernel: ``roll_rate_error``'s)."""
     n_draws = 5 + 5  # 4 reference draws (+1 spare), 5 initial angles
     T_START, T_RAMP = 0.5, 0.5
 
@@ -132,7 +135,8 @@ class VelocityVectorRoll(Task):
 
     def observation(self, ref: np.ndarray, angles: np.ndarray, rates: np.ndarray) -> np.ndarray:
         out = np.empty((ref.shape[0], 3))
-        _roll_observation(ref, angles, rates, self.meas_roll, 45.0 * D, 12.0, self.obs_low, self.obs_high, out)
+        sc = self.ref_scales
+        _roll_observation(ref, angles, rates, self.meas_roll, sc["roll_error"], sc["roll_rate_error"], self.obs_low, self.obs_high, out)
         return out
 
     def reward(self, q, qd, ref, a, a_prev):
@@ -178,6 +182,8 @@ class BankToBank(Task):
     default_episode_seconds = 17.0
     required = ("rig_roll",)
     ref_labels = ("roll_error", "roll_ref")
+    ref_scales = {"roll_error": 45.0 * D, "roll_ref": 90.0 * D}
+    """Units (rad) per normalised value of the appended entries (the table above); the observation divides by them."""
     T_START, T_SEG = 1.0, 4.0
     N_SEG = 8  # enough for 33 s; later steps (and a step due at the time limit) repeat the last bank
     n_draws = 2 + N_SEG + 5
@@ -211,8 +217,9 @@ class BankToBank(Task):
         return np.where(k < 0, self.phi0, bank)[:, None]
 
     def observation(self, ref: np.ndarray, angles: np.ndarray, rates: np.ndarray) -> np.ndarray:
-        e = (ref[:, 0] - angles[:, self.meas_roll]) / (45.0 * D)
-        return np.clip(np.stack([e, ref[:, 0] / (90.0 * D)], axis=1), self.obs_low, self.obs_high)
+        sc = self.ref_scales
+        e = (ref[:, 0] - angles[:, self.meas_roll]) / sc["roll_error"]
+        return np.clip(np.stack([e, ref[:, 0] / sc["roll_ref"]], axis=1), self.obs_low, self.obs_high)
 
     def reward(self, q, qd, ref, a, a_prev):
         c = ((ref[:, 0] - q[:, 0]) / (15 * D)) ** 2
