@@ -97,6 +97,9 @@ class Controller(abc.ABC):
     kind: ClassVar[str]
     artefact_kind: ClassVar[str]
     """The law's kind in the one file format (:mod:`controllers.laws.artefact`); default: its ``kind``."""
+    built_from_spec: ClassVar[bool] = True
+    """Whether ``make_controller(kind, spec)`` builds it from the loop spec alone (designed, or a shipped policy);
+    False for a law that takes its numbers as arguments (LinearLaw's gains), which the comparison leaves out."""
 
     def __init__(self, spec: LoopSpec, num_envs: int = 1) -> None:
         if not isinstance(num_envs, (int, np.integer)) or isinstance(num_envs, bool) or num_envs < 1:

@@ -35,6 +35,7 @@ class LinearLaw(Controller):
     """
 
     artefact_kind = "linear"
+    built_from_spec = False  # its gains are arguments (make_controller("linear", spec, K=...))
 
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, K: np.ndarray, obs0: np.ndarray | None = None,
                  u0: np.ndarray | None = None, rate_limit: np.ndarray | None = None) -> None:
