@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers.laws.base import LoopSpec
-from controllers.deploy import artefact as A
+from controllers.laws.base import LAWS, LoopSpec, register
+from controllers.laws import artefact as A
 from controllers.deploy import protocol as pr
 from controllers.deploy.framelog import read_log
 from controllers.laws.linear import LinearLaw
@@ -292,7 +292,7 @@ def test_scripts_exit_nonzero_on_refused_artefact(law_file, tmp_path):
 
 def test_runtime_imports_no_torch_nor_sb3(law_file):
     """Loading and running a law never imports torch or stable-baselines3 (the other heavy modules are reported)."""
-    code = ("import sys, json; from controllers.deploy.artefact import load; import controllers.laws.linear; "
+    code = ("import sys, json; from controllers.laws.artefact import load; import controllers.laws.linear; "
             f"law = load({str(law_file)!r}).controller(); import numpy as np; law.act(np.zeros((1, law.spec.obs_dim))); "
             "print(json.dumps(sorted({m.split('.')[0] for m in sys.modules} & {'torch', 'stable_baselines3', 'gymnasium', 'numba', 'rig_env', 'scipy'})))")
     r = subprocess.run([sys.executable, "-c", code], env=ENV, capture_output=True, text=True, timeout=60)
@@ -490,12 +490,14 @@ def test_controller_failure_faults_and_latches(tmp_path, law_file, failure, faul
                 time.sleep(0.8 * self.spec.dt)  # longer than half a period: an overrun
             return super().act(obs)
 
-    A.register_kind(Failing.artefact_kind, lambda c: {"K": c.K, "obs0": c.obs0, "u0": c.u0, "rate_limit": c.rate_limit},
-                    lambda d, spec: Failing(spec, 1, K=d["K"], obs0=d["obs0"], u0=d["u0"], rate_limit=d["rate_limit"]))
-    base = A.load(law_file)
-    A.save(A.from_controller(Failing(base.spec, 1, K=base.data["K"]), base.sensors, base.limits), tmp_path / "bad.json")
-    Failing.calls = 0
-    loop, rig, rec, log = fly(tmp_path, tmp_path / "bad.json", 2.0)
+    register(Failing.artefact_kind)(Failing)  # a registered law with its own artefact_kind is loadable (LinearLaw's to_data / from_data)
+    try:
+        base = A.load(law_file)
+        A.save(A.from_controller(Failing(base.spec, 1, K=base.data["K"]), base.sensors, base.limits), tmp_path / "bad.json")
+        Failing.calls = 0
+        loop, rig, rec, log = fly(tmp_path, tmp_path / "bad.json", 2.0)
+    finally:
+        LAWS.pop(Failing.artefact_kind)  # no test law left for the comparison's kinds
     assert loop["final_state"] == "FAULT" and loop["faults"] == [fault]
     k = np.flatnonzero(log["state"] == FAULT)[0]
     assert 40 <= k <= 42 and log["mode"][k] == pr.MODE_SAFE and np.all(log["state"][k:] == FAULT)

@@ -14,7 +14,7 @@ import time
 import numpy as np
 import pytest
 
-from controllers.deploy import artefact as A
+from controllers.laws import artefact as A
 from controllers.deploy import protocol as pr
 from controllers.design.linear import roll_tracking
 from controllers.deploy.loop import ACTIVE, F_STUCK, FAULT, LoopConfig, RigLoop

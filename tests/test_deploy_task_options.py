@@ -8,7 +8,7 @@ import json
 import pytest
 
 from controllers.deploy import cli
-from controllers.deploy.artefact import load
+from controllers.laws.artefact import load
 
 
 def test_task_option_values_are_json_or_plain_strings():

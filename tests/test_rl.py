@@ -3,6 +3,7 @@ the shipped policies reproduce their recorded metrics, and a short training run 
 
 from __future__ import annotations
 
+import base64
 import json
 import pickle
 import subprocess
@@ -15,13 +16,9 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 from controllers import LoopSpec, make_controller
-from controllers.laws.rl import (
-    POLICY_DIR,
-    PolicyFileError,
-    checksum,
-    load_policy,
-    save_policy,
-)
+from controllers.laws import artefact as A
+from controllers.laws.artefact import ArtefactError, load, save
+from controllers.laws.rl import POLICY_DIR, PolicyFileError
 from controllers.design.rl_export import evaluate, export_sb3
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -53,7 +50,8 @@ def _tiny_model(algo: str, normalize: bool, seed: int = 3):
 def exported(request, tmp_path_factory):
     algo, normalize = request.param
     model, vn, spec = _tiny_model(algo, normalize)
-    path = save_policy(export_sb3(model, spec, vn), tmp_path_factory.mktemp(algo) / "policy.json")
+    path = tmp_path_factory.mktemp(algo) / "policy.json"
+    save(export_sb3(model, spec, vn), path)
     return algo, model, vn, spec, path
 
 
@@ -82,7 +80,7 @@ def test_runtime_matches_sb3_predict(exported):
 def test_file_is_plain_json_and_small(exported):
     path = exported[-1]
     payload = json.loads(path.read_text())
-    assert payload["sha256"] == checksum(payload)
+    assert payload["sha256"] == _checksum(payload)
     assert path.stat().st_size < 100_000
 
 
@@ -91,8 +89,8 @@ def test_runtime_never_imports_torch_or_sb3_and_never_unpickles(exported, monkey
     code = (
         "import sys, numpy as np\n"
         "from controllers import LoopSpec, make_controller\n"
-        "from controllers.laws.rl import load_policy\n"
-        f"d = load_policy({str(path)!r})\n"
+        "from controllers.laws.artefact import load\n"
+        f"d = load({str(path)!r})\n"
         f"law = make_controller({algo!r}, d.spec, 3, path={str(path)!r})\n"
         "law.act(np.zeros((3, d.spec.obs_dim)))\n"
         "bad = [m for m in ('torch', 'stable_baselines3') if m in sys.modules]\n"
@@ -107,14 +105,27 @@ def test_runtime_never_imports_torch_or_sb3_and_never_unpickles(exported, monkey
     monkeypatch.setattr(pickle, "load", forbidden)
     monkeypatch.setattr(pickle, "loads", forbidden)
     monkeypatch.setattr(pickle, "Unpickler", forbidden)
-    load_policy(path)
+    load(path)
+
+
+def _checksum(doc: dict) -> str:
+    import hashlib
+
+    return hashlib.sha256(A.canonical({k: doc[k] for k in A._BODY_KEYS})).hexdigest()
 
 
 def _rewrite(payload: dict, path: Path, fix_checksum: bool = True) -> Path:
     if fix_checksum:
-        payload["sha256"] = checksum(payload)
+        payload["sha256"] = _checksum(payload)
     path.write_text(json.dumps(payload))
     return path
+
+
+def _edit(payload: dict, name: str, f) -> dict:
+    """``payload`` with its array ``name`` replaced by ``f(array)`` (float64, re-encoded)."""
+    a = np.frombuffer(base64.b64decode(payload["arrays"][name]["data"]), dtype="<f8").reshape(payload["arrays"][name]["shape"])
+    payload["arrays"][name] = A._encode_array(name, np.asarray(f(a.copy()), dtype=np.float64))
+    return payload
 
 
 def test_refuses_tampered_truncated_and_malformed_files(exported, tmp_path):
@@ -122,40 +133,38 @@ def test_refuses_tampered_truncated_and_malformed_files(exported, tmp_path):
     text = path.read_text()
     payload = json.loads(text)
 
-    tampered = json.loads(text)
-    tampered["network"]["layers"][0]["bias"][0] += 1e-3
-    with pytest.raises(PolicyFileError, match="sha256"):
-        load_policy(_rewrite(tampered, tmp_path / "tampered.json", fix_checksum=False))
+    last = max(int(k.split("_")[1]) for k in payload["arrays"] if k.startswith("bias_"))
+
+    tampered = _edit(json.loads(text), "bias_0", lambda b: b + np.eye(1, b.size)[0] * 1e-3)
+    with pytest.raises(ArtefactError, match="sha256"):
+        load(_rewrite(tampered, tmp_path / "tampered.json", fix_checksum=False))
 
     (tmp_path / "trunc.json").write_text(text[: len(text) // 2])
-    with pytest.raises(PolicyFileError, match="truncated"):
-        load_policy(tmp_path / "trunc.json")
+    with pytest.raises(ArtefactError, match="truncated"):
+        load(tmp_path / "trunc.json")
 
-    shape = json.loads(text)
-    shape["network"]["layers"][0]["weight"] = [row[:-1] for row in shape["network"]["layers"][0]["weight"]]
-    with pytest.raises(PolicyFileError, match=r"layers\[0\]\.weight has shape"):
-        load_policy(_rewrite(shape, tmp_path / "shape.json"))
+    shape = _edit(json.loads(text), "weight_0", lambda W: W[:, :-1])
+    with pytest.raises(ArtefactError, match=r"weight_0 has shape"):
+        load(_rewrite(shape, tmp_path / "shape.json"))
 
-    chain = json.loads(text)
-    chain["network"]["layers"][-1]["bias"] = chain["network"]["layers"][-1]["bias"][:-1]
-    with pytest.raises(PolicyFileError, match=r"bias has shape"):
-        load_policy(_rewrite(chain, tmp_path / "chain.json"))
+    chain = _edit(json.loads(text), f"bias_{last}", lambda b: b[:-1])
+    with pytest.raises(ArtefactError, match=r"bias_\d+ has shape"):
+        load(_rewrite(chain, tmp_path / "chain.json"))
 
-    nonfinite = text.replace(json.dumps(payload["network"]["layers"][0]["bias"][0]), "NaN", 1)
-    (tmp_path / "nan.json").write_text(nonfinite)
-    with pytest.raises(PolicyFileError):
-        load_policy(tmp_path / "nan.json")
+    nonfinite = json.loads(text)  # a NaN bias, written past the encoder (which refuses it)
+    nonfinite["arrays"]["bias_0"]["data"] = base64.b64encode(np.full(nonfinite["arrays"]["bias_0"]["shape"], np.nan).tobytes()).decode()
+    with pytest.raises(ArtefactError):
+        load(_rewrite(nonfinite, tmp_path / "nan.json"))
 
     version = json.loads(text)
     version["format_version"] = 99
-    with pytest.raises(PolicyFileError, match="format_version"):
-        load_policy(_rewrite(version, tmp_path / "version.json"))
+    with pytest.raises(ArtefactError, match="format_version"):
+        load(_rewrite(version, tmp_path / "version.json"))
 
-    if payload["obs_norm"] is not None:
-        var = json.loads(text)
-        var["obs_norm"]["var"][0] = -1.0
-        with pytest.raises(PolicyFileError, match="var >= 0"):
-            load_policy(_rewrite(var, tmp_path / "var.json"))
+    if payload["params"]["obs_norm"] is not None:
+        var = _edit(json.loads(text), "obs_var", lambda v: np.where(np.arange(v.size) == 0, -1.0, v))
+        with pytest.raises(ArtefactError, match="var >= 0"):
+            load(_rewrite(var, tmp_path / "var.json"))
 
     other = {"ppo": "sac", "sac": "ppo"}[algo]
     with pytest.raises(PolicyFileError, match=f"holds a {algo} policy"):
@@ -276,12 +285,12 @@ SHIPPED = sorted(POLICY_DIR.glob("*.json"))
 def test_shipped_policy_reproduces_its_recorded_metrics(path):
     from rig_env.envs import RigVectorEnv
 
-    data = load_policy(path)
-    rec = data.provenance["final_eval"]
-    spec = LoopSpec.from_env(RigVectorEnv(1, task=data.spec.task, **data.env_overrides))
-    law = make_controller(data.kind, spec, rec["episodes"])  # the shipped file for this task and kind
+    art = load(path)
+    rec, overrides = art.provenance["final_eval"], art.provenance["env_overrides"]
+    spec = LoopSpec.from_env(RigVectorEnv(1, task=art.spec.task, **overrides))
+    law = make_controller(art.kind, spec, rec["episodes"])  # the shipped file for this task and kind
     assert law.path.resolve() == path.resolve()
-    got = evaluate(law, data.env_overrides, seed=rec["seed"])
+    got = evaluate(law, overrides, seed=rec["seed"])
     assert got["success_rate"] == pytest.approx(rec["success_rate"], abs=1e-9)
     assert got["rms_error_deg"] == pytest.approx(rec["rms_error_deg"], rel=1e-6)
     assert got["mean_return"] == pytest.approx(rec["mean_return"], rel=1e-6)
@@ -289,7 +298,7 @@ def test_shipped_policy_reproduces_its_recorded_metrics(path):
 
 
 def test_policies_are_shipped_for_both_tasks():
-    tasks = {load_policy(p).spec.task for p in SHIPPED}
+    tasks = {load(p).spec.task for p in SHIPPED}
     assert {"velocity_vector_roll", "bank_to_bank"} <= tasks
 
 
@@ -303,8 +312,8 @@ def test_short_ppo_run_improves_the_return(tmp_path):
               "--eval-episodes", "8", "--final-episodes", "32", "--no-stop"]
     assert main(common + ["--timesteps", "1", "--out", str(tmp_path / "t0")]) == 0
     assert main(common + ["--timesteps", "400000", "--out", str(tmp_path / "t1")]) == 0
-    before = load_policy(tmp_path / "t0" / "policy.json").provenance["final_eval"]
-    after = load_policy(tmp_path / "t1" / "policy.json").provenance["final_eval"]
+    before = load(tmp_path / "t0" / "policy.json").provenance["final_eval"]
+    after = load(tmp_path / "t1" / "policy.json").provenance["final_eval"]
     # one update: about 0.06 of the maximum return (79.8 of 1320); 400k steps: about 0.55 (RESULTS.md, "RL training")
     assert after["mean_return"] > before["mean_return"] + 0.1 * after["max_return"], (before, after)
     assert (tmp_path / "t1" / "curve.png").is_file() and (tmp_path / "t1" / "evaluations.npz").is_file()

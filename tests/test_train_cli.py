@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from controllers.evaluation.evaluate import MODES
-from controllers.laws.rl import load_policy
+from controllers.laws.artefact import load
 from controllers.design.rl_train import main, parse_args
 
 TINY = ["--timesteps", "1", "--eval-every", "100000", "--eval-episodes", "4", "--final-episodes", "8"]
@@ -51,11 +51,11 @@ def test_two_seeds_under_the_comparison_conditions(tmp_path):
     expected.update(turbulence=0.02, airspeed=[16, 24])
     finals = []
     for seed in (3, 5):
-        data = load_policy(tmp_path / f"s{seed}" / "policy.json")
-        assert data.provenance["seed"] == seed
-        assert data.env_overrides == expected
-        assert data.provenance["final_eval"]["seed"] == seed + 20_000
-        finals.append(data.provenance["final_eval"])
+        prov = load(tmp_path / f"s{seed}" / "policy.json").provenance  # the policy is a rig-law artefact, the training record its provenance
+        assert prov["seed"] == seed
+        assert prov["env_overrides"] == expected
+        assert prov["final_eval"]["seed"] == seed + 20_000
+        finals.append(prov["final_eval"])
     for m in ("success_rate", "rms_error_deg", "mean_return"):
         v = np.array([f[m] for f in finals])
         assert summary["final_eval"][m]["mean"] == pytest.approx(v.mean(), rel=1e-12)

@@ -4,6 +4,11 @@
     rig-deploy run --law FILE --rig udp://HOST:PORT [--rate 80] [--arm] [--duration S] [--log PATH] [--key-file F] [--stuck-frames 32]
     rig-deploy sim-rig --port PORT [--task NAME] [--task-option KEY=VALUE ...] [--rate 80] [--duration S] [--loss P] [--blackout T0 DUR] ...
     rig-deploy verify --law FILE [--key-file F]
+    rig-deploy convert-policy OLD NEW [--key-file F]
+
+``convert-policy`` rewrites a policy file of the earlier separate format (``rig_env.rl_policy``) as the
+rig-law artefact every law now uses (:mod:`controllers.deploy.convert`); loading an old file names
+this command.
 
 Exit status: 0 success; 2 bad arguments or a refused artefact (the message names what failed);
 3 the run ended in FAULT.  ``run`` arms on SIGUSR1, disarms on SIGUSR2, stops on SIGINT / SIGTERM.
@@ -19,7 +24,7 @@ from pathlib import Path
 from typing import Any, Sequence
 from urllib.parse import urlparse
 
-from controllers.deploy.artefact import ArtefactError, load
+from controllers.laws.artefact import ArtefactError, load
 
 EXIT_REFUSED, EXIT_FAULT = 2, 3
 
@@ -64,14 +69,13 @@ def task_options(pairs: Sequence[str] | None) -> dict[str, Any]:
 def cmd_export(a: argparse.Namespace) -> int:
     import controllers  # noqa: F401  (registers the built-in laws and their artefact kinds)
     from controllers import CONTROLLERS, LoopSpec, make_controller
-    from controllers.deploy import artefact as art
+    from controllers.laws import artefact as art
     from controllers.design.linear import roll_tracking
     from rig_env.envs import RigVectorEnv
 
     env = RigVectorEnv(1, task=a.task, control_rate=a.rate, task_options=task_options(a.task_option))
     spec = LoopSpec.from_env(env)
-    c = env.config
-    sensors = {"rate_filter_hz": c.rate_filter_hz, "link_delay_steps": c.link_delay_steps, "quantise": c.quantise, "pot_bits": c.pot_bits, "encoder_bits": c.encoder_bits}
+    sensors = art.sensors_of(env.config)
     kinds = sorted(set(CONTROLLERS) | {"linear"})
     if a.controller == "linear":
         ctrl = roll_tracking(spec, *a.gains)
@@ -92,6 +96,14 @@ def cmd_export(a: argparse.Namespace) -> int:
 def cmd_verify(a: argparse.Namespace) -> int:
     art = load(a.law, _key(a.key_file), require_signature=a.key_file is not None)
     print(json.dumps({"ok": True, "kind": art.kind, "task": art.spec.task, "rate_hz": 1 / art.spec.dt, "sha256": art.sha256, "provenance": art.provenance}, indent=1))
+    return 0
+
+
+def cmd_convert_policy(a: argparse.Namespace) -> int:
+    from controllers.deploy.convert import convert_policy_file
+
+    digest = convert_policy_file(a.old, a.new, _key(a.key_file))
+    print(f"wrote {a.new}: rig-law artefact of {a.old}, sha256 {digest}")
     return 0
 
 
@@ -148,7 +160,7 @@ def parser() -> argparse.ArgumentParser:
     e.add_argument("--task-option", action="append", metavar="KEY=VALUE", help="a task option (repeatable), e.g. axis=sway_yaw for forced_oscillation")
     e.add_argument("--out", required=True)
     e.add_argument("--rate", type=float, default=80.0, help="control rate, Hz")
-    e.add_argument("--policy", help="ppo, sac: a policy file from rig train (default: the shipped controllers/policies/<task>_<kind>.json)")
+    e.add_argument("--policy", help="ppo, sac: a policy artefact from rig train (default: the shipped controllers/policies/<task>_<kind>.json)")
     e.add_argument("--gains", type=float, nargs=3, default=(2.0, 1.0, 1.0), metavar=("KP", "KD", "KFF"), help="linear: roll-tracking gains")
     e.add_argument("--key-file", help="sign with the HMAC key in this file")
     e.add_argument("--notes", default="")
@@ -157,6 +169,11 @@ def parser() -> argparse.ArgumentParser:
     v.add_argument("--law", required=True)
     v.add_argument("--key-file")
     v.set_defaults(func=cmd_verify)
+    c = sub.add_parser("convert-policy", help="convert an old-format policy file (rig_env.rl_policy) to a rig-law artefact")
+    c.add_argument("old")
+    c.add_argument("new")
+    c.add_argument("--key-file", help="sign with the HMAC key in this file")
+    c.set_defaults(func=cmd_convert_policy)
     r = sub.add_parser("run", help="fly a law on a rig")
     r.add_argument("--law", required=True)
     r.add_argument("--rig", required=True, help="udp://HOST:PORT")

@@ -70,7 +70,7 @@ from typing import Any
 import numpy as np
 
 from controllers.deploy import protocol as pr
-from controllers.deploy.artefact import Artefact
+from controllers.laws.artefact import Artefact
 from controllers.deploy.framelog import FrameLog
 from controllers.deploy.stuck import StuckDetector
 from rig_env.envs.observation import labels, observe, task_for_seed

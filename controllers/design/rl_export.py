@@ -1,10 +1,13 @@
-"""From a trained stable-baselines3 model to the plain-data policy of :mod:`controllers.laws.rl`, and its evaluation.
+"""From a trained stable-baselines3 model to the rig-law artefact of a PPO/SAC law, and its evaluation.
 
 ``export_sb3`` reads the actor's weights, the VecNormalize statistics and the action space off the
 live SB3 objects (it calls their methods; it imports stable-baselines3 only to check classes, and
-only when called).  ``evaluate`` is the recorded evaluation whose numbers go into a policy's
-provenance and which ``tests/test_rl.py`` reruns: any :class:`Controller` on ``law.num_envs`` seeded
-episodes of a :class:`rig_env.envs.RigVectorEnv`.
+only when called) and returns the :class:`~controllers.laws.artefact.Artefact` that
+:func:`controllers.laws.artefact.save` writes (``rig train`` writes ``policy.json`` this way, then adds
+the training record to its provenance).  The data is the runtime's (:mod:`controllers.laws.rl`): the
+float32 weights as float64 arrays of the same values.  ``evaluate`` is the recorded evaluation whose
+numbers go into a policy's provenance and which ``tests/test_rl.py`` reruns: any :class:`Controller`
+on ``law.num_envs`` seeded episodes of a :class:`rig_env.envs.RigVectorEnv`.
 
 Only what the runtime reproduces exactly is exported; anything else is a ValueError naming it:
 
@@ -21,21 +24,9 @@ from typing import Any
 
 import numpy as np
 
+from controllers.laws.artefact import Artefact, _check_body, _body, default_limits, provenance as file_provenance, sensors_of
 from controllers.laws.base import Controller, LoopSpec
-from controllers.laws.rl import FORMAT, FORMAT_VERSION, POSTPROCESS
-
-
-def encode(a: Any) -> list:
-    """Float32 array as nested lists of the shortest decimals that read back to the same float32 values.
-
-    JSON carries float64; each value is written as the shortest float32 decimal when that parses back
-    to the identical float32, else as the exact float64 of the float32 value (always exact).
-    """
-    a32 = np.asarray(a, dtype=np.float32)
-    short = np.array([float(str(v)) for v in a32.ravel()], dtype=np.float64)
-    exact = a32.ravel().astype(np.float64)
-    same = short.astype(np.float32) == a32.ravel()
-    return np.where(same, short, exact).reshape(a32.shape).tolist()
+from controllers.laws.rl import POSTPROCESS, parse_data
 
 
 def _sequential_layers(seq: Any, where: str) -> tuple[list[tuple[np.ndarray, np.ndarray]], set[str]]:
@@ -63,11 +54,14 @@ def export_sb3(
     vecnormalize: Any | None = None,
     env_overrides: dict[str, Any] | None = None,
     provenance: dict[str, Any] | None = None,
-) -> dict[str, Any]:
-    """The policy of a trained SB3 PPO/SAC ``model`` as a policy-file payload (see ``controllers.laws.rl``).
+) -> Artefact:
+    """The policy of a trained SB3 PPO/SAC ``model`` as a rig-law artefact of kind "ppo" / "sac".
 
     vecnormalize: the training ``VecNormalize`` (its observation statistics are shipped) or None.
-    Pass the payload to :func:`controllers.laws.rl.save_policy`.
+    env_overrides: the environment settings it was trained with (recorded in the provenance; the
+    sensor layout and output limits are those of ``RigVectorEnv(1, task=spec.task, **env_overrides)``).
+    provenance: the training record (merged over the default provenance).
+    Write it with :func:`controllers.laws.artefact.save`.
     """
     from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.distributions import DiagGaussianDistribution
@@ -101,30 +95,29 @@ def export_sb3(
     if tuple(space.shape) != (spec.n_actions,) or tuple(model.observation_space.shape) != (spec.obs_dim,):
         raise ValueError(f"{kind} export: model spaces {model.observation_space.shape} -> {space.shape} do not match the loop spec")
 
-    obs_norm = None
+    overrides = dict(env_overrides or {})
+    data: dict[str, Any] = {"activation": acts.pop() if acts else "tanh", "postprocess": POSTPROCESS[kind], "obs_norm": None,
+                            "action_low": _f64(space.low), "action_high": _f64(space.high)}
+    for i, (W, b) in enumerate(layers):
+        data[f"weight_{i}"], data[f"bias_{i}"] = _f64(W), _f64(b)
     if vecnormalize is not None and vecnormalize.norm_obs:
         rms = vecnormalize.obs_rms
-        obs_norm = {"mean": np.asarray(rms.mean, dtype=np.float64).tolist(), "var": np.asarray(rms.var, dtype=np.float64).tolist(),
-                    "clip_obs": float(vecnormalize.clip_obs), "epsilon": float(vecnormalize.epsilon)}
-    payload = {
-        "format": FORMAT,
-        "format_version": FORMAT_VERSION,
-        "kind": kind,
-        "loop_spec": {
-            "task": spec.task, "free_dofs": list(spec.free_dofs), "obs_labels": list(spec.obs_labels),
-            "action_names": list(spec.action_names), "dt": spec.dt, "airspeed_range": list(spec.airspeed_range),
-            "action_scale_deg": spec.action_scale_deg,
-        },
-        "env_overrides": dict(env_overrides or {}),
-        "network": {
-            "activation": acts.pop() if acts else "tanh",
-            "layers": [{"weight": encode(W), "bias": encode(b)} for W, b in layers],
-        },
-        "obs_norm": obs_norm,
-        "action": {"postprocess": POSTPROCESS[kind], "low": encode(space.low), "high": encode(space.high)},
-        "provenance": dict(provenance or {}),
-    }
-    return payload
+        data.update(obs_mean=np.array(rms.mean, dtype=np.float64), obs_var=np.array(rms.var, dtype=np.float64),
+                    obs_norm={"clip_obs": float(vecnormalize.clip_obs), "epsilon": float(vecnormalize.epsilon)})
+    parse_data(kind, data, spec)  # what the runtime will accept
+
+    from rig_env.envs import RigVectorEnv
+
+    env = RigVectorEnv(1, task=spec.task, **overrides)
+    prov = {**file_provenance(f"controllers.design.rl_export.export_sb3 ({kind})"), **dict(provenance or {}), "env_overrides": overrides}
+    art = Artefact(kind, spec, sensors_of(env.config), default_limits(spec, env.params.servos.compensator.rate_limit_deg_s), data, prov)
+    _check_body(_body(art), "<export>")
+    return art
+
+
+def _f64(a: Any) -> np.ndarray:
+    """A float32 array's values as float64 (exact: every float32 is a float64)."""
+    return np.asarray(a, dtype=np.float32).astype(np.float64)
 
 
 def evaluate(law: Controller, env_overrides: dict[str, Any], seed: int) -> dict[str, Any]:

@@ -1,7 +1,8 @@
 """Several seeds of one training configuration: their final metrics, spread and curves (``rig train --seeds``).
 
-One training run is an anecdote: PPO and SAC runs of the same settings differ by seed (Henderson et al., *Deep Reinforcement Learning that Matters*, AAAI 2018).  :func:`summarise`
-reads the policy files the runs wrote (their provenance holds the final evaluation of the exported
+One training run is an anecdote: PPO and SAC runs of the same settings differ by seed
+(Henderson et al., *Deep Reinforcement Learning that Matters*, AAAI 2018).  :func:`summarise`
+reads the policy artefacts the runs wrote (their provenance holds the final evaluation of the exported
 policy and the evaluation curve) and writes
 
 | file | content |
@@ -26,15 +27,14 @@ METRICS = ("success_rate", "rms_error_deg", "mean_return")
 
 def summarise(policy_files: list[Path], out: Path, title: str, target: float) -> dict[str, Any]:
     """Summary of the runs behind ``policy_files`` (written to ``out/seeds.json`` and ``out/seeds.png``); returns it."""
-    from controllers.laws.rl import load_policy
+    from controllers.laws.artefact import load
 
     if not policy_files:
         raise ValueError("policy_files: give at least one run")
     runs, first = [], None
     for f in policy_files:
-        data = load_policy(f)
-        prov = data.provenance
-        key = (prov.get("task"), prov.get("algo"), json.dumps(data.env_overrides, sort_keys=True))
+        prov = load(f).provenance
+        key = (prov.get("task"), prov.get("algo"), json.dumps(prov.get("env_overrides", {}), sort_keys=True))
         if first is None:
             first = key
         elif key != first:

@@ -18,7 +18,7 @@ episodes; ``--no-stop`` trains on).  Output folder:
 
 | file | content |
 |---|---|
-| ``policy.json`` | the plain-data policy (:mod:`controllers.laws.rl` format) with provenance and final metrics |
+| ``policy.json`` | the policy as a rig-law artefact (:mod:`controllers.laws.artefact`, kind ``ppo`` / ``sac``; runtime :mod:`controllers.laws.rl`); its provenance is the training record: command, hyperparameters, environment settings, curve, final evaluation, versions |
 | ``curve.json``, ``curve.png`` | evaluation points: timesteps, wall time s, mean return, success rate |
 | ``evaluations.npz``, ``best_model.zip`` | SB3's EvalCallback output (pickle-based zip: for training use only) |
 | ``checkpoints/`` | SB3 checkpoints (+ VecNormalize statistics) |
@@ -29,7 +29,7 @@ conditions by name, :data:`controllers.evaluation.evaluate.MODES`: airspeed 15-2
 parameter spread, so that the policy meets in training what the comparison will fly it in), then each
 ``--env KEY=VALUE`` (a :class:`rig_env.envs.RigEnvConfig` field; the value is read as JSON when it
 parses, e.g. ``airspeed=[15,25]``, else as a string); an unknown field or a value out of range exits
-with the configuration's error.  The result is recorded in the policy (``env_overrides``) and the final
+with the configuration's error.  The result is recorded in the policy's provenance (``env_overrides``) and the final
 evaluation runs under it.
 
 ``--seeds S1 S2 ...`` trains one run per seed (``OUT/s<seed>/``, default ``OUT = runs/<task>_<algo>_seeds``)
@@ -227,7 +227,10 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     from controllers import LoopSpec, make_controller
-    from controllers.laws.rl import policy_path, save_policy
+    from dataclasses import replace
+
+    from controllers.laws.artefact import save
+    from controllers.laws.rl import policy_path
     from controllers.design.rl_export import evaluate, export_sb3
     from rig_env.envs.sb3 import RigSB3VecEnv
     from controllers.design.rl_callbacks import (
@@ -283,12 +286,13 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
     wall = time.perf_counter() - t0
 
     # export, load the file back, and measure what ships (numpy runtime, not the torch model)
-    payload = export_sb3(model, spec, env if hp["normalize"] else None, env_overrides=overrides)
-    path = save_policy(payload, out / "policy.json")
+    art = export_sb3(model, spec, env if hp["normalize"] else None, env_overrides=overrides)
+    path = out / "policy.json"
+    save(art, path)
     law = make_controller(args.algo, spec, args.final_episodes, path=path)
     final = evaluate(law, overrides, seed=args.seed + FINAL_SEED_OFFSET)
     curve = tracker.curve()
-    payload["provenance"] = {
+    record = {
         "command": shlex.join(["rig", "train", *argv]),
         "algo": args.algo, "task": args.task, "seed": args.seed, "num_envs": num_envs, "threads": args.threads,
         "timesteps": int(model.num_timesteps), "timesteps_budget": timesteps, "wall_time_s": round(wall, 1),
@@ -301,7 +305,7 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
         "machine": {"cpus": os.cpu_count(), "load_average_1_5_15_min_at_end": [round(x, 2) for x in os.getloadavg()],
                     "platform": platform.platform()},
     }
-    path = save_policy(payload, out / "policy.json")
+    save(replace(art, provenance={**art.provenance, **record}), path)  # the same law, now with its training record
     (out / "curve.json").write_text(json.dumps(curve, indent=1) + "\n")
     plot_curve(curve, out / "curve.png", f"{args.algo.upper()} on {args.task} (seed {args.seed})", args.target_success)
     print(f"done in {wall:.0f} s, {model.num_timesteps} timesteps; target reached at: {tracker.reached}", flush=True)

@@ -33,8 +33,8 @@ PREFERRED_ORDER = ("pid", "lqr", "ppo", "sac")
 
 
 def default_kinds() -> list[str]:
-    """Registered kinds, the preferred ones first."""
-    kinds = sorted(CONTROLLERS, key=lambda k: (PREFERRED_ORDER.index(k) if k in PREFERRED_ORDER else len(PREFERRED_ORDER), k))
+    """Registered kinds that build from a loop spec alone (not "linear": it takes its gains), the preferred ones first."""
+    kinds = sorted((k for k, classes in CONTROLLERS.items() if any(c.built_from_spec for c in classes)), key=lambda k: (PREFERRED_ORDER.index(k) if k in PREFERRED_ORDER else len(PREFERRED_ORDER), k))
     return kinds
 
 

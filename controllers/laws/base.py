@@ -95,6 +95,11 @@ class Controller(abc.ABC):
     """
 
     kind: ClassVar[str]
+    artefact_kind: ClassVar[str]
+    """The law's kind in the one file format (:mod:`controllers.laws.artefact`); default: its ``kind``."""
+    built_from_spec: ClassVar[bool] = True
+    """Whether ``make_controller(kind, spec)`` builds it from the loop spec alone (designed, or a shipped policy);
+    False for a law that takes its numbers as arguments (LinearLaw's gains), which the comparison leaves out."""
 
     def __init__(self, spec: LoopSpec, num_envs: int = 1) -> None:
         if not isinstance(num_envs, (int, np.integer)) or isinstance(num_envs, bool) or num_envs < 1:
@@ -105,6 +110,22 @@ class Controller(abc.ABC):
     def supports(cls, spec: LoopSpec) -> str | None:
         """None when :func:`law_for` should route ``spec`` to this class, else the reason it does not (numpy only)."""
         return None
+
+    def to_data(self) -> dict[str, Any]:
+        """The law as plain data: numpy arrays (stored as the artefact's ``arrays``) and JSON values (its ``params``)."""
+        raise NotImplementedError(f"{type(self).__name__}: no to_data(); it cannot be saved as an artefact")
+
+    @classmethod
+    def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> "Controller":
+        """The law that :meth:`to_data` gave ``data`` (a ValueError naming what is refused)."""
+        raise NotImplementedError(f"{cls.__name__}: no from_data(); it cannot be loaded from an artefact")
+
+    @classmethod
+    def data_of(cls, law: "Controller") -> dict[str, Any]:
+        """``law`` as this class's artefact data: ``law.to_data()`` (a class may accept other laws: LinearLaw)."""
+        if not isinstance(law, cls):
+            raise TypeError(f"artefact kind {cls.artefact_kind!r} stores a {cls.__name__}; got {type(law).__name__}")
+        return law.to_data()
 
     @abc.abstractmethod
     def reset(self, mask: np.ndarray | None = None) -> None: ...
@@ -142,10 +163,28 @@ CONTROLLERS = LAWS
 
 
 def register(kind: str) -> Callable[[type[Controller]], type[Controller]]:
-    """Class decorator: file the law under ``kind`` (once) and name its kind."""
+    """Class decorator: file the law under ``kind`` (once) and name its kind.
+
+    The class's ``artefact_kind`` (its own class attribute, default ``kind``) is its file kind
+    (:mod:`controllers.laws.artefact`): one registered class per artefact kind.  Registering a class of
+    the same module and name again (a module reloaded) replaces the earlier one; another class
+    claiming a taken artefact kind is a ValueError.
+    """
 
     def deco(cls: type[Controller]) -> type[Controller]:
         cls.kind = kind
+        if "artefact_kind" not in cls.__dict__:
+            cls.artefact_kind = kind
+        art = cls.artefact_kind
+        if not isinstance(art, str) or not art.isidentifier():
+            raise ValueError(f"{cls.__name__}.artefact_kind = {art!r}: must be an identifier string")
+        for classes in LAWS.values():
+            for other in list(classes):
+                if other is not cls and other.artefact_kind == art:
+                    if (other.__module__, other.__qualname__) != (cls.__module__, cls.__qualname__):
+                        raise ValueError(f"artefact kind {art!r}: already that of {other.__module__}.{other.__qualname__}; "
+                                         f"{cls.__name__} needs its own artefact_kind")
+                    classes.remove(other)
         LAWS.setdefault(kind, [])
         if cls not in LAWS[kind]:
             LAWS[kind].append(cls)

@@ -52,7 +52,7 @@ No integrator: the rig's heave is meant to wash out, not to hold.  ``law.describ
 and, per design airspeed, the margins of the loop as flown, broken at the heave command: the law with its
 estimator and delay line, the rig with servo and delay (:func:`controllers.design.emulation.loop_as_flown`; default rig, 15-25 m/s: GM 12.4-12.9 dB, PM 48-49 deg,
 delay margin 0.16-0.27 s, with the weights tightened to 0.6 of the reward's scales).
-Artefact kind ``"lqr_emulation"`` (:meth:`EmulationTables.to_data`; :mod:`controllers.deploy.laws`).
+Artefact kind ``"lqr_emulation"`` (:meth:`EmulationTables.to_data`; :mod:`controllers.laws.artefact`).
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ tests fly.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -35,6 +35,7 @@ class LinearLaw(Controller):
     """
 
     artefact_kind = "linear"
+    built_from_spec = False  # its gains are arguments (make_controller("linear", spec, K=...))
 
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, K: np.ndarray, obs0: np.ndarray | None = None,
                  u0: np.ndarray | None = None, rate_limit: np.ndarray | None = None) -> None:
@@ -50,6 +51,31 @@ class LinearLaw(Controller):
             raise ValueError(f"rate_limit = {self.rate_limit.tolist()}: each entry must be > 0 (action units / s)")
         self._du = self.rate_limit * spec.dt
         self.u = np.zeros((self.num_envs, na))
+
+    def to_data(self) -> dict[str, Any]:
+        return {"K": self.K.copy(), "obs0": self.obs0.copy(), "u0": self.u0.copy(), "rate_limit": self.rate_limit.copy()}
+
+    @classmethod
+    def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> LinearLaw:
+        missing = [k for k in ("K", "obs0", "u0", "rate_limit") if k not in data]
+        if missing:
+            raise ValueError(f"linear: missing array(s) {missing}")
+        return cls(spec, num_envs, K=data["K"], obs0=data["obs0"], u0=data["u0"], rate_limit=data["rate_limit"])
+
+    @classmethod
+    def data_of(cls, law: Controller) -> dict[str, Any]:
+        """A LinearLaw's data, or ``law.linear_form()`` (a dict with K, obs0, u0, rate_limit) of another law that is
+        static and linear in its observation (it sets ``artefact_kind = "linear"`` and provides the method)."""
+        if isinstance(law, cls):
+            return law.to_data()
+        form = getattr(law, "linear_form", None)
+        if form is None:
+            raise TypeError(f"kind 'linear' stores a LinearLaw or a law with linear_form(); got {type(law).__name__}")
+        d = dict(form())
+        unknown = sorted(set(d) - {"K", "obs0", "u0", "rate_limit"})
+        if unknown:
+            raise ValueError(f"linear_form(): unknown key(s) {unknown}; allowed K, obs0, u0, rate_limit")
+        return LinearLaw(law.spec, 1, **d).to_data()  # validates shapes and values, fills the defaults
 
     def reset(self, mask: np.ndarray | None = None) -> None:
         self.u[self._mask(mask)] = 0.0
