@@ -40,10 +40,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from rig_env.params import JOINTS
 from rig_env.physics import vmath
+from rig_env.physics.jit import kernel
 
 _JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
 
@@ -62,7 +62,7 @@ def _c64(x: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(x, dtype=np.float64)
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _update_kernel(angles_raw, flaps_raw, airspeed_raw, noise_t, noisy, sigma, lsb, buf, k, kd, dt, alpha,
                    angles, flaps, airspeed, prev, rates):
     """Steps 1-3 of the module docstring for every environment, in place.
@@ -99,7 +99,7 @@ def _update_kernel(angles_raw, flaps_raw, airspeed_raw, noise_t, noisy, sigma, l
         airspeed[i] = buf[i, kd, nj + N_FLAPS]
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _clip(v, lo, hi):
     """v clipped to [lo, hi]; NaN stays NaN (as ``np.clip``)."""
     if v < lo:
@@ -109,7 +109,7 @@ def _clip(v, lo, hi):
     return v
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _sincos_columns(angles, unl_cols, col, sn, cs):
     """sn[a], cs[a] (n,) = sine and cosine of angles[:, unl_cols[a]], one vmath.sincos each (2 ulp of the
     C library's; two libm calls cost twice).  The column is first copied to col (n,) so that the sincos
@@ -126,7 +126,7 @@ def _sincos_columns(angles, unl_cols, col, sn, cs):
             cs[a, i] = co
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _observation_kernel(angles, rates, flaps, airspeed, lim_cols, unl_cols, rate_scale, low, high, col, sn, cs, out):
     """Step 4 (the layout table) for every environment into out (n, obs_dim) float64.
 
