@@ -5,6 +5,11 @@
     rig-deploy sim-rig --port PORT [--task NAME] [--task-option KEY=VALUE ...] [--rate 80] [--duration S] [--loss P] [--blackout T0 DUR] ...
     rig-deploy verify --law FILE [--key-file F]
 
+The ``run`` path imports numpy, the standard library, the deployed runtime and the observation builder
+only (:mod:`controllers.deploy.loop`): no gymnasium, numba, llvmlite, matplotlib, scipy, python-control
+or torch (``tests/test_deploy_imports.py``); ``export`` and ``sim-rig`` import the environments inside
+their functions.
+
 Exit status: 0 success; 2 bad arguments or a refused artefact (the message names what failed);
 3 the run ended in FAULT.  ``run`` arms on SIGUSR1, disarms on SIGUSR2, stops on SIGINT / SIGTERM.
 """
@@ -97,7 +102,9 @@ def cmd_verify(a: argparse.Namespace) -> int:
 
 def cmd_run(a: argparse.Namespace) -> int:
     from controllers.deploy.loop import LoopConfig, RigLoop
+    from rig_env.physics import jit
 
+    jit.use_python()  # the rig process runs the sensors' and task's kernels as Python: no numba, nothing compiled
     art = load(a.law, _key(a.key_file), require_signature=a.key_file is not None)
     rate = a.rate if a.rate is not None else 1.0 / art.spec.dt
     cfg = LoopConfig(rig=_rig_address(a.rig), rate_hz=rate, bind=(a.bind, a.bind_port), duration=a.duration, arm=a.arm, log_path=a.log,
