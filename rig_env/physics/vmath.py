@@ -24,6 +24,9 @@ Accuracy (tests/test_vmath.py, against the C library):
 from __future__ import annotations
 
 import math
+from types import FunctionType, SimpleNamespace
+
+import numpy as np
 
 from rig_env.physics import jit
 from rig_env.physics.jit import kernel
@@ -120,12 +123,18 @@ SINCOS_MAX = 1073741824.0
 """Up to this abs(x) (2^30 rad) :func:`sincos` is accurate to 2 ulp."""
 
 
+_PY_SINCOS = None
+_NUMPY_FLOOR_MATH = SimpleNamespace(floor=np.floor, inf=math.inf, nan=math.nan)
+
+
 def _sincos_python(x):
-    """:func:`sincos` run as Python (:mod:`rig_env.physics.jit`): its own body for finite x, (NaN, NaN) for
-    inf and NaN (where numba's ``math.floor`` gives NaN, Python's raises)."""
-    if not math.isfinite(x):
-        return math.nan, math.nan
-    return sincos.py_func(x)
+    """:func:`sincos` run as Python (:mod:`rig_env.physics.jit`): its own code, with numba's ``math.floor``
+    (a float: inf and NaN pass through, where Python's raises) for every input numba takes."""
+    global _PY_SINCOS
+    if _PY_SINCOS is None:
+        f = sincos.py_func
+        _PY_SINCOS = FunctionType(f.__code__, dict(f.__globals__, math=_NUMPY_FLOOR_MATH), f.__name__)
+    return _PY_SINCOS(x)
 
 
 @kernel(python=_sincos_python, **_JIT)
