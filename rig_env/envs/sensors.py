@@ -12,8 +12,10 @@ Steps 1-3 of every environment are one numba pass (:func:`_update_kernel`), and 
 (:func:`_observation_kernel`); they give the same numbers as the numpy formulas above
 (``tests/test_env_kernels.py``).  Both are called with one set of argument types only (C-contiguous
 float64 arrays), and the first ``Sensors`` built in a process compiles them (or loads them from the
-disk cache, a few ms), so a real-time loop never pays for that inside a tick; nothing is compiled at
-import.
+disk cache, a few ms), so a real-time loop never pays for that inside a tick; nothing is compiled, nor
+numba imported, at import (:mod:`rig_env.physics.jit`).  A process in Python mode (the rig's loop,
+``rig-deploy run``) runs the same kernels as Python: the same float32 observations bit for bit
+(``tests/test_jit.py``).
 
 The class takes only raw measurements (joint angles in rad, compensator flap positions in rad,
 airspeed in m/s) and optional standard-normal noise samples, so the real-time deployment loop can
