@@ -15,7 +15,6 @@ import json
 import os
 import subprocess
 import sys
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -36,14 +35,7 @@ ENV = dict(os.environ, PYTHONPATH=str(ROOT))
 RNG = np.random.default_rng(2024)
 
 
-@contextmanager
-def python_mode():
-    before = jit.mode()
-    jit.use_python()
-    try:
-        yield
-    finally:
-        jit.use_numba() if before == "numba" else jit.use_python()
+python_mode = jit.python_mode
 
 
 # ---------------------------------------------------------------- bit casts and vmath
@@ -215,3 +207,13 @@ def test_lazy_public_names_are_the_real_functions():
     light, same_sim, same_trim, mod, same_sig, fixed, cache, name = json.loads(_run(code))
     assert light == [] and same_sim and same_trim and mod == "rig_env.simulate" and same_sig and name == "rig_env.simulate"
     assert cache and (fixed or os.environ.get("RIG_ENV_FAST_INLINE") == "0")
+
+
+def test_python_mode_restores_the_mode_of_before():
+    before = jit.mode()
+    with jit.python_mode():
+        assert jit.mode() == "python" and V.sincos._target is not V.sincos.dispatcher
+        V.sincos(0.5)
+    assert jit.mode() == before
+    V.sincos(0.5)
+    assert (V.sincos._target is V.sincos.dispatcher) == (before == "numba")

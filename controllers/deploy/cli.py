@@ -101,10 +101,16 @@ def cmd_verify(a: argparse.Namespace) -> int:
 
 
 def cmd_run(a: argparse.Namespace) -> int:
-    from controllers.deploy.loop import LoopConfig, RigLoop
     from rig_env.physics import jit
 
-    jit.use_python()  # the rig process runs the sensors' and task's kernels as Python: no numba, nothing compiled
+    # the sensors' and the task's kernels run as Python: the rig process imports no numba, compiles nothing
+    with jit.python_mode():
+        return _run(a)
+
+
+def _run(a: argparse.Namespace) -> int:
+    from controllers.deploy.loop import LoopConfig, RigLoop
+
     art = load(a.law, _key(a.key_file), require_signature=a.key_file is not None)
     rate = a.rate if a.rate is not None else 1.0 / art.spec.dt
     cfg = LoopConfig(rig=_rig_address(a.rig), rate_hz=rate, bind=(a.bind, a.bind_port), duration=a.duration, arm=a.arm, log_path=a.log,

@@ -8,8 +8,8 @@ importing the module that defines it imports nothing of numba.  Its first call d
 | ``"numba"`` | default when numba is installed | ``numba.njit(**options)(fn)``, created (and compiled or loaded from the disk cache) at the first call |
 | ``"python"`` | :func:`use_python`, ``RIG_ENV_JIT=python``, or numba not installed | ``fn`` itself (or the kernel's ``python=`` twin) on numpy scalars, floating-point errors silenced as numba's ``error_model="numpy"`` does |
 
-The rig's real-time loop (``rig-deploy run``, :mod:`controllers.deploy.cli`) calls :func:`use_python`
-before it builds its sensors, so that process never imports numba, llvmlite or anything compiled; the
+The rig's real-time loop (``rig-deploy run``, :mod:`controllers.deploy.cli`) builds and runs its loop
+inside :func:`python_mode` (:func:`use_python` until it returns), so that process never imports numba, llvmlite or anything compiled; the
 kernels it calls (the sensors' and the task's, for one environment at 80 Hz) take tens of microseconds
 in Python and give the same float32 observations bit for bit (``tests/test_jit.py``).  The environments
 run in ``"numba"`` mode.  :func:`use_numba` switches back (both apply to every kernel, at its next call).
@@ -37,6 +37,7 @@ imported in a process that imported :mod:`rig_env`, see :mod:`rig_env.importhook
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import importlib.util
@@ -44,7 +45,7 @@ import os
 import struct
 import threading
 import types as _pytypes
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -108,7 +109,7 @@ def mode() -> str:
     return _mode
 
 
-def _set_mode(m: str) -> None:
+def _set_mode(m: str | None) -> None:
     global _mode
     _mode = m
     for k in _kernels:
@@ -124,6 +125,20 @@ def use_numba() -> None:
     """Compile every kernel with numba from its next call on (ImportError when numba is not installed)."""
     setup_numba()
     _set_mode("numba")
+
+
+@contextlib.contextmanager
+def python_mode() -> Iterator[None]:
+    """``with python_mode():`` kernels run as Python inside, the mode of before (even undecided) after.
+
+    What ``rig-deploy run`` wraps its loop in: the rig process never imports numba, and a caller that
+    runs the command inside a process of its own (a test) gets its compiled kernels back."""
+    before = _mode
+    use_python()
+    try:
+        yield
+    finally:
+        _set_mode(before)
 
 
 # ---------------------------------------------------------------- kernels
@@ -282,5 +297,5 @@ def float_from_bits(bits: int) -> float:
 
 __all__ = [
     "MODES", "Intrinsic", "Kernel", "bits_from_float", "cache_dir", "float_from_bits", "intrinsic", "kernel", "mode",
-    "numba_available", "prange", "setup_numba", "use_numba", "use_python",
+    "numba_available", "prange", "python_mode", "setup_numba", "use_numba", "use_python",
 ]
