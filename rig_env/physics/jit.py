@@ -9,9 +9,10 @@ importing the module that defines it imports nothing of numba.  Its first call d
 | ``"python"`` | :func:`use_python`, ``RIG_ENV_JIT=python``, or numba not installed | ``fn`` itself (or the kernel's ``python=`` twin) on numpy scalars, floating-point errors silenced as numba's ``error_model="numpy"`` does |
 
 The rig's real-time loop (``rig-deploy run``, :mod:`controllers.deploy.cli`) builds and runs its loop
-inside :func:`python_mode` (:func:`use_python` until it returns), so that process never imports numba, llvmlite or anything compiled; the
-kernels it calls (the sensors' and the task's, for one environment at 80 Hz) take tens of microseconds
-in Python and give the same float32 observations bit for bit (``tests/test_jit.py``).  The environments
+inside :func:`python_mode` (:func:`use_python` until it returns), so that process never imports numba,
+llvmlite or anything compiled; the kernels it calls (the sensors' and the task's, for one environment
+at 80 Hz) take tens of microseconds in Python and give the same float32 observations bit for bit
+(``tests/test_jit.py``).  The environments
 run in ``"numba"`` mode.  :func:`use_numba` switches back (both apply to every kernel, at its next call).
 
 Kernels inside kernels: numba compiles a kernel that calls another (a global ``_clip`` or an attribute
