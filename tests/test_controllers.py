@@ -13,7 +13,7 @@ from scipy.integrate import solve_ivp
 from controllers import LoopSpec, make_controller
 from controllers.design.estimator import kalman_gain
 from controllers.laws.estimator import DelayedKalman
-from controllers.laws.lqr import augmented, design_point
+from controllers.design.lqr import augmented, design_point
 from controllers.design.model import loop_elements, resolve, rotation
 from controllers.laws.pid_element import PID
 from controllers.design.tuning import margins, tune_axis

@@ -14,7 +14,8 @@ from controllers import LoopSpec, make_controller
 from controllers.design.heave_sway import axis_point, lqr_margins, lqr_point, pid_margins_as_flown, static_table, tune_driven
 from controllers.evaluation.evaluate import GUSTY, NOMINAL, evaluate
 from controllers.laws.heave_sway import HeaveSwayLQR, HeaveSwayPID
-from controllers.laws.lqr import LQRLaw, augmented
+from controllers.design.lqr import augmented
+from controllers.laws.lqr import LQRLaw
 from controllers.design.model import loop_elements
 from controllers.laws.pid import PIDLaw
 from controllers.laws.references import DrivenReference
