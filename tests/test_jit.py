@@ -21,7 +21,6 @@ import numpy as np
 import pytest
 from numba import njit
 
-import rig_env
 from rig_env.envs import observation as ob
 from rig_env.envs import streams as rs
 from rig_env.envs.sensors import Sensors

@@ -30,6 +30,7 @@ import numpy as np
 from controllers import Controller, LoopSpec, make_controller
 from controllers.design.conditions import GUSTY, MODES, NOMINAL, ROBUST, Conditions  # noqa: F401  (re-exported)
 from rig_env.envs import RigVectorEnv
+from rig_env.params import JOINTS
 
 
 

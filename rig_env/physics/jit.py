@@ -248,13 +248,12 @@ class Intrinsic:
     @property
     def real(self) -> Any:
         if self._real is None:
-            numba = setup_numba()
+            setup_numba()
             from numba.extending import intrinsic as _intrinsic
 
             with _setup_lock:
                 if self._real is None:
                     self._real = _intrinsic(self.defn)
-            del numba
         return self._real
 
     @property
