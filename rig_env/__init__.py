@@ -2,32 +2,69 @@
 
 Public API: ``JOINTS``, ``SURFACES``, ``SERVOS``, ``RigParams``, ``param_batch``, ``simulate``,
 ``to_mjcf``, ``trim``, ``linearize``.  See README.md and docs/MODEL.md.
+
+Importing this package is light (numpy and the parameters): ``simulate``, ``SimResult``, ``trim``,
+``linearize`` and ``to_mjcf`` are the functions of :mod:`rig_env.simulate`, :mod:`rig_env.linear` and
+:mod:`rig_env.mjcf`, imported at their first use (PEP 562), so that the rig's real-time loop, which
+needs only the observation builder, never imports numba.  The gymnasium ids ``rig_env/*`` are
+registered as soon as gymnasium is imported, before or after this package
+(:mod:`rig_env.envs.registration`); numba's set-up for the kernels runs as soon as numba is imported
+(:func:`rig_env.physics.jit.setup_numba`).
 """
 
+from __future__ import annotations
+
+import sys
+import types
+from typing import TYPE_CHECKING, Any
+
+from rig_env import importhook as _importhook
+from rig_env.envs import registration as _registration
 from rig_env.params import JOINTS, PARAM_NAMES, SERVOS, SURFACES, ParameterError, RigParams, param_batch
-from rig_env.simulate import SimResult, simulate
+from rig_env.physics import jit as _jit
+
+if TYPE_CHECKING:
+    from rig_env.linear import linearize, trim
+    from rig_env.mjcf import to_mjcf
+    from rig_env.simulate import SimResult, simulate
+
+_LAZY = {
+    "simulate": "rig_env.simulate",
+    "SimResult": "rig_env.simulate",
+    "trim": "rig_env.linear",
+    "linearize": "rig_env.linear",
+    "to_mjcf": "rig_env.mjcf",
+}
 
 
-def to_mjcf(*args, **kwargs):  # noqa: D401 - thin lazy wrapper (keeps mujoco an optional import)
-    """The mechanism as a MuJoCo MJCF string; see :func:`rig_env.mjcf.to_mjcf`."""
-    from rig_env.mjcf import to_mjcf as _to_mjcf
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'rig_env' has no attribute {name!r}")
+    import importlib
 
-    return _to_mjcf(*args, **kwargs)
-
-
-def trim(*args, **kwargs):
-    """Operating point; see :func:`rig_env.linear.trim`."""
-    from rig_env.linear import trim as _trim
-
-    return _trim(*args, **kwargs)
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
 
 
-def linearize(*args, **kwargs):
-    """python-control StateSpace about an operating point; see :func:`rig_env.linear.linearize`."""
-    from rig_env.linear import linearize as _linearize
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
 
-    return _linearize(*args, **kwargs)
 
+class _Package(types.ModuleType):
+    """This package's module type: the import system's ``rig_env.simulate = <module>`` (done when the
+    submodule is first imported, by anyone) binds the function ``simulate`` instead, as the eager
+    ``from rig_env.simulate import simulate`` of old did; ``import rig_env.simulate`` still puts the
+    module in ``sys.modules``."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name == "simulate" and isinstance(value, types.ModuleType) and hasattr(value, "simulate"):
+            value = value.simulate
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
 
 __all__ = [
     "JOINTS",
@@ -44,4 +81,5 @@ __all__ = [
     "trim",
 ]
 
-import rig_env.envs  # noqa: E402,F401  (registers the rig_env/* gymnasium ids)
+_importhook.when_imported("numba", _jit.setup_numba)
+_registration.register_when_imported()

@@ -11,7 +11,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from controllers import LoopSpec, make_controller
-from controllers.laws.estimator import DelayedKalman, kalman_gain
+from controllers.design.estimator import kalman_gain
+from controllers.laws.estimator import DelayedKalman
 from controllers.design.lqr import augmented, design_point
 from controllers.design.model import loop_elements, resolve, rotation
 from controllers.laws.pid_element import PID

@@ -23,8 +23,8 @@ from controllers.design.heave_sway import (
 )
 from controllers.evaluation.evaluate import GUSTY, NOMINAL, evaluate
 from controllers.laws.heave_sway import HeaveSwayLQR, HeaveSwayPID
-from controllers.laws.lqr import LQRLaw
 from controllers.design.lqr import augmented
+from controllers.laws.lqr import LQRLaw
 from controllers.design.model import loop_elements
 from controllers.laws.pid import PIDLaw
 from controllers.laws.references import DrivenReference

@@ -10,6 +10,11 @@
 rig-law artefact every law now uses (:mod:`controllers.deploy.convert`); loading an old file names
 this command.
 
+The ``run`` path imports numpy, the standard library, the deployed runtime and the observation builder
+only (:mod:`controllers.deploy.loop`): no gymnasium, numba, llvmlite, matplotlib, scipy, python-control
+or torch (``tests/test_deploy_imports.py``); ``export`` and ``sim-rig`` import the environments inside
+their functions.
+
 Exit status: 0 success; 2 bad arguments or a refused artefact (the message names what failed);
 3 the run ended in FAULT.  ``run`` arms on SIGUSR1, disarms on SIGUSR2, stops on SIGINT / SIGTERM.
 """
@@ -108,6 +113,14 @@ def cmd_convert_policy(a: argparse.Namespace) -> int:
 
 
 def cmd_run(a: argparse.Namespace) -> int:
+    from rig_env.physics import jit
+
+    # the sensors' and the task's kernels run as Python: the rig process imports no numba, compiles nothing
+    with jit.python_mode():
+        return _run(a)
+
+
+def _run(a: argparse.Namespace) -> int:
     from controllers.deploy.loop import LoopConfig, RigLoop
 
     art = load(a.law, _key(a.key_file), require_signature=a.key_file is not None)

@@ -25,6 +25,13 @@ output position and rate limits (always, in every state), send the command, log 
 frame is bridged by extrapolating the angles with the estimated rates (``angle + rate dt``) for up to
 ``stale_frames - 1`` ticks.
 
+Imports: numpy, the standard library, the deployed runtime (protocol, artefact, log, watchdogs, the
+laws) and the observation builder (:mod:`rig_env.envs.observation`, which imports neither gymnasium nor
+numba).  The sensors' and the task's kernels run in the process's :mod:`rig_env.physics.jit` mode:
+``rig-deploy run`` runs it inside :func:`rig_env.physics.jit.python_mode`, so the rig process never
+imports numba and gives the same observations bit for bit; a loop built inside a process that runs the
+environments (the tests) uses their compiled kernels.
+
 | watchdog | bound (default) | action |
 |---|---|---|
 | stale / missing frames | ``stale_frames`` (3) consecutive ticks without a new frame | neutral target at once, mode SAFE; resumes if frames return |

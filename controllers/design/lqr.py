@@ -23,7 +23,7 @@ import numpy as np
 
 from controllers.laws.axes import AXES, AXIS_OF, axes_of
 from controllers.laws.base import LoopSpec
-from controllers.laws.estimator import kalman_gain
+from controllers.design.estimator import kalman_gain
 from controllers.design.model import design_model, loop_elements
 from controllers.design.signals import signal_scales
 from controllers.design.tuning import margins, plain

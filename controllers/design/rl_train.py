@@ -25,7 +25,7 @@ episodes; ``--no-stop`` trains on).  Output folder:
 | ``tb/`` | TensorBoard logs (``tensorboard --logdir OUT/tb``) when tensorboard is installed |
 
 Training conditions: the table's ``env_overrides``, then ``--conditions`` (the comparison's randomised
-conditions by name, :data:`controllers.evaluation.evaluate.MODES`: airspeed 15-25 m/s, gusts, sensor noise and
+conditions by name, :data:`controllers.design.conditions.MODES`: airspeed 15-25 m/s, gusts, sensor noise and
 parameter spread, so that the policy meets in training what the comparison will fly it in), then each
 ``--env KEY=VALUE`` (a :class:`rig_env.envs.RigEnvConfig` field; the value is read as JSON when it
 parses, e.g. ``airspeed=[15,25]``, else as a string); an unknown field or a value out of range exits
@@ -123,7 +123,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     seeds.add_argument("--seed", type=int, default=0)
     seeds.add_argument("--seeds", type=int, nargs="+", default=None, help="train one run per seed and summarise their spread")
     p.add_argument("--conditions", choices=["nominal", "robust", "gusty"], default=None,
-                   help="train under the comparison's randomised conditions of that name (controllers.evaluation.evaluate.MODES)")
+                   help="train under the comparison's randomised conditions of that name (controllers.design.conditions.MODES)")
     p.add_argument("--env", action="append", default=[], metavar="KEY=VALUE",
                    help="an environment setting (a RigEnvConfig field; JSON value), repeatable; applied last")
     p.add_argument("--out", type=Path, default=None, help="output folder (default runs/<task>_<algo>_s<seed>)")
@@ -199,7 +199,7 @@ def main(argv: list[str] | None = None) -> int:
 def training_overrides(args: argparse.Namespace, table: dict[str, Any]) -> dict[str, Any]:
     """The environment settings of the run: the table's, then ``--conditions``, then ``--env``; checked by RigEnvConfig
     (SystemExit naming the field and its range otherwise)."""
-    from controllers.evaluation.evaluate import MODES
+    from controllers.design.conditions import MODES
     from rig_env.envs.config import RigEnvConfig
 
     out = dict(table)

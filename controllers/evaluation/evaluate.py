@@ -10,7 +10,8 @@ Paired conditions: every block sees the same episodes (airspeed, references, par
 gusts, sensor noise), so the laws are compared on identical conditions: the batch is reset with
 ``options={"env_seeds": ...}`` giving environment ``i`` of every block the stream of seed ``s + i``.
 
-Conditions (:class:`Conditions`; :data:`NOMINAL` and :data:`ROBUST`):
+Conditions (:class:`Conditions`; :data:`NOMINAL` and :data:`ROBUST`; defined in
+:mod:`controllers.design.conditions`, where training finds them too):
 
 | mode | airspeed | gusts | sensors | parameters drawn per episode, uniform |
 |---|---|---|---|---|
@@ -20,7 +21,6 @@ Conditions (:class:`Conditions`; :data:`NOMINAL` and :data:`ROBUST`):
 
 from __future__ import annotations
 
-import functools
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, TextIO
@@ -28,55 +28,10 @@ from typing import Any, Callable, Mapping, TextIO
 import numpy as np
 
 from controllers import Controller, LoopSpec, make_controller
+from controllers.design.conditions import GUSTY, MODES, NOMINAL, ROBUST, Conditions  # noqa: F401  (re-exported)
 from rig_env.envs import RigVectorEnv
-from rig_env.params import JOINTS, RigParams
+from rig_env.params import JOINTS
 
-_AERO_DERIVATIVES = [f"hawk_aero.{k}" for k in ("CLalpha", "CLq", "CLde", "CMalpha", "CMq", "CMde", "CYbeta", "CYdr", "Clbeta",
-                                                  "Clp", "Clr", "Clda", "Cldr", "Cnbeta", "Cnp", "Cnr", "Cnda", "Cndr")]
-_AERO_DERIVATIVES += [f"comp_aero.{k}" for k in ("CLalpha", "CLq", "CLde", "CMalpha", "CMq", "CMde")]
-_FRICTION = [f"friction.{j}.{k}" for j in JOINTS for k in ("Fs", "Fc", "sigma2")]
-
-
-def _spread(names: list[str], frac: float, params: RigParams | None = None) -> dict[str, tuple[float, float]]:
-    """``name -> (lo, hi)``: +-frac around the default value of every non-zero parameter in names."""
-    p = params or RigParams.default()
-    out = {}
-    for k in names:
-        v = float(functools.reduce(getattr, k.split("."), p))
-        if v != 0.0:
-            a, b = v * (1 - frac), v * (1 + frac)
-            out[k] = (min(a, b), max(a, b))
-    return out
-
-
-def _nominal_randomise() -> dict[str, tuple[float, float]]:
-    r = _spread(["mass.hawk_mass"], 0.10)
-    r["servos.compensator.delay_s"] = (0.010, 0.020)
-    r["servos.compensator.natural_freq_hz"] = (5.0, 8.0)
-    return r
-
-
-@dataclass(frozen=True)
-class Conditions:
-    """Randomised conditions of an evaluation; fields are :class:`rig_env.envs.RigEnvConfig` settings."""
-
-    name: str
-    airspeed: tuple[float, float] = (15.0, 25.0)
-    turbulence: float = 0.01
-    randomise: Mapping[str, tuple[float, float]] = field(default_factory=dict)
-    angle_noise_deg: float = 0.05
-    link_delay_steps: int = 1
-
-    def env_fields(self) -> dict[str, Any]:
-        return {"airspeed": self.airspeed, "turbulence": self.turbulence, "randomise": dict(self.randomise),
-                "angle_noise_deg": self.angle_noise_deg, "link_delay_steps": self.link_delay_steps}
-
-
-NOMINAL = Conditions("nominal", randomise=_nominal_randomise())
-ROBUST = Conditions("robust", randomise={**_nominal_randomise(), **_spread(_AERO_DERIVATIVES + _FRICTION, 0.20)})
-GUSTY = Conditions("gusty", turbulence=0.05, randomise=_nominal_randomise())
-"""A stress case, not run by default: 5 % gusts are atmospheric, five times a working tunnel's."""
-MODES = {"nominal": NOMINAL, "robust": ROBUST, "gusty": GUSTY}
 
 
 @dataclass

@@ -12,8 +12,8 @@ free joint, with ``x = (angle, rate)`` and the control period ``dt``:
 
 ``K`` is the steady-state Kalman gain of the kinematic model with white acceleration noise
 ``sigma_a`` (rad/s^2, the model error) and measurement noise ``sigma_z`` (rad: sensor noise and
-quantisation), from the discrete Riccati equation (scipy, imported by :func:`kalman_gain` only: the
-filter itself is numpy, so a deployed law runs it with the gains as data).  The measured surfaces are as old as the
+quantisation), from the discrete Riccati equation: :func:`controllers.design.estimator.kalman_gain`
+(scipy, design time); the filter itself is numpy, so a deployed law runs it with the gains as data.  The measured surfaces are as old as the
 angles, so the update step runs at the measurement's time with the surfaces the rig really had; the
 forward prediction over the last ``d`` periods uses the latest measured surfaces.
 
@@ -29,20 +29,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
-
-def kalman_gain(dt: float, sigma_a: float, sigma_z: float) -> np.ndarray:
-    """(2,) steady-state gain (angle, rate) of the kinematic model x = (angle, rate)."""
-    if not (dt > 0 and sigma_a > 0 and sigma_z > 0):
-        raise ValueError(f"dt, sigma_a, sigma_z = {dt}, {sigma_a}, {sigma_z}: must be positive")
-    from scipy.linalg import solve_discrete_are  # design time only
-
-    F = np.array([[1.0, dt], [0.0, 1.0]])
-    G = np.array([[0.5 * dt * dt], [dt]])
-    H = np.array([[1.0, 0.0]])
-    Qn = sigma_a**2 * (G @ G.T)
-    P = solve_discrete_are(F.T, H.T, Qn, np.array([[sigma_z**2]]))  # a priori covariance
-    return (P @ H.T / (H @ P @ H.T + sigma_z**2)).ravel()
 
 
 class DelayedKalman:

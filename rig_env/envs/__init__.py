@@ -1,4 +1,4 @@
-"""Gymnasium environments of the manoeuvre rig; importing this module registers them.
+"""Gymnasium environments of the manoeuvre rig; importing this package registers them (when gymnasium is imported).
 
 | id | task | entry_point | vector_entry_point |
 |---|---|---|---|
@@ -15,52 +15,62 @@ Every id accepts the :class:`RigEnvConfig` fields as keyword arguments, e.g.
 ``gymnasium.make("rig_env/ManoeuvreRig-v0", task="bank_to_bank", free_dofs=("rig_roll",), airspeed=18.0)``
 or ``gymnasium.make_vec("rig_env/VelocityVectorRoll-v0", num_envs=1024, vectorization_mode="vector_entry_point")``.
 SB3: :class:`rig_env.envs.sb3.RigSB3VecEnv` (imported lazily; stable-baselines3 is optional).
+
+Importing this package imports neither gymnasium nor numba: the classes below are imported at their
+first use (PEP 562), so that :mod:`rig_env.envs.observation` (the observation builder the rig's
+real-time loop shares with the environments) comes without them.  The ids are registered by
+:mod:`rig_env.envs.registration` as soon as gymnasium is imported.
 """
 
 from __future__ import annotations
 
-import gymnasium
+from typing import TYPE_CHECKING, Any
 
-from rig_env.envs.config import RigEnvConfig
-from rig_env.envs.env import RigEnv
-from rig_env.envs.tasks import (
-    TASKS,
-    BankToBank,
-    DepartureRecovery,
-    ForcedOscillation,
-    FreeFlightEmulation,
-    PullUpPushOver,
-    Task,
-    VelocityVectorRoll,
-)
-from rig_env.envs.vector_env import RigVectorEnv
+from rig_env.envs.registration import ENV_IDS, register_envs, register_when_imported
 
-ENV_IDS: dict[str, dict[str, str]] = {
-    "rig_env/VelocityVectorRoll-v0": {"task": "velocity_vector_roll"},
-    "rig_env/BankToBank-v0": {"task": "bank_to_bank"},
-    "rig_env/PullUpPushOver-v0": {"task": "pull_up_push_over"},
-    "rig_env/ForcedOscillation-v0": {"task": "forced_oscillation"},
-    "rig_env/FreeFlightEmulation-v0": {"task": "free_flight_emulation"},
-    "rig_env/DepartureRecovery-v0": {"task": "departure_recovery"},
-    "rig_env/ManoeuvreRig-v0": {},
+if TYPE_CHECKING:
+    from rig_env.envs.config import RigEnvConfig
+    from rig_env.envs.env import RigEnv
+    from rig_env.envs.tasks import (
+        TASKS,
+        BankToBank,
+        DepartureRecovery,
+        ForcedOscillation,
+        FreeFlightEmulation,
+        PullUpPushOver,
+        Task,
+        VelocityVectorRoll,
+    )
+    from rig_env.envs.vector_env import RigVectorEnv
+
+_LAZY = {
+    "RigEnvConfig": "rig_env.envs.config",
+    "RigEnv": "rig_env.envs.env",
+    "RigVectorEnv": "rig_env.envs.vector_env",
+    **dict.fromkeys(
+        ("TASKS", "BankToBank", "DepartureRecovery", "ForcedOscillation", "FreeFlightEmulation", "PullUpPushOver", "Task",
+         "VelocityVectorRoll"),
+        "rig_env.envs.tasks",
+    ),
 }
 
 
-def register_envs() -> None:
-    """Register the ids above (idempotent)."""
-    for env_id, kwargs in ENV_IDS.items():
-        if env_id in gymnasium.registry:
-            continue
-        gymnasium.register(
-            id=env_id,
-            entry_point="rig_env.envs.env:RigEnv",
-            vector_entry_point="rig_env.envs.vector_env:RigVectorEnv",
-            kwargs=dict(kwargs),
-            disable_env_checker=False,
-        )
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'rig_env.envs' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
 
 
-register_envs()
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
+
+register_when_imported()
 
 __all__ = [
     "ENV_IDS",

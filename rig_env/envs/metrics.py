@@ -26,7 +26,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from rig_env.physics.jit import kernel
 
 _JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
 
@@ -45,7 +46,7 @@ METRIC_NAMES = (
 
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _maximum(a, b):
     """``np.maximum`` of two floats (a NaN in either gives NaN)."""
     if a >= b or math.isnan(a):
@@ -53,7 +54,7 @@ def _maximum(a, b):
     return b
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _accumulate(t, seg, y, r_in, err, band_abs, action, prev_action, violation, dt,
                 r, y0, t10, t90, t_out, peak, err2, a2, da2, viol, n):
     """One control step of :meth:`StepMetrics.update` after new segments were opened, in place.

@@ -12,8 +12,10 @@ Steps 1-3 of every environment are one numba pass (:func:`_update_kernel`), and 
 (:func:`_observation_kernel`); they give the same numbers as the numpy formulas above
 (``tests/test_env_kernels.py``).  Both are called with one set of argument types only (C-contiguous
 float64 arrays), and the first ``Sensors`` built in a process compiles them (or loads them from the
-disk cache, a few ms), so a real-time loop never pays for that inside a tick; nothing is compiled at
-import.
+disk cache, a few ms), so a real-time loop never pays for that inside a tick; nothing is compiled, nor
+numba imported, at import (:mod:`rig_env.physics.jit`).  A process in Python mode (the rig's loop,
+``rig-deploy run``) runs the same kernels as Python: the same float32 observations bit for bit
+(``tests/test_jit.py``).
 
 The class takes only raw measurements (joint angles in rad, compensator flap positions in rad,
 airspeed in m/s) and optional standard-normal noise samples, so the real-time deployment loop can
@@ -40,10 +42,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from rig_env.params import JOINTS
 from rig_env.physics import vmath
+from rig_env.physics.jit import kernel
 
 _JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
 
@@ -62,7 +64,7 @@ def _c64(x: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(x, dtype=np.float64)
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _update_kernel(angles_raw, flaps_raw, airspeed_raw, noise_t, noisy, sigma, lsb, buf, k, kd, dt, alpha,
                    angles, flaps, airspeed, prev, rates):
     """Steps 1-3 of the module docstring for every environment, in place.
@@ -99,7 +101,7 @@ def _update_kernel(angles_raw, flaps_raw, airspeed_raw, noise_t, noisy, sigma, l
         airspeed[i] = buf[i, kd, nj + N_FLAPS]
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _clip(v, lo, hi):
     """v clipped to [lo, hi]; NaN stays NaN (as ``np.clip``)."""
     if v < lo:
@@ -109,7 +111,7 @@ def _clip(v, lo, hi):
     return v
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _sincos_columns(angles, unl_cols, col, sn, cs):
     """sn[a], cs[a] (n,) = sine and cosine of angles[:, unl_cols[a]], one vmath.sincos each (2 ulp of the
     C library's; two libm calls cost twice).  The column is first copied to col (n,) so that the sincos
@@ -126,7 +128,7 @@ def _sincos_columns(angles, unl_cols, col, sn, cs):
             cs[a, i] = co
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _observation_kernel(angles, rates, flaps, airspeed, lim_cols, unl_cols, rate_scale, low, high, col, sn, cs, out):
     """Step 4 (the layout table) for every environment into out (n, obs_dim) float64.
 

@@ -24,9 +24,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
 
 from rig_env.physics import vmath
+from rig_env.physics.jit import kernel, prange
 
 _JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
 _JIT_PAR = {"cache": True, "error_model": "numpy", "parallel": True}  # numba parallelises prange only with NRT
@@ -83,7 +83,7 @@ def keys_of(seeds: np.ndarray) -> np.ndarray:
         return _mix(s.astype(np.uint64) * _GOLD + _GOLD)
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _mix1(x):
     """SplitMix64 finaliser of one uint64 (wrapping arithmetic); :func:`_mix` of a scalar."""
     x = x ^ (x >> np.uint64(30))
@@ -93,7 +93,7 @@ def _mix1(x):
     return x ^ (x >> np.uint64(31))
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _uniform_row(keys, episode, step, stream_code, j0, out, flip, i):
     """Row i of :func:`_uniform_kernel`."""
     h = _mix1(keys[i] ^ (episode[i] * _C_EP) ^ (step[i] * _C_STEP) ^ stream_code)
@@ -103,7 +103,7 @@ def _uniform_row(keys, episode, step, stream_code, j0, out, flip, i):
         out[i, c] = 1.0 - u if flip else u
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _uniform_kernel(keys, episode, step, stream_code, j0, out, flip):
     """out[i, c] = uniform number j0 + c of environment i, in [0, 1) (53 bits); 1 - that with ``flip``.
 
@@ -115,14 +115,14 @@ def _uniform_kernel(keys, episode, step, stream_code, j0, out, flip):
         _uniform_row(keys, episode, step, stream_code, j0, out, flip, i)
 
 
-@njit(**_JIT_PAR)
+@kernel(**_JIT_PAR)
 def _uniform_kernel_parallel(keys, episode, step, stream_code, j0, out, flip):
     """:func:`_uniform_kernel` on all numba threads."""
     for i in prange(out.shape[0]):
         _uniform_row(keys, episode, step, stream_code, j0, out, flip, i)
 
 
-@njit(**_JIT_VEC)
+@kernel(**_JIT_VEC)
 def _normal_block(keys, episode, step, stream_code, outT, hbuf, i0, i1):
     """outT[c, i] for environments i0 <= i < i1: ``sqrt(-2 log(1 - u_c)) cos(2 pi u_{k+c})`` with u_j the
     environment's uniform j (:func:`_uniform_kernel`'s); hbuf: (NORMAL_BLOCK,) uint64 scratch for the
@@ -142,7 +142,7 @@ def _normal_block(keys, episode, step, stream_code, outT, hbuf, i0, i1):
             outT[c, i] = math.sqrt(-2.0 * vmath.log(u1)) * vmath.sincos(2.0 * math.pi * u2)[1]
 
 
-@njit(**_JIT_VEC)
+@kernel(**_JIT_VEC)
 def _normal_kernel(keys, episode, step, stream_code, outT, hbuf):
     """outT (k, m): the k standard normals of each of m environments (see :func:`normal`); hbuf: (1,
     NORMAL_BLOCK) uint64 scratch, reused by every block."""
@@ -151,7 +151,7 @@ def _normal_kernel(keys, episode, step, stream_code, outT, hbuf):
         _normal_block(keys, episode, step, stream_code, outT, hbuf[0], b * NORMAL_BLOCK, min(m, (b + 1) * NORMAL_BLOCK))
 
 
-@njit(**_JIT_VEC_PAR)
+@kernel(**_JIT_VEC_PAR)
 def _normal_kernel_parallel(keys, episode, step, stream_code, outT, hbuf):
     """:func:`_normal_kernel` with the blocks on all numba threads; hbuf: (n_blocks, NORMAL_BLOCK), a row per block."""
     m = outT.shape[1]

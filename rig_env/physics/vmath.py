@@ -24,10 +24,12 @@ Accuracy (tests/test_vmath.py, against the C library):
 from __future__ import annotations
 
 import math
+from types import FunctionType, SimpleNamespace
 
-from llvmlite import ir
-from numba import njit, types
-from numba.extending import intrinsic
+import numpy as np
+
+from rig_env.physics import jit
+from rig_env.physics.jit import kernel
 
 FASTMATH = {"contract", "nsz", "arcp", "reassoc"}
 """LLVM fast-math flags of every physics kernel: fused multiply-adds, reassociation, reciprocals and the
@@ -52,7 +54,7 @@ _PIO2 = 1.57079632679489661923
 _PIO4 = 7.85398163397448309616e-1
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _atan_reduced(num, den, y0, extra):
     """y0 + atan(num / den) (+ extra, the low bits of y0) for abs(num / den) <= tan(pi/8): Cephes' rational form."""
     t = num / den
@@ -62,7 +64,7 @@ def _atan_reduced(num, den, y0, extra):
     return y0 + ((t * (z * p / q) + t) + extra)
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def atan(x):
     """arctan x (rad), in [-pi/2, pi/2]."""
     a = abs(x)
@@ -77,7 +79,7 @@ def atan(x):
     return -r if x < 0.0 else r
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def atan2(y, x):
     """The angle of the point (x, y) (rad), in [-pi, pi].
 
@@ -98,7 +100,7 @@ def atan2(y, x):
     return r if (x == x) & (y == y) else x + y  # NaN in, NaN out
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def asin(x):
     """arcsin x (rad) for abs(x) <= 1, in [-pi/2, pi/2]."""
     return atan2(x, math.sqrt((1.0 - x) * (1.0 + x)))
@@ -121,7 +123,21 @@ SINCOS_MAX = 1073741824.0
 """Up to this abs(x) (2^30 rad) :func:`sincos` is accurate to 2 ulp."""
 
 
-@njit(**_JIT)
+_PY_SINCOS = None
+_NUMPY_FLOOR_MATH = SimpleNamespace(floor=np.floor, inf=math.inf, nan=math.nan)
+
+
+def _sincos_python(x):
+    """:func:`sincos` run as Python (:mod:`rig_env.physics.jit`): its own code, with numba's ``math.floor``
+    (a float: inf and NaN pass through, where Python's raises) for every input numba takes."""
+    global _PY_SINCOS
+    if _PY_SINCOS is None:
+        f = sincos.py_func
+        _PY_SINCOS = FunctionType(f.__code__, dict(f.__globals__, math=_NUMPY_FLOOR_MATH), f.__name__)
+    return _PY_SINCOS(x)
+
+
+@kernel(python=_sincos_python, **_JIT)
 def sincos(x):
     """(sin x, cos x); x in rad."""
     a = abs(x)
@@ -157,9 +173,12 @@ EXP_MAX = 709.782712893384
 """Above this x, :func:`exp` returns inf."""
 
 
-@intrinsic
+@jit.intrinsic(python=jit.bits_from_float)
 def _bits_from_float(typingctx, x):
     """The int64 holding the IEEE 754 bit pattern of the float64 ``x`` (a register move, no conversion)."""
+    from llvmlite import ir
+    from numba import types
+
     sig = types.int64(types.float64)
 
     def codegen(context, builder, signature, args):
@@ -168,9 +187,12 @@ def _bits_from_float(typingctx, x):
     return sig, codegen
 
 
-@intrinsic
+@jit.intrinsic(python=jit.float_from_bits)
 def _float_from_bits(typingctx, bits):
     """The float64 whose IEEE 754 bit pattern is the int64 ``bits`` (a register move, no conversion)."""
+    from llvmlite import ir
+    from numba import types
+
     sig = types.float64(types.int64)
 
     def codegen(context, builder, signature, args):
@@ -179,7 +201,7 @@ def _float_from_bits(typingctx, bits):
     return sig, codegen
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _pade(r):
     """2 r P(r^2) / (Q(r^2) - r P(r^2)) = e^r - 1 for abs(r) <= 0.5 (Cephes' rational approximation)."""
     rr = r * r
@@ -188,7 +210,7 @@ def _pade(r):
     return e + e
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _reduced(x, small):
     """(e^r - 1, n) with x = n ln2 + r, abs(r) <= ln2 / 2, x clamped to [EXP_MIN, EXP_MAX] (NaN -> EXP_MIN: the
     callers select the ends); n = 0 and r = x where ``small``."""
@@ -199,7 +221,7 @@ def _reduced(x, small):
     return _pade(r), n
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _times_two_to(e, n):
     """e 2^n, 2^n built from its exponent bits (n in [-1022, 1024]; 2^1024 only at EXP_MAX, written as 2 * 2^1023)."""
     ni = int(n)
@@ -207,7 +229,7 @@ def _times_two_to(e, n):
     return e * two_n * (2.0 if ni > 1023 else 1.0)
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def exp(x):
     """e^x."""
     em, n = _reduced(x, False)
@@ -217,7 +239,7 @@ def exp(x):
     return x if x != x else e  # NaN in, NaN out
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def expm1(x):
     """e^x - 1, without the cancellation of exp(x) - 1 near 0: Cephes' rational form of e^r - 1 at r = x for
     abs(x) <= 0.5, and 2^n (1 + (e^r - 1)) - 1 after exp's reduction outside (one rational form, whichever
@@ -242,7 +264,7 @@ _LQ0, _LQ1, _LQ2, _LQ3, _LQ4 = (
 _SQRTH = 0.70710678118654752440  # sqrt(1/2)
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def log(x):
     """ln x: x = m 2^e with m in [sqrt(1/2), sqrt(2)) from the exponent bits, ln(1 + z) at z = m - 1 by
     Cephes' rational form z - z^2/2 + z^3 P(z)/Q(z), plus e ln2 in two parts."""

@@ -27,10 +27,10 @@ from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
-from numba import njit
 
 from rig_env.params import JOINTS, LIMITED_JOINTS
 from rig_env.physics import layout as L
+from rig_env.physics.jit import kernel
 
 D = math.pi / 180.0
 G0 = 9.81  # m/s^2, for load factors in observations and docstrings (the physics uses P's gravity)
@@ -39,7 +39,7 @@ _STOP_COL = {j: getattr(L, f"P_STOPS_{j.upper()}_LOWER_DEG") for j in LIMITED_JO
 _JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _stop_flags(q, P, joints, cols, margin, on, beyond):
     """Per environment: on a stop (q <= lower or q >= upper) and beyond one by more than margin (rad).
 
@@ -55,7 +55,7 @@ def _stop_flags(q, P, joints, cols, margin, on, beyond):
         on[i], beyond[i] = o, b
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _control_cost_kernel(a, a_prev, out):
     """out (n,) = 0.05 mean_j a_j^2 + 0.05 mean_j (a_j - a_prev_j)^2 for normalised actions a, a_prev (n, k)."""
     k = a.shape[1]

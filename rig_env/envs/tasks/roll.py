@@ -5,21 +5,21 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from rig_env.envs.tasks.base import D, Task
+from rig_env.physics.jit import kernel
 
 _JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _ramp_clip(x, hi):
     """``np.clip(x, 0, hi)`` of one finite float, as numpy's clip loop computes it (so -0.0 gives +0.0)."""
     v = x if x > 0.0 else 0.0  # noqa: FURB136 - the comparisons of numpy's loop, not min/max's
     return v if v < hi else hi  # noqa: FURB136
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _roll_reference(t, phi0, R, Th, Td, t_start, t_ramp, out):
     """The velocity-vector-roll reference of every environment into out (n, 2): roll angle, rad; roll rate, rad/s.
 
@@ -44,7 +44,7 @@ def _roll_reference(t, phi0, R, Th, Td, t_start, t_ramp, out):
             out[i, 1] = R[i] * (1.0 - s3 / Td[i])
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _roll_observation(ref, angles, rates, col, angle_scale, rate_scale, low, high, out):
     """Appended entries of :class:`VelocityVectorRoll` into out (n, 3), each clipped to [low, high] (NaN kept).
 
@@ -58,7 +58,7 @@ def _roll_observation(ref, angles, rates, col, angle_scale, rate_scale, low, hig
             out[i, j] = low[j] if v[j] < low[j] else (high[j] if v[j] > high[j] else v[j])  # noqa: FURB136 - NaN stays NaN
 
 
-@njit(**_JIT)
+@kernel(**_JIT)
 def _roll_tracked(t, q, qd, ref, R, phi0, Th, Td, t_start, t_ramp, band_rate, band_stop, seg, y, r, err, band):
     """Metrics' signals of every environment (outputs seg, y, r, err, band, each (n,)).
 

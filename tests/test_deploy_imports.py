@@ -1,0 +1,125 @@
+"""The rig process (``rig-deploy run``) imports numpy, the runtime and the observation builder, nothing heavy.
+
+The real ``run`` code path (:func:`controllers.deploy.cli.main`) flies an exported law for a second
+against a tiny fake rig in this test (loopback UDP, 80 Hz frames), inside a ``python -c``
+subprocess that then writes its ``sys.modules``; and ``import rig_env; import rig_env.envs.observation``
+alone, in a fresh interpreter.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from controllers.deploy import protocol as pr
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = dict(os.environ, PYTHONPATH=str(ROOT))
+HEAVY = ("gymnasium", "numba", "llvmlite", "matplotlib", "scipy", "control", "torch", "stable_baselines3")
+TASK = "velocity_vector_roll"
+
+
+def _heavy(modules: list[str]) -> list[str]:
+    return sorted({m.split(".")[0] for m in modules} & set(HEAVY))
+
+
+def _modules_after(code: str) -> list[str]:
+    r = subprocess.run([sys.executable, "-c", code + "\nimport sys, json; print(json.dumps(sorted(sys.modules)))"], env=ENV,
+                       capture_output=True, text=True, timeout=120, cwd=str(ROOT))
+    assert r.returncode == 0, r.stderr
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def test_import_rig_env_and_the_observation_builder_is_light():
+    mods = _modules_after("import rig_env; import rig_env.envs.observation; import rig_env.envs.sensors; import rig_env.envs.streams; "
+                          "import rig_env.envs.tasks; import rig_env.physics.layout; import rig_env.physics.vmath")
+    assert _heavy(mods) == []
+    assert "rig_env.simulate" not in mods and "rig_env.envs.vector_env" not in mods
+
+
+class FakeRig:
+    """80 Hz sensor frames of a slowly rocking rig to whoever sent the first datagram; counts the commands by mode."""
+
+    def __init__(self, rate: float = 80.0) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.settimeout(0.005)
+        self.port = self.sock.getsockname()[1]
+        self.period = 1.0 / rate
+        self.modes: dict[int, int] = {}
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        buf = bytearray(pr.SENSOR_SIZE)
+        peer, seq, t0, nxt = None, 0, None, 0.0
+        deadline = time.monotonic() + 90.0  # never outlives the test
+        while not self.stop.is_set() and time.monotonic() < deadline:
+            try:
+                data, addr = self.sock.recvfrom(256)
+                peer = addr
+                try:
+                    _, _, _, mode = pr.unpack_command(data)
+                    self.modes[mode] = self.modes.get(mode, 0) + 1
+                except pr.FrameError:
+                    pass
+            except (TimeoutError, BlockingIOError):
+                pass
+            now = time.monotonic()
+            if peer is not None and now >= nxt:
+                t0 = now if t0 is None else t0
+                w = math.sin(3.0 * (now - t0))  # every joint moves a little: the stuck-sensor watchdog stays quiet
+                angles = (0.01 * w, 0.002 * w, 0.003 * w, 0.02 + 0.004 * w, 0.005 * w)
+                pr.pack_sensor_into(buf, seq, now - t0, angles, (0.0,) * 4, 20.0, pr.STATUS_SIMULATED)
+                self.sock.sendto(buf, peer)
+                seq += 1
+                nxt = now + self.period
+
+    def close(self) -> None:
+        self.stop.set()
+        self.thread.join(timeout=5)
+        self.sock.close()
+
+
+@pytest.fixture(scope="module")
+def law_file(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("law") / "law.json"
+    r = subprocess.run([sys.executable, "-m", "controllers.deploy.cli", "export", "--controller", "linear", "--task", TASK, "--out", str(out)],
+                       env=ENV, capture_output=True, text=True, timeout=300, cwd=str(ROOT))
+    assert r.returncode == 0, r.stderr
+    return out
+
+
+def test_run_path_flies_without_heavy_modules(law_file, tmp_path):
+    rig = FakeRig()
+    out = tmp_path / "modules.json"
+    argv = ["run", "--law", str(law_file), "--rig", f"udp://127.0.0.1:{rig.port}", "--arm", "--duration", "1.0", "--bind", "127.0.0.1"]
+    code = ("import sys, json\n"
+            "from controllers.deploy.cli import main\n"
+            f"rc = main({argv!r})\n"
+            f"open({str(out)!r}, 'w').write(json.dumps({{'rc': rc, 'modules': sorted(sys.modules)}}))\n")
+    try:
+        r = subprocess.run([sys.executable, "-c", code], env=ENV, capture_output=True, text=True, timeout=120, cwd=str(ROOT))
+    finally:
+        rig.close()
+    assert r.returncode == 0, r.stderr
+    summary = json.loads(r.stdout[r.stdout.index("{"):])
+    result = json.loads(out.read_text())
+    print("\nheavy modules of the loop process:", _heavy(result["modules"]), f"({len(result['modules'])} modules)")
+    print("rig_env modules:", [m for m in result["modules"] if m.startswith("rig_env")])
+    print("loop summary:", {k: summary[k] for k in ("final_state", "faults", "counts", "compute")})
+    # the law flew (commands in mode ACTIVE); an overrun latch is the shared test machine's scheduling, not the imports
+    assert result["rc"] in (0, 3) and set(summary["faults"]) <= {"overrun"}, summary
+    assert summary["counts"]["fresh"] > 40 and rig.modes.get(pr.MODE_ACTIVE, 0) >= 10, (summary["counts"], rig.modes)
+    assert _heavy(result["modules"]) == []
+    assert "rig_env.physics.jit" in result["modules"] and "rig_env.envs.observation" in result["modules"]
