@@ -19,6 +19,7 @@ import types
 from typing import TYPE_CHECKING, Any
 
 from rig_env import importhook as _importhook
+from rig_env.importhook import lazy_attributes
 from rig_env.envs import registration as _registration
 from rig_env.params import JOINTS, PARAM_NAMES, SERVOS, SURFACES, ParameterError, RigParams, param_batch
 from rig_env.physics import jit as _jit
@@ -37,19 +38,7 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'rig_env' has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_attributes('rig_env', _LAZY, globals())
 
 
 class _Package(types.ModuleType):

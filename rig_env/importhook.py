@@ -96,3 +96,23 @@ def waiting() -> tuple[str, ...]:
 
 
 __all__ = ["waiting", "when_imported"]
+
+
+def lazy_attributes(package: str, lazy: dict[str, str], namespace: dict) -> tuple[Callable[[str], object], Callable[[], list[str]]]:
+    """``(__getattr__, __dir__)`` for ``package`` (PEP 562): each name of ``lazy`` is imported from its
+    module (``lazy[name]``) at its first use and then bound in ``namespace`` (the package's globals)."""
+
+    def __getattr__(name: str) -> object:
+        module = lazy.get(name)
+        if module is None:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        import importlib
+
+        value = getattr(importlib.import_module(module), name)
+        namespace[name] = value
+        return value
+
+    def __dir__() -> list[str]:
+        return sorted(set(namespace) | set(lazy))
+
+    return __getattr__, __dir__

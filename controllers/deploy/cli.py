@@ -72,7 +72,6 @@ def task_options(pairs: Sequence[str] | None) -> dict[str, Any]:
 
 
 def cmd_export(a: argparse.Namespace) -> int:
-    import controllers  # noqa: F401  (registers the built-in laws and their artefact kinds)
     from controllers import CONTROLLERS, LoopSpec, make_controller
     from controllers.laws import artefact as art
     from controllers.design.linear import roll_tracking

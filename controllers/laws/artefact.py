@@ -97,11 +97,7 @@ class ArtefactError(ValueError):
 
 def artefact_class(kind: str) -> type[Controller]:
     """The registered law class whose ``artefact_kind`` is ``kind`` (ArtefactError naming the known kinds)."""
-    found = _find(kind)
-    if found is None:  # the built-in laws register themselves when controllers.laws is imported
-        import controllers.laws  # noqa: F401
-
-        found = _find(kind)
+    found = _find(kind)  # the built-in laws are registered: importing any controllers module imports controllers.laws
     if found is None:
         raise ArtefactError(f"kind {kind!r}: no law registered for it; registered kinds: {sorted(artefact_kinds())}")
     return found

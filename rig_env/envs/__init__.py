@@ -24,9 +24,10 @@ real-time loop shares with the environments) comes without them.  The ids are re
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from rig_env.envs.registration import ENV_IDS, register_envs, register_when_imported
+from rig_env.importhook import lazy_attributes
 
 if TYPE_CHECKING:
     from rig_env.envs.config import RigEnvConfig
@@ -55,19 +56,7 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'rig_env.envs' has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_attributes('rig_env.envs', _LAZY, globals())
 
 
 register_when_imported()
