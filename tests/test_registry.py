@@ -68,7 +68,7 @@ def test_a_spec_claimed_twice_is_refused_and_an_unknown_kind_named():
             return np.zeros((self.num_envs, self.spec.n_actions))
 
     class _B(_A):
-        pass
+        artefact_kind = "_twice_b"  # one class per artefact kind
 
     try:
         register("_twice")(_A), register("_twice")(_B)
