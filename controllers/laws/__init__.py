@@ -20,6 +20,6 @@ scipy, numba or torch.
 """
 
 from controllers.laws import emulation, heave_sway, linear, lqr, pid, rl  # noqa: F401  (each registers its laws)
-from controllers.laws.base import LAWS, Controller, LoopSpec, UnsupportedTask, law_for, register
+from controllers.laws.base import LAWS, Controller, LoopSpec, TabledLaw, UnsupportedTask, law_for, register
 
-__all__ = ["LAWS", "Controller", "LoopSpec", "UnsupportedTask", "law_for", "register"]
+__all__ = ["LAWS", "Controller", "LoopSpec", "TabledLaw", "UnsupportedTask", "law_for", "register"]

@@ -150,6 +150,24 @@ class Controller(abc.ABC):
         return m
 
 
+class TabledLaw(Controller):
+    """A model-based law: it runs the tables its design made (``self.tables``, numpy arrays and numbers).
+
+    Its constructor takes ``tables=`` as the tables object or their plain data, so the law's artefact
+    data is its tables' (:meth:`to_data`) and :meth:`from_data` is the constructor.
+    """
+
+    tables: Any
+
+    @classmethod
+    def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> "TabledLaw":
+        """The runtime of a deployed artefact (numpy only): ``cls(spec, num_envs, tables=data)``."""
+        return cls(spec, num_envs, tables=data)
+
+    def to_data(self) -> dict[str, Any]:
+        return self.tables.to_data()
+
+
 LAWS: dict[str, list[type[Controller]]] = {}
 """Law classes by kind (``"lqr"``, ``"pid"``, ``"ppo"``, ``"sac"``, ``"linear"``), filled by :func:`register`.
 

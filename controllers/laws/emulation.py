@@ -64,7 +64,7 @@ from typing import Any
 
 import numpy as np
 
-from controllers.laws.base import Controller, LoopSpec, UnsupportedTask, register
+from controllers.laws.base import LoopSpec, TabledLaw, UnsupportedTask, register
 from controllers.laws.signals import SignalScales, table_array
 
 
@@ -206,7 +206,7 @@ class EmulationTables:
 
 
 @register("lqr")
-class EmulationLQR(Controller):
+class EmulationLQR(TabledLaw):
     """Model-following LQR of free-flight emulation (module docstring).
 
     ``tables``: the design (:class:`EmulationTables` or its data), made by
@@ -245,14 +245,6 @@ class EmulationLQR(Controller):
         self.fresh = np.ones(n, dtype=bool)  # start the estimator from the measurement
         self._flaps = [ix(f"flap{k}") for k in range(1, 5)]
         self._unmix = sc.unmix[1] * sc.flap_scale / math.radians(spec.action_scale_deg)  # heave flap, normalised, per flap unit
-
-    @classmethod
-    def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> EmulationLQR:
-        """The runtime of a deployed artefact (numpy only)."""
-        return cls(spec, num_envs, tables=EmulationTables.from_data(data, spec))
-
-    def to_data(self) -> dict[str, Any]:
-        return self.tables.to_data()
 
     def reset(self, mask: np.ndarray | None = None) -> None:
         m = self._mask(mask)

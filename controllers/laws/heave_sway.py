@@ -57,7 +57,7 @@ from typing import Any
 import numpy as np
 
 from controllers.laws.axes import AXIS_OF
-from controllers.laws.base import Controller, LoopSpec, register
+from controllers.laws.base import LoopSpec, TabledLaw, register
 from controllers.laws.emulation import EmulationLQR
 from controllers.laws.estimator import DelayedKalman
 from controllers.laws.pid_element import PID
@@ -214,7 +214,7 @@ class _AxisModel:
         return self.static_input(V, th_ref) + (a_ref - self.at(self.cw, V) * w_ref) / self.at(self.b, V)
 
 
-class _HeaveSwayBase(Controller):
+class _HeaveSwayBase(TabledLaw):
     _law = ""
 
     @classmethod
@@ -243,14 +243,6 @@ class _HeaveSwayBase(Controller):
         self._rcols = [ix(f"{j}_rate") for j in spec.free_dofs]
         self._rscale = [float(x) for x in sc.rate_scale]
         self.emulate = spec.task == "free_flight_emulation"
-
-    @classmethod
-    def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> _HeaveSwayBase:
-        """The runtime of a deployed artefact (numpy only)."""
-        return cls(spec, num_envs, tables=HeaveSwayTables.from_data(cls._law, data, spec))
-
-    def to_data(self) -> dict[str, Any]:
-        return self.tables.to_data()
 
     def _joints(self, o: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(n, nq) measured angles and (n, nq) filtered rates of the free joints, rad and rad/s."""

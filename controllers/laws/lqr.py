@@ -38,9 +38,9 @@ from typing import Any
 import numpy as np
 
 from controllers.laws.axes import AXIS_OF, axes_of, resolve, unresolve
-from controllers.laws.base import Controller, LoopSpec, register
+from controllers.laws.base import LoopSpec, TabledLaw, register
 from controllers.laws.estimator import DelayedKalman
-from controllers.laws.signals import Signals, SignalScales, require_roll, table_array
+from controllers.laws.signals import Signals, SignalScales, require_roll, roll_reason, table_array
 
 
 _TABLES = ("K", "u_trim", "q_op", "A_q", "A_w", "B")
@@ -119,7 +119,7 @@ class LQRTables:
 
 
 @register("lqr")
-class LQRLaw(Controller):
+class LQRLaw(TabledLaw):
     """Gain-scheduled LQR; see the module docstring.
 
     ``tables``: the design (:class:`LQRTables` or its data), made by
@@ -132,7 +132,7 @@ class LQRLaw(Controller):
     @classmethod
     def supports(cls, spec: LoopSpec) -> str | None:
         """The scheduled roll-axis LQR flies any task with rig_roll free."""
-        return None if "rig_roll" in spec.free_dofs else f"free_dofs = {list(spec.free_dofs)}: its roll loops need rig_roll free"
+        return roll_reason(spec)
 
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, tables: LQRTables | Mapping[str, Any]) -> None:
         super().__init__(spec, num_envs)
@@ -153,14 +153,6 @@ class LQRLaw(Controller):
         self._int_col = 2 * len(fd) + np.arange(len(self.tracked))  # columns of K acting on the integrals
         self._p_prev = np.zeros(self.num_envs)
         self._fresh = np.ones(self.num_envs, dtype=bool)
-
-    @classmethod
-    def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> LQRLaw:
-        """The runtime of a deployed artefact (numpy only)."""
-        return cls(spec, num_envs, tables=LQRTables.from_data(data, spec))
-
-    def to_data(self) -> dict[str, Any]:
-        return self.tables.to_data()
 
     def reset(self, mask: np.ndarray | None = None) -> None:
         m = self._mask(mask)

@@ -36,9 +36,9 @@ from typing import Any
 import numpy as np
 
 from controllers.laws.axes import AXIS_OF, axes_of, resolve, unresolve
-from controllers.laws.base import Controller, LoopSpec, register
+from controllers.laws.base import LoopSpec, TabledLaw, register
 from controllers.laws.pid_element import PID
-from controllers.laws.signals import Signals, SignalScales, require_roll, table_array
+from controllers.laws.signals import Signals, SignalScales, require_roll, roll_reason, table_array
 
 
 
@@ -112,7 +112,7 @@ class PIDTables:
 
 
 @register("pid")
-class PIDLaw(Controller):
+class PIDLaw(TabledLaw):
     """Cascaded PID family; see the module docstring.
 
     ``tables``: the design (:class:`PIDTables` or its data), made by
@@ -125,7 +125,7 @@ class PIDLaw(Controller):
     @classmethod
     def supports(cls, spec: LoopSpec) -> str | None:
         """The roll-axis cascade flies any task with rig_roll free."""
-        return None if "rig_roll" in spec.free_dofs else f"free_dofs = {list(spec.free_dofs)}: its roll loops need rig_roll free"
+        return roll_reason(spec)
 
     def __init__(self, spec: LoopSpec, num_envs: int = 1, *, tables: PIDTables | Mapping[str, Any]) -> None:
         super().__init__(spec, num_envs)
@@ -138,14 +138,6 @@ class PIDLaw(Controller):
         self.inner = {j: PID(n, kp=t.kp[k], ki=t.ki[k], dt=spec.dt, rate=t.rate_limit) for k, j in enumerate(t.axes)}
         self._pending = np.ones(n, dtype=bool)
         self._p_ref_prev = np.zeros(n)
-
-    @classmethod
-    def from_data(cls, data: Mapping[str, Any], spec: LoopSpec, num_envs: int = 1) -> PIDLaw:
-        """The runtime of a deployed artefact (numpy only)."""
-        return cls(spec, num_envs, tables=PIDTables.from_data(data, spec))
-
-    def to_data(self) -> dict[str, Any]:
-        return self.tables.to_data()
 
     def reset(self, mask: np.ndarray | None = None) -> None:
         m = self._mask(mask)

@@ -115,10 +115,16 @@ def table_array(d: Mapping[str, Any], k: str, shape: tuple[int | None, ...] | No
 
 
 
+def roll_reason(spec: LoopSpec) -> str | None:
+    """None when rig_roll is free, else why a law with roll loops cannot fly ``spec`` (its ``supports``)."""
+    return None if "rig_roll" in spec.free_dofs else f"free_dofs = {list(spec.free_dofs)}: this law's roll loops need rig_roll free"
+
+
 def require_roll(spec: LoopSpec) -> None:
     """UnsupportedTask unless rig_roll is free: the compensator laws' roll loops need it (checked before any design)."""
-    if "rig_roll" not in spec.free_dofs:
-        raise UnsupportedTask(f"free_dofs = {list(spec.free_dofs)}: this law's roll loops need rig_roll free")
+    why = roll_reason(spec)
+    if why:
+        raise UnsupportedTask(why)
 
 
 class Signals:
