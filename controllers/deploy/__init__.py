@@ -3,7 +3,6 @@
 | module | one idea |
 |---|---|
 | :mod:`controllers.laws.artefact` | a law as one file of plain data (JSON + base64 arrays), one checksum, optional HMAC; every law's kind (``artefact_kind``) |
-| :mod:`~controllers.deploy.artefact` | the same codec under its earlier name |
 | :mod:`~controllers.deploy.convert` | ``rig-deploy convert-policy``: an old-format policy file (``rig_env.rl_policy``) to an artefact |
 | :mod:`~controllers.deploy.protocol` | the binary UDP frames (sensor, command), CRC-32 |
 | :mod:`~controllers.deploy.loop` | ``RigLoop``: fixed-rate loop, lifecycle, watchdogs, output limits |
