@@ -14,6 +14,7 @@ joints were free, at what angle the locked ones were held), the sample times, th
 | surface_kind | str | ``"commanded"``: what the loop sent (the model's servos act on it); ``"actual"``: the deflections themselves (measured, or passed through a servo model beforehand; the model's servos are bypassed) |
 | airspeed | float or (n_t,) | m/s, tunnel speed (a constant or the measured series), in [0, 60] |
 | locked | {joint: rad} or None | angles of locked joints (None: zeros) |
+| setup | {dotted parameter name: value} | parameters of this run's set-up that differ from the rig's (a friction test's springs and masses, an added mass), in the parameter file's units |
 | name | str | a label for reports and error messages |
 
 Construction checks every field and raises :class:`RecordError` naming the field and what is allowed.
@@ -63,6 +64,7 @@ class FlightRecord:
     locked: Mapping[str, float] | None = None
     qd: np.ndarray | None = None
     surface_kind: str = "commanded"
+    setup: Mapping[str, float] = field(default_factory=dict)
     name: str = "record"
 
     def __post_init__(self) -> None:
@@ -126,6 +128,16 @@ class FlightRecord:
                 raise RecordError(f"{self.name}: locked[{j!r}] must be finite")
             locked[j] = float(v)
         set_(self, "locked", locked)
+        from rig_env.params import PARAM_INDEX
+
+        setup = {}
+        for k, v in dict(self.setup or {}).items():
+            if k not in PARAM_INDEX:
+                raise RecordError(f"{self.name}: setup: unknown parameter {k!r}; valid names: rig_env.PARAM_NAMES")
+            if not math.isfinite(float(v)):
+                raise RecordError(f"{self.name}: setup[{k!r}] must be finite")
+            setup[k] = float(v)
+        set_(self, "setup", setup)
 
     # ------------------------------------------------------------------ views
     @property
