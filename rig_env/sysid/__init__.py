@@ -7,6 +7,8 @@ parameters back into :class:`rig_env.RigParams` and a parameter file.  See READM
 
 from __future__ import annotations
 
+from rig_env.sysid.fit import METHODS, fit
 from rig_env.sysid.records import FlightRecord, RecordError
+from rig_env.sysid.result import Fit
 
-__all__ = ["FlightRecord", "RecordError"]
+__all__ = ["METHODS", "Fit", "FlightRecord", "RecordError", "fit"]

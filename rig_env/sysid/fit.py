@@ -1,0 +1,121 @@
+"""``fit``: identify parameters of the rig's model from one or more records.
+
+    fit = sysid.fit([rec, ...], params, estimate=["hawk_aero.CMalpha", "friction.rig_roll.Fc"],
+                    method="output_error")     # or "filter_error"
+    fit.values, fit.std, fit.correlation, fit.params, fit.residuals
+
+The model fitted is the environments' own (:class:`rig_env.sysid.model.RecordModel`: the whole
+multibody rig with friction, servos, delays and stops), so ``fit.params`` flies in ``simulate()``, the
+environments and the laws' design as it is.  Methods: :mod:`rig_env.sysid.output_error` (measurement noise
+only) and :mod:`rig_env.sysid.filter_error` (process noise too: turbulence; the paper's method).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Callable, Mapping, Sequence
+
+import numpy as np
+
+from rig_env.params import ParameterError, RigParams
+from rig_env.sysid.covariance import correlation
+from rig_env.sysid.parameters import ParameterSet
+from rig_env.sysid.records import FlightRecord, RecordError
+from rig_env.sysid.result import Fit
+
+if TYPE_CHECKING:
+    from rig_env.sysid.problem import Problem
+
+METHODS = ("output_error", "filter_error")
+
+
+def fit(
+    records: FlightRecord | Sequence[FlightRecord],
+    params: RigParams,
+    estimate: Sequence[str],
+    method: str = "output_error",
+    *,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+    start: Mapping[str, float] | None = None,
+    initial_state: str = "estimate",
+    biases: bool = False,
+    process_noise: Mapping[str, float] | None = None,
+    friction: bool = True,
+    stops: bool = True,
+    nonlinear_aero: bool = False,
+    max_iter: int = 30,
+    tol: float = 1e-6,
+    progress: Callable[[str], None] | None = None,
+) -> Fit:
+    """Estimate the parameters named in ``estimate`` from ``records``.
+
+    records: one or more :class:`FlightRecord` (fitted jointly; each uniformly sampled); params: the rig
+    (every parameter not estimated keeps its value); estimate: dotted names (:data:`rig_env.PARAM_NAMES`);
+    method: "output_error" or "filter_error"; bounds: {name: (low, high)} within each
+    parameter's allowed range; start: {name: start value} (default: the value in params);
+    initial_state: "estimate" (each record's initial free angles and rates are estimated with the
+    parameters, output error) or "measured" (taken from the record's first samples); biases: estimate a
+    constant bias per record and output (output error); process_noise: filter error's start values,
+    {joint: std of the process noise on its acceleration, rad/s^2} (default from the records);
+    friction, stops, nonlinear_aero: the model's terms; max_iter, tol: the optimiser's limits;
+    progress: called with a one-line message per iteration.
+    """
+    if method not in METHODS:
+        raise ValueError(f"method = {method!r}; allowed: {', '.join(METHODS)}")
+    if not isinstance(params, RigParams):
+        raise ParameterError("params must be a RigParams (e.g. RigParams.default() or RigParams.from_toml(path))")
+    if not (isinstance(max_iter, int) and 1 <= max_iter <= 1000):
+        raise ValueError(f"max_iter = {max_iter!r}: allowed an integer in [1, 1000]")
+    if not (0.0 < tol < 1.0):
+        raise ValueError(f"tol = {tol}: allowed range (0, 1)")
+    recs = [records] if isinstance(records, FlightRecord) else list(records)
+    if not recs or not all(isinstance(r, FlightRecord) for r in recs):
+        raise RecordError("records: give one or more FlightRecord objects")
+    pset = ParameterSet.build(params, estimate, bounds, start)
+    from rig_env.sysid.problem import Problem  # the model and its kernels: imported when a fit runs
+
+    if method == "output_error":
+        from rig_env.sysid.output_error import output_error
+
+        problem = Problem(recs, params, pset, initial_state=initial_state, biases=biases, friction=friction, stops=stops,
+                          nonlinear_aero=nonlinear_aero)
+        sol = output_error(problem, problem.p0, max_iter=max_iter, tol=tol, progress=progress)
+    else:
+        from rig_env.sysid.filter_error import filter_error
+
+        if biases:
+            raise ValueError("biases: the filter-error method here does not estimate output biases (use output error)")
+        problem = Problem(recs, params, pset, initial_state="measured", biases=False, friction=friction, stops=stops,
+                          nonlinear_aero=nonlinear_aero)
+        sol = filter_error(problem, problem.p0, process_noise=process_noise, max_iter=max_iter, tol=tol, progress=progress)
+    return _result(method, problem, pset, params, sol)
+
+
+def _result(method: str, problem: "Problem", pset: ParameterSet, params: RigParams, sol) -> Fit:
+    k = pset.k
+    theta = sol.p[:k]
+    names = pset.names
+    cov = sol.cov[:k, :k]
+    cov_w = sol.cov_white[:k, :k]
+    fitted = pset.apply(params, theta)
+    return Fit(
+        method=method,
+        estimate=names,
+        values={n: float(v) for n, v in zip(names, theta)},
+        initial={n: float(v) for n, v in zip(names, pset.start)},
+        std={n: float(np.sqrt(max(cov[i, i], 0.0))) for i, n in enumerate(names)},
+        std_white={n: float(np.sqrt(max(cov_w[i, i], 0.0))) for i, n in enumerate(names)},
+        covariance=cov,
+        correlation=correlation(cov),
+        params=fitted,
+        records=tuple(problem.records),
+        outputs=tuple(problem.outputs),
+        predicted=tuple(sol.evaluation.Y),
+        residuals=tuple(sol.residuals),
+        noise_cov=sol.noise[0],
+        nuisance={n: float(v) for n, v in zip(problem.names[k:], sol.p[k:])},
+        process_noise=dict(sol.extra.get("process_noise", {})),
+        cost_history=tuple(sol.cost_history),
+        iterations=sol.iterations,
+        converged=sol.converged,
+        message=sol.message,
+    )
