@@ -7,9 +7,14 @@ correction of Morelli and Klein replaces it by
 
     Cov = F^-1 [ sum_i sum_j S_i' R^-1 Rvv(i - j) R^-1 S_j ] F^-1
 
-with ``Rvv(tau) = 1/N sum_k v_(k+tau) v_k'`` the residuals' sample autocorrelation at every lag.  For
-white residuals Rvv is R at lag 0 and (nearly) zero elsewhere, and Cov returns to F^-1.  The double sum
-is a Toeplitz product per pair of output channels, done by FFT.
+with ``Rvv(tau) = 1/N sum_k v_(k+tau) v_k'`` the residuals' sample autocorrelation.  Summed over every
+lag, that estimate collapses for a parameter whose sensitivity is nearly constant (a moment offset acts
+as a bias, and the residuals of a fit sum to nearly zero: the sum over all lags of their biased
+autocorrelation is (sum v)^2 / N), so the sum is taken with Bartlett weights ``1 - |tau| / (L + 1)``
+up to a lag L (the Newey-West estimator, positive semi-definite): L is twice the lag at which every
+channel's autocorrelation first falls inside its 95 % band 1.96 / sqrt(N), and at least the Newey-West
+rule ``4 (N / 100)^(2/9)``.  For white residuals Cov returns to about F^-1.  The double sum is a Toeplitz
+product per pair of output channels, done by FFT.
 """
 
 from __future__ import annotations
@@ -34,18 +39,33 @@ def fisher_information(S: np.ndarray, R: np.ndarray) -> np.ndarray:
     return np.einsum("kip,ij,kjq->pq", S, Ri, S)
 
 
+def bandwidth(V: np.ndarray) -> int:
+    """The lag window L of :func:`coloured_middle` for residuals V (n_t, n_out) (see the module docstring)."""
+    n = V.shape[0]
+    band = 1.96 / np.sqrt(n)
+    first = 1
+    for a in range(V.shape[1]):
+        r = cross_correlation(V[:, a], V[:, a])
+        rho = r / r[0] if r[0] > 0 else np.zeros_like(r)
+        inside = np.flatnonzero(np.abs(rho[1:]) < band)
+        first = max(first, int(inside[0]) + 1 if inside.size else n)
+    return int(min(max(2 * first, int(np.ceil(4.0 * (n / 100.0) ** (2.0 / 9.0)))), n - 1))
+
+
 def coloured_middle(S: np.ndarray, V: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """(n_p, n_p) ``sum_i sum_j S_i' R^-1 Rvv(i - j) R^-1 S_j`` of one record.
+    """(n_p, n_p) ``sum_i sum_j S_i' R^-1 w(i - j) Rvv(i - j) R^-1 S_j`` of one record, Bartlett weights w.
 
     S: (n_t, n_out, n_p) sensitivities; V: (n_t, n_out) residuals; R: (n_out, n_out) noise covariance."""
     Ri = np.linalg.inv(R)
     W = np.einsum("ij,kjp->kip", Ri, S)  # R^-1 S_k, (n_t, n_out, n_p)
     n_out = V.shape[1]
+    L = bandwidth(V)
+    w = np.clip(1.0 - np.arange(V.shape[0]) / (L + 1.0), 0.0, None)
     out = np.zeros((S.shape[2], S.shape[2]))
     for a in range(n_out):
         for b in range(n_out):
-            r_ab = cross_correlation(V[:, a], V[:, b])  # E[v_a(k + tau) v_b(k)]
-            r_ba = cross_correlation(V[:, b], V[:, a])
+            r_ab = w * cross_correlation(V[:, a], V[:, b])  # E[v_a(k + tau) v_b(k)]
+            r_ba = w * cross_correlation(V[:, b], V[:, a])
             TW = matmul_toeplitz((r_ab, r_ba), W[:, b, :], check_finite=False)  # T[i, j] = Rvv_ab(i - j)
             out += W[:, a, :].T @ TW
     return 0.5 * (out + out.T)
