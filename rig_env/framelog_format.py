@@ -86,7 +86,12 @@ def read_log(path: str | os.PathLike) -> tuple[dict[str, Any], np.ndarray]:
         header = None
     if not isinstance(header, dict) or header.get("format") != FORMAT or "dtype" not in header:
         raise ValueError(f"{path}: not a frame log (the first line must be a JSON header with format {FORMAT!r} and dtype)")
-    dt = np.dtype([tuple(d) if len(d) == 2 else (d[0], d[1], tuple(d[2])) for d in header["dtype"]])
+    try:
+        dt = np.dtype([tuple(d) if len(d) == 2 else (d[0], d[1], tuple(d[2])) for d in header["dtype"]])
+    except (TypeError, ValueError, IndexError) as e:
+        raise ValueError(f"{path}: the header's dtype is not a record layout: {e}") from None
+    if dt.itemsize == 0:
+        raise ValueError(f"{path}: the header's dtype has no fields")
     body = raw[nl + 1 :]
     n = len(body) // dt.itemsize
     return header, np.frombuffer(body[: n * dt.itemsize], dtype=dt)
