@@ -155,7 +155,7 @@ def test_from_sim_surfaces_redrive_simulate_to_the_same_angles(sim):
 
 
 def test_from_sim_batched_result_needs_env(sim):
-    p, q0, controls, _ = sim
+    p, q0, _, _ = sim
     res = simulate([p, p], np.stack([q0, 0.5 * q0]), None, 0.5, free_dofs=FREE, controls={"comp_aileron": np.array([1.0, -1.0])},
                    airspeed=lambda t: 15.0 + t)
     with pytest.raises(RecordError, match=r"give env= in \[0, 1\]"):
@@ -300,7 +300,7 @@ def test_frame_log_fresh_frames_once_and_free_dofs_from_header_or_keyword(tmp_pa
         FlightRecord.read(tmp_path / "new.log", free_dofs=FREE)
     lost = [(1, k, k / 80.0) for k in range(10) if k != 6]
     _synthetic_log(tmp_path / "lost.log", {"free_dofs": ["rig_roll"]}, lost)
-    with pytest.raises(RecordError, match=r"gap of 0.025 s after t = 0.0625 s"):
+    with pytest.raises(RecordError, match=r"lost.log: rig_time of the fresh frames: t: gap of 0.025 s after t = 0.0625 s"):
         FlightRecord.read(tmp_path / "lost.log")
     assert FlightRecord.read(tmp_path / "lost.log", allow_gaps=True).resample(80.0, allow_gaps=True).n_t == 10
 
@@ -372,7 +372,7 @@ MAP = {"t": ("time", "s"), "q.rig_roll": ("phi", "deg")}
     ("time,phi\n0,1\n0.1,abc\n", MAP, {"airspeed": 20}, r"column 'phi', line 3: 'abc' is not a number"),
     ("time,phi\n0,1\n0.1,2,3\n", MAP, {"airspeed": 20}, r"line 3 has 3 fields; the header row has 2 columns"),
     ("time,phi\n0,1\n0.2,2\n0.1,3\n", MAP, {"airspeed": 20}, r"time column 'time' must be strictly increasing; row 2 \(0.1 s\) follows row 1 \(0.2 s\)"),
-    ("time,phi\n" + "".join(f"{k / 10 + (0.3 if k > 5 else 0)},0\n" for k in range(10)), MAP, {"airspeed": 20}, r"gap of 0.4 s after t = 0.5 s"),
+    ("time,phi\n" + "".join(f"{k / 10 + (0.3 if k > 5 else 0)},0\n" for k in range(10)), MAP, {"airspeed": 20}, r"bad.csv: time column 'time': t: gap of 0.4 s after t = 0.5 s"),
     ("time,phi\n0,1\n0.1,2\n", {"t": ("time", "s"), "q.rig_roll": ("roll", "deg")}, {"airspeed": 20},
      r"column 'roll' \(for q.rig_roll\) is not in the file; columns present: \['phi', 'time'\]"),
     ("time,phi\n0,1\n0.1,2\n", {"t": ("time", "s"), "q.wing": ("phi", "deg")}, {"airspeed": 20}, r"unknown field 'q.wing'.*rig_roll"),
@@ -408,6 +408,9 @@ def test_bad_files_name_the_problem(tmp_path):
     (tmp_path / "bin.csv").write_bytes(bytes(range(256)))
     with pytest.raises(RecordError, match="cannot read as UTF-8 CSV"):
         FlightRecord.read(tmp_path / "bin.csv", MAP, airspeed=20)
+    (tmp_path / "text.npz").write_text("time,phi\n")
+    with pytest.raises(RecordError, match="cannot read as .npz"):
+        FlightRecord.read(tmp_path / "text.npz", MAP, airspeed=20)
     (tmp_path / "data.xyz").write_text("1,2\n")
     with pytest.raises(RecordError, match=r"unknown format; readable: CSV \(.csv\), NumPy .npz, MATLAB v5 .mat"):
         FlightRecord.read(tmp_path / "data.xyz")

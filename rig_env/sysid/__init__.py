@@ -10,7 +10,13 @@ Importing this package is light (numpy and the parameters; scipy only when a .ma
 from __future__ import annotations
 
 from rig_env.sysid.readers import ColumnMap, read_frame_log
-from rig_env.sysid.records import GAP_FACTOR, MAX_UPSAMPLE, FlightRecord, RecordError, check_sampling
+from rig_env.sysid.records import (
+    GAP_FACTOR,
+    MAX_UPSAMPLE,
+    FlightRecord,
+    RecordError,
+    check_sampling,
+)
 from rig_env.sysid.smoothing import lowess
 
 __all__ = ["GAP_FACTOR", "MAX_UPSAMPLE", "ColumnMap", "FlightRecord", "RecordError", "check_sampling", "lowess", "read_frame_log"]

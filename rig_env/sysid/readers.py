@@ -198,7 +198,7 @@ def detect(path: str | os.PathLike) -> str:
             head = f.read(512)
     except OSError as e:
         raise RecordError(f"{p}: cannot read: {e.strerror or e}") from None
-    if head.startswith(b"PK\x03\x04") or head.startswith(b"PK\x05\x06"):
+    if head.startswith((b"PK\x03\x04", b"PK\x05\x06")):
         return "npz"
     if head.startswith(b"MATLAB 7.3"):
         raise RecordError(f"{p}: a MATLAB v7.3 (HDF5) file; save it with save(..., '-v7') (MATLAB v5 format, which scipy.io reads)")
@@ -206,8 +206,8 @@ def detect(path: str | os.PathLike) -> str:
         return "mat"
     if head.startswith(b"{") and _log_header(p) is not None:
         return "log"
-    if p.suffix.lower() == ".csv":
-        return "csv"
+    if p.suffix.lower() in SUFFIXES:  # not what its first bytes say: the reader of its suffix reports why
+        return p.suffix.lower()[1:]
     raise RecordError(f"{p}: unknown format; readable: CSV (.csv), NumPy .npz, MATLAB v5 .mat, the loop's frame log ({LOG_FORMAT})")
 
 
@@ -274,7 +274,7 @@ def _build(p: Path, data: dict[str, np.ndarray], cmap: dict[str, tuple[str, str,
         raise RecordError(f"{p}: time column {cmap['t'][0]!r} must be strictly increasing; row {k + 1} ({t[k + 1]:.6g} s) follows "
                           f"row {k} ({t[k]:.6g} s)")
     label = str(config.get("name") or p.stem)
-    check_sampling(t, label, allow_gaps)
+    check_sampling(t, f"{p}: time column {cmap['t'][0]!r}", allow_gaps)
     free = [f.partition(".")[2] for f in cmap if f.startswith("q.")]
     if free_dofs is not None:
         given = (free_dofs,) if isinstance(free_dofs, str) else tuple(free_dofs)
@@ -430,7 +430,8 @@ def read_frame_log(path: str | os.PathLike, *, free_dofs: Sequence[str] | None =
     rig steps its physics from frame k with exactly that command).  On the real rig it acts after the
     loop's latency (``send - deadline``, a few ms), a delay left to the servo model.  Commands sent on
     ticks without a new frame (a lost frame) are not in the record: its samples are frames, and the gap
-    check (``allow_gaps``) reports the missing frames.
+    check (``allow_gaps``) reports the missing frames.  Frames of every loop state are kept (DISARMED and
+    FAULT ticks with the neutral commands actually sent): :meth:`FlightRecord.segment` selects the armed part.
     """
     p = Path(path)
     if not p.exists():
@@ -466,7 +467,7 @@ def read_frame_log(path: str | os.PathLike, *, free_dofs: Sequence[str] | None =
         raise RecordError(f"{p}: rig_time must increase from frame to frame; frame seq {int(frames['seq'][k + 1])} at {t[k + 1]:.6g} s "
                           f"follows seq {int(frames['seq'][k])} at {t[k]:.6g} s (a restarted rig? segment the log)")
     label = name or p.stem
-    check_sampling(t, label, allow_gaps)
+    check_sampling(t, f"{p}: rig_time of the fresh frames", allow_gaps)
     angles = frames["angles"].astype(np.float64)
     idx = [JOINTS.index(j) for j in free]
     if locked is None:

@@ -257,7 +257,7 @@ class FlightRecord:
             raise RecordError(f"{self.name}: resample: rate_hz = {rate_hz}; allowed (0, {MAX_UPSAMPLE * own:.6g}] Hz ({MAX_UPSAMPLE:g} x the "
                               f"record's {own:.6g} Hz)")
         check_sampling(self.t, self.name, allow_gaps)
-        n = int(math.floor(self.duration * rate + 1e-6)) + 1
+        n = math.floor(self.duration * rate + 1e-6) + 1
         if n < 2:
             raise RecordError(f"{self.name}: resample: {rate} Hz gives {n} sample over the record's {self.duration:.6g} s")
         t = self.t[0] + np.arange(n) / rate
