@@ -1,49 +1,26 @@
 """Append-only binary log of the real-time loop: one fixed-size record per tick, flushed at least every second.
 
-File layout: one line of JSON (the header: ``{"format": "rig-loop-log", "version": 1, "dtype": [...],
-...run information}``) terminated by ``\\n``, then records of :data:`RECORD` (numpy structured dtype,
-little-endian), appended.  Records go to a preallocated buffer; every ``flush_s`` (default 0.5 s) the
-filled part is handed to a writer thread that writes and flushes it (so a slow disk never blocks the
-loop: file I/O releases the GIL), and a crash loses at most that much (the operating system's page cache survives a process crash; a power cut may lose more:
-``fsync=True`` forces the data to disk at each flush).  :func:`read_log` reads a file back, ignoring a
-torn last record.
-
-| field | type | unit / meaning |
-|---|---|---|
-| tick | u4 | loop tick k (deadline ``start + k period``) |
-| deadline, wake, send | f8 | s since the loop's start: the tick's deadline, wake-up, command sent |
-| compute | f8 | s spent in the law's ``act`` (0 when not called) |
-| state | u1 | 0 DISARMED, 1 ACTIVE, 2 FAULT (:mod:`controllers.deploy.loop`) |
-| mode | u1 | command mode sent (protocol: 0 DISARMED, 1 ACTIVE, 2 SAFE) |
-| fault | u2 | latched fault bits (``loop.FAULTS``) |
-| fresh | u1 | 1 if a new sensor frame was used this tick |
-| missed | u2 | consecutive ticks without a new frame |
-| seq | i8 | sensor frame seq used (-1: none yet) |
-| rig_time | f8 | its rig time, s |
-| angles | 5 f8 | rad (JOINTS order); flaps 4 f8 rad; airspeed f8 m/s |
-| obs_t | f8 | time given to the task reference, s |
-| action | 6 f8 | law output (normalised); command 6 f8: surfaces sent, rad |
-| n_foreign, n_corrupt, n_old | u4 | cumulative counts of ignored frames |
+The format (the header line, the :data:`RECORD` dtype and its field table, :func:`read_log`) is
+:mod:`rig_env.framelog_format`, shared with the identification's reader (``rig_env.sysid.FlightRecord.read``);
+this module re-exports ``RECORD`` and ``read_log``.  Records go to a preallocated buffer; every ``flush_s``
+(default 0.5 s) the filled part is handed to a writer thread that writes and flushes it (so a slow disk
+never blocks the loop: file I/O releases the GIL), and a crash loses at most that much (the operating
+system's page cache survives a process crash; a power cut may lose more: ``fsync=True`` forces the data
+to disk at each flush).
 """
 
 from __future__ import annotations
 
-import json
 import os
 import queue
 import threading
-from pathlib import Path
 from typing import Any, BinaryIO
 
 import numpy as np
 
-RECORD = np.dtype([
-    ("tick", "<u4"), ("deadline", "<f8"), ("wake", "<f8"), ("send", "<f8"), ("compute", "<f8"),
-    ("state", "u1"), ("mode", "u1"), ("fault", "<u2"), ("fresh", "u1"), ("missed", "<u2"),
-    ("seq", "<i8"), ("rig_time", "<f8"), ("angles", "<f8", (5,)), ("flaps", "<f8", (4,)), ("airspeed", "<f8"),
-    ("obs_t", "<f8"), ("action", "<f8", (6,)), ("command", "<f8", (6,)),
-    ("n_foreign", "<u4"), ("n_corrupt", "<u4"), ("n_old", "<u4"),
-])
+from rig_env.framelog_format import RECORD, header_line, read_log
+
+__all__ = ["RECORD", "FrameLog", "read_log"]
 
 
 class FrameLog:
@@ -62,8 +39,7 @@ class FrameLog:
         self._writer: threading.Thread | None = None
         if path is not None:
             self.f = open(path, "ab")
-            h = dict(header, format="rig-loop-log", version=1, dtype=RECORD.descr)
-            self.f.write(json.dumps(h).encode() + b"\n")
+            self.f.write(header_line(header))
             self.f.flush()
             self._writer = threading.Thread(target=self._write, name="rig-loop-log", daemon=True)
             self._writer.start()
@@ -105,13 +81,3 @@ class FrameLog:
             self.f.close()
             self.f = None
 
-
-def read_log(path: str | os.PathLike) -> tuple[dict[str, Any], np.ndarray]:
-    """(header, records) of a log file; a torn last record (crash mid-write) is dropped."""
-    raw = Path(path).read_bytes()
-    nl = raw.index(b"\n")
-    header = json.loads(raw[:nl])
-    dt = np.dtype([tuple(d) if len(d) == 2 else (d[0], d[1], tuple(d[2])) for d in header["dtype"]])
-    body = raw[nl + 1 :]
-    n = len(body) // dt.itemsize
-    return header, np.frombuffer(body[: n * dt.itemsize], dtype=dt)

@@ -253,6 +253,7 @@ class RigLoop:
             except (AttributeError, PermissionError, OSError) as e:
                 self.events.append({"tick": 0, "event": "realtime_refused", "detail": str(e)})
         header = {"artefact_sha256": self.art.sha256, "kind": self.art.kind, "task": self.spec.task, "rate_hz": cfg.rate_hz,
+                  "free_dofs": list(self.spec.free_dofs),
                   "rig": list(self.rig), "seed": cfg.seed, "stale_frames": cfg.stale_frames, "fault_frames": cfg.fault_frames,
                   "stuck_frames": cfg.stuck_frames, "stuck_cmd_deg": cfg.stuck_cmd_deg}
         self.log = FrameLog(cfg.log_path, cfg.rate_hz, header)

@@ -18,20 +18,45 @@ joints were free, at what angle the locked ones were held), the sample times, th
 | name | str | a label for reports and error messages |
 
 Construction checks every field and raises :class:`RecordError` naming the field and what is allowed.
+It accepts any strictly increasing time: a record built by hand (or by a simulation) on an irregular
+grid is legitimate.  Files are different: a reader (:meth:`FlightRecord.read`) also applies
+:func:`check_sampling`, since an interval much longer than the rest in a recorded file is nearly always
+lost data (``allow_gaps=True`` accepts it).
+
+Surfaces between samples: a ``"commanded"`` record's sample k is the command in force over ``[t_k,
+t_k+1)`` (zero-order hold: ``rig_env.simulate`` evaluates its controls at the start of each control step
+and holds them, and the loop's command answering frame k acts until the next one); an ``"actual"``
+record's deflections are interpolated linearly (:meth:`FlightRecord.surface_schedules`).
+
+Pre-processing returns new records: :meth:`~FlightRecord.resample`, :meth:`~FlightRecord.segment`,
+:meth:`~FlightRecord.smooth`, :meth:`~FlightRecord.with_noise`; :meth:`~FlightRecord.from_sim` makes a
+record of a ``rig_env.simulate`` result; :meth:`~FlightRecord.write` and :meth:`~FlightRecord.read`
+are :mod:`rig_env.sysid.readers`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import os
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
 import numpy as np
 
 from rig_env.params import JOINTS, SURFACES
+from rig_env.sysid.smoothing import DEFAULT_ITERATIONS, DEFAULT_SPAN, lowess
+
+if TYPE_CHECKING:
+    from rig_env.simulate import Schedule, SimResult
+    from rig_env.sysid.readers import ColumnMap
 
 SURFACE_KINDS = ("commanded", "actual")
 AIRSPEED_RANGE = (0.0, 60.0)  # m/s, as simulate() allows
+GAP_FACTOR = 1.5  # a sample interval over this many median intervals is a gap (check_sampling)
+MAX_UPSAMPLE = 2.0  # resample() refuses rates above this many times the record's own (median) rate
+SMOOTH_CHANNELS = ("q", "qd", "surfaces", "airspeed")
 
 
 class RecordError(ValueError):
@@ -50,6 +75,30 @@ def _float_array(name: str, a: object, ndim: int) -> np.ndarray:
         first = np.argwhere(bad)[0]
         raise RecordError(f"{name}: {int(bad.sum())} non-finite value(s), the first at index {tuple(int(i) for i in first)}")
     return arr
+
+
+def check_sampling(t: np.ndarray, name: str = "record", allow_gaps: bool = False, factor: float = GAP_FACTOR) -> None:
+    """Raise :class:`RecordError` at the first gap in the sample times ``t`` (n,), s (the readers' check).
+
+    A gap is an interval longer than ``factor`` (1.5) times the median interval: one lost sample on a
+    regular grid doubles an interval, while a real-time loop's timing jitter stays well inside half a
+    period.  ``allow_gaps``: skip the check (a record with lost frames, interpolated over afterwards).
+    """
+    if allow_gaps or np.size(t) < 3:
+        return
+    dt = np.diff(np.asarray(t, dtype=np.float64))
+    med = float(np.median(dt))
+    long = dt > factor * med
+    if long.any():
+        k = int(np.argmax(long))
+        raise RecordError(f"{name}: t: gap of {dt[k]:.6g} s after t = {t[k]:.6g} s ({int(long.sum())} interval(s) longer than {factor:g} x the "
+                          f"median {med:.6g} s); select the parts around it with segment(), or read with allow_gaps=True")
+
+
+def _held_index(t: np.ndarray, tq: np.ndarray) -> np.ndarray:
+    """Index of the sample in force at each query time (the latest t_k <= tq, within rounding), clipped to [0, n-1]."""
+    tol = 1e-9 * max(1.0, float(np.max(np.abs(t))))
+    return np.clip(np.searchsorted(t, tq + tol, side="right") - 1, 0, t.size - 1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -173,3 +222,207 @@ class FlightRecord:
         for j, v in self.locked.items():  # type: ignore[union-attr]
             out[JOINTS.index(j)] = v
         return out
+
+    def surface_schedules(self) -> dict[str, Callable[[float], float]]:
+        """{surface: f(t s) -> deg}, the record's surfaces as ``rig_env.simulate`` controls.
+
+        ``"commanded"``: zero-order hold (sample k over ``[t_k, t_k+1)``), so a record made by
+        :meth:`from_sim` re-drives ``simulate`` with the very commands it was made from; ``"actual"``:
+        linear interpolation.  Outside ``[t_0, t_-1]`` the end values hold.
+        """
+        t = self.t
+        out: dict[str, Callable[[float], float]] = {}
+        for s, v in self.surfaces.items():
+            if self.surface_kind == "commanded":
+                out[s] = lambda tq, v=v: float(v[_held_index(t, np.asarray(tq, dtype=np.float64))])
+            else:
+                out[s] = lambda tq, v=v: float(np.interp(tq, t, v))
+        return out
+
+    # ------------------------------------------------------------------ pre-processing
+    def resample(self, rate_hz: float, *, allow_gaps: bool = False) -> FlightRecord:
+        """The record on the uniform grid ``t_0 + k / rate_hz`` (k = 0, 1, ... while within the record).
+
+        Angles, rates and an airspeed series: linear interpolation.  Surfaces: zero-order hold for a
+        ``"commanded"`` record (the command in force at each new time), linear for ``"actual"``.  No
+        anti-alias filter: :meth:`smooth` first when downsampling noisy data.  Upsampling is refused
+        beyond ``MAX_UPSAMPLE`` (2) times the record's median rate (interpolated samples carry no new
+        information and make the residuals of a fit correlated, which shrinks its error bounds
+        falsely); the record is refused if it has gaps (:func:`check_sampling`) unless ``allow_gaps``,
+        in which case the gaps are interpolated across.
+        """
+        rate = float(rate_hz)
+        own = 1.0 / self.dt
+        if not (math.isfinite(rate) and 0.0 < rate <= MAX_UPSAMPLE * own * (1.0 + 1e-9)):
+            raise RecordError(f"{self.name}: resample: rate_hz = {rate_hz}; allowed (0, {MAX_UPSAMPLE * own:.6g}] Hz ({MAX_UPSAMPLE:g} x the "
+                              f"record's {own:.6g} Hz)")
+        check_sampling(self.t, self.name, allow_gaps)
+        n = math.floor(self.duration * rate + 1e-6) + 1
+        if n < 2:
+            raise RecordError(f"{self.name}: resample: {rate} Hz gives {n} sample over the record's {self.duration:.6g} s")
+        t = self.t[0] + np.arange(n) / rate
+        t[-1] = min(t[-1], self.t[-1])
+
+        def lin(a: np.ndarray) -> np.ndarray:
+            return np.column_stack([np.interp(t, self.t, a[:, k]) for k in range(a.shape[1])])
+
+        held = _held_index(self.t, t)
+        surf = {s: (v[held] if self.surface_kind == "commanded" else np.interp(t, self.t, v)) for s, v in self.surfaces.items()}
+        air = self.airspeed if np.ndim(self.airspeed) == 0 else np.interp(t, self.t, self.airspeed)  # type: ignore[arg-type]
+        return dataclasses.replace(self, t=t, q=lin(self.q), qd=None if self.qd is None else lin(self.qd), surfaces=surf, airspeed=air)
+
+    def segment(self, t_start: float, t_end: float, *, rebase: bool = False) -> FlightRecord:
+        """The samples with ``t_start <= t <= t_end`` (s, the record's own times).
+
+        Times stay absolute (a segment lines up with its parent and its siblings) unless ``rebase``
+        (then they start at 0).  A window that is empty, reversed, reaches outside ``[t_0, t_-1]`` or
+        holds fewer than 2 samples is an error.  The name gains ``[t_start:t_end]``.
+        """
+        a, b = float(t_start), float(t_end)
+        t = self.t
+        tol = 1e-9 * max(1.0, float(np.max(np.abs(t))))
+        if not (math.isfinite(a) and math.isfinite(b) and a < b):
+            raise RecordError(f"{self.name}: segment: window [{t_start}, {t_end}] s; need finite t_start < t_end")
+        if a < t[0] - tol or b > t[-1] + tol:
+            raise RecordError(f"{self.name}: segment: window [{a:.6g}, {b:.6g}] s reaches outside the record's span [{t[0]:.6g}, {t[-1]:.6g}] s")
+        keep = (t >= a - tol) & (t <= b + tol)
+        if keep.sum() < 2:
+            raise RecordError(f"{self.name}: segment: window [{a:.6g}, {b:.6g}] s holds {int(keep.sum())} sample(s); a record needs at least 2")
+        tk = t[keep] - (t[keep][0] if rebase else 0.0)
+        return dataclasses.replace(
+            self, t=tk, q=self.q[keep], qd=None if self.qd is None else self.qd[keep],
+            surfaces={s: v[keep] for s, v in self.surfaces.items()},
+            airspeed=self.airspeed if np.ndim(self.airspeed) == 0 else self.airspeed[keep],  # type: ignore[index]
+            name=f"{self.name}[{a:g}:{b:g}]",
+        )
+
+    def smooth(self, span: int = DEFAULT_SPAN, channels: Sequence[str] = ("q", "qd"), robust: bool = True,
+               iterations: int = DEFAULT_ITERATIONS) -> FlightRecord:
+        """The record with ``channels`` smoothed by robust LOWESS over ``span`` samples (:mod:`rig_env.sysid.smoothing`).
+
+        channels: any of ``"q"``, ``"qd"`` (skipped when rates were not measured), ``"surfaces"``,
+        ``"airspeed"`` (a series; a constant is left alone).  Each column is smoothed on its own, against t.
+        """
+        chans = (channels,) if isinstance(channels, str) else tuple(channels)
+        bad = [c for c in chans if c not in SMOOTH_CHANNELS]
+        if bad:
+            raise RecordError(f"{self.name}: smooth: unknown channel(s) {bad}; allowed: {', '.join(SMOOTH_CHANNELS)}")
+
+        def sm(a: np.ndarray) -> np.ndarray:
+            try:
+                return lowess(a, self.t, span, robust, iterations)
+            except ValueError as e:
+                raise RecordError(f"{self.name}: smooth: {e}") from None
+
+        changes: dict[str, object] = {}
+        if "q" in chans:
+            changes["q"] = sm(self.q)
+        if "qd" in chans and self.qd is not None:
+            changes["qd"] = sm(self.qd)
+        if "surfaces" in chans and self.surfaces:
+            names = list(self.surfaces)
+            S = sm(np.column_stack([self.surfaces[s] for s in names]))
+            changes["surfaces"] = {s: S[:, k] for k, s in enumerate(names)}
+        if "airspeed" in chans and np.ndim(self.airspeed) == 1:
+            changes["airspeed"] = np.clip(sm(np.asarray(self.airspeed)), *AIRSPEED_RANGE)
+        return dataclasses.replace(self, **changes)
+
+    def with_noise(self, std_rad: float | Sequence[float], seed: int, std_rad_s: float | Sequence[float] | None = None) -> FlightRecord:
+        """The record with white Gaussian measurement noise added to the angles (and the rates).
+
+        std_rad: standard deviation, rad, one value or one per free joint (``free_dofs`` order);
+        std_rad_s: the same for the rates, rad/s (the record must have rates).  seed: of
+        ``numpy.random.default_rng`` (same seed, same noise).
+        """
+        rng = np.random.default_rng(seed)
+
+        def std(label: str, v: float | Sequence[float]) -> np.ndarray:
+            a = np.asarray(v, dtype=np.float64)
+            if a.ndim > 1 or (a.ndim == 1 and a.size != len(self.free_dofs)) or not np.all(np.isfinite(a)) or np.any(a < 0):
+                raise RecordError(f"{self.name}: with_noise: {label} = {v!r}; one finite value >= 0 or one per free joint ({len(self.free_dofs)})")
+            return np.broadcast_to(a, (len(self.free_dofs),))
+
+        q = self.q + rng.standard_normal(self.q.shape) * std("std_rad", std_rad)
+        qd = self.qd
+        if std_rad_s is not None:
+            if qd is None:
+                raise RecordError(f"{self.name}: with_noise: std_rad_s given but the record has no rates")
+            qd = qd + rng.standard_normal(qd.shape) * std("std_rad_s", std_rad_s)
+        return dataclasses.replace(self, q=q, qd=qd)
+
+    # ------------------------------------------------------------------ conversions
+    @classmethod
+    def from_sim(cls, result: SimResult, *, surfaces: Mapping[str, Schedule] | None = None, airspeed: Schedule = 20.0,
+                 rates: bool = False, env: int | None = None, surface_kind: str = "commanded",
+                 setup: Mapping[str, float] | None = None, name: str = "simulation") -> FlightRecord:
+        """A record of a ``rig_env.simulate`` result.
+
+        surfaces, airspeed: the ``controls`` and ``airspeed`` that drove the simulation (deg, m/s; any
+        form ``simulate`` takes), sampled at the result's times as ``simulate`` held them: the value at
+        ``t_k`` (evaluated there, as ``simulate`` does at the start of each control step) is sample k and
+        acts over ``[t_k, t_k+1)``, the record's zero-order hold.  An airspeed given as a function of
+        time becomes a series.  rates: keep the simulated rates as measured ones.  env: which
+        environment of a batched result (required then).  surface_kind: ``"commanded"`` when the
+        servos were simulated (``servo=True``), ``"actual"`` when ``simulate`` ran with ``servo=False``.
+        The locked joints' angles come from the result.  setup: the parameter overrides of the run.
+        """
+        from rig_env.simulate import check_controls
+
+        batched = np.ndim(result.q) == 3
+        if batched:
+            n_env = result.q.shape[0]
+            if env is None or not (isinstance(env, (int, np.integer)) and 0 <= env < n_env):
+                raise RecordError(f"{name}: from_sim: a batched result of {n_env} environments; give env= in [0, {n_env - 1}]")
+            q, qd, q_all = result.q[env], result.qd[env], result.q_all[env]
+        else:
+            n_env = 1
+            if env not in (None, 0):
+                raise RecordError(f"{name}: from_sim: env = {env!r} for a single-environment result (use None)")
+            env, q, qd, q_all = 0, result.q, result.qd, result.q_all
+        try:
+            controls = check_controls(surfaces)
+        except ValueError as e:
+            raise RecordError(f"{name}: from_sim: surfaces: {e}") from None
+        t = np.asarray(result.t, dtype=np.float64)
+
+        def sample(label: str, s: Schedule) -> np.ndarray:
+            out = np.empty(t.size)
+            for k, tk in enumerate(t):
+                v = np.asarray(s(float(tk)) if callable(s) else s, dtype=np.float64)
+                try:
+                    out[k] = np.broadcast_to(v, (n_env,))[env]
+                except ValueError:
+                    raise RecordError(f"{name}: from_sim: {label}: value of shape {v.shape} does not broadcast to ({n_env},)") from None
+            return out
+
+        surf = {s: sample(f"surfaces[{s!r}]", v) for s, v in controls.items()}
+        air: float | np.ndarray = float(np.broadcast_to(np.asarray(airspeed, dtype=np.float64), (n_env,))[env]) if not callable(airspeed) \
+            else sample("airspeed", airspeed)
+        locked = {j: float(q_all[0, k]) for k, j in enumerate(JOINTS) if j not in result.free_dofs}
+        return cls(t=t.copy(), free_dofs=tuple(result.free_dofs), q=np.array(q), qd=np.array(qd) if rates else None, surfaces=surf,
+                   airspeed=air, locked=locked, surface_kind=surface_kind, setup=dict(setup or {}), name=name)
+
+    def write(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
+        """Write in the project's layout; the format follows the suffix (.csv, .npz, .mat; :mod:`rig_env.sysid.readers`).
+
+        An existing file is an error unless ``overwrite``.  Returns the path.
+        """
+        from rig_env.sysid.readers import write
+
+        return write(self, path, overwrite)
+
+    @classmethod
+    def read(cls, path: str | os.PathLike, columns: ColumnMap | None = None, *, free_dofs: Sequence[str] | None = None,
+             locked: Mapping[str, float] | None = None, surface_kind: str | None = None, airspeed: float | None = None,
+             setup: Mapping[str, float] | None = None, name: str | None = None, allow_gaps: bool = False) -> FlightRecord:
+        """A record from a frame log, .csv, .npz or .mat file (:func:`rig_env.sysid.readers.read`).
+
+        The project's own files and frame logs need no ``columns``; a foreign file needs the column map
+        ``{field: (column, unit)}`` and its configuration (``airspeed=`` unless mapped, ``surface_kind=``
+        when surfaces are mapped, ``locked=``, ``setup=``, ``name=``).  Gaps in the times are an error
+        unless ``allow_gaps`` (:func:`check_sampling`).
+        """
+        from rig_env.sysid.readers import read
+
+        return read(path, columns, free_dofs=free_dofs, locked=locked, surface_kind=surface_kind, airspeed=airspeed, setup=setup,
+                    name=name, allow_gaps=allow_gaps)
