@@ -20,7 +20,6 @@ product per pair of output channels, done by FFT.
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import matmul_toeplitz
 
 
 def cross_correlation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -56,6 +55,8 @@ def coloured_middle(S: np.ndarray, V: np.ndarray, R: np.ndarray) -> np.ndarray:
     """(n_p, n_p) ``sum_i sum_j S_i' R^-1 w(i - j) Rvv(i - j) R^-1 S_j`` of one record, Bartlett weights w.
 
     S: (n_t, n_out, n_p) sensitivities; V: (n_t, n_out) residuals; R: (n_out, n_out) noise covariance."""
+    from scipy.linalg import matmul_toeplitz
+
     Ri = np.linalg.inv(R)
     W = np.einsum("ij,kjp->kip", Ri, S)  # R^-1 S_k, (n_t, n_out, n_p)
     n_out = V.shape[1]
