@@ -1,13 +1,17 @@
 """The ``rig`` command: the controller comparison, demonstrations and pictures of the rig model.
 
-    rig compare [--quick] [--out DIR] [--episodes N] [--seed S] [--tasks T ...] [--controllers K ...]
+    rig compare [--quick] [--out DIR] [--episodes N] [--seed S] [--tasks T ...] [--controllers K ...] [--params FILE]
         every control law on every task, nominal and robust (controllers.evaluation.compare): prints the
-        tables, writes summary.json, summary.csv, plots and report.md into DIR (default out/compare)
+        tables, writes summary.json, summary.csv, plots and report.md into DIR (default out/compare);
+        --params: a parameter file (an identified one) for the laws' design and the environments
     rig demo [--out DIR] [--t-final S] [--airspeed M/S] [--aileron DEG] [--no-plot] [--quiet]
         velocity-vector roll (paper Sec. VI, Fig. 7): rig roll and model pitch free, compensator
         aileron ramped to +20 deg over 1 s and held; prints a summary, writes DIR/demo_roll.png
     rig draw [--out DIR] [--q DEG DEG DEG DEG DEG] [--flaps DEG DEG DEG DEG]
         the rig picture with its frames (DIR/rig_frames.png)
+    rig identify CONFIG.toml --out DIR [--overwrite]
+        fit the rig's parameters to recorded runs (rig_env.sysid; the configuration: rig_cli.identify):
+        writes DIR/report.md with its figures and DIR/identified.toml, a parameter file for --params
     rig train --algo ppo|sac --task NAME [...]
         train a PPO or SAC law on the native batch and export it as a law artefact
         (controllers.design.rl_train; ``rig train --help`` lists the options)
@@ -227,6 +231,8 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--tasks", nargs="+", default=None, metavar="T", help="task names (default: all)")
     c.add_argument("--controllers", nargs="+", default=None, metavar="K", help="controller kinds (default: all registered)")
     c.add_argument("--modes", nargs="+", default=["nominal", "robust"], metavar="M", help="nominal and/or robust (default both)")
+    c.add_argument("--params", default=None, metavar="FILE.toml",
+                   help="rig parameter file (e.g. rig identify's identified.toml) the laws are designed on and fly (default: the default rig)")
     d = sub.add_parser("demo", help="velocity-vector roll at 20 m/s with the compensator ailerons (paper Fig. 7)")
     d.add_argument("--out", default="out", metavar="DIR", help="directory for demo_roll.png (default: out)")
     d.add_argument("--t-final", type=float, default=25.0, metavar="S", help="simulated time, s (default 25)")
@@ -239,6 +245,10 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--q", type=float, nargs=5, metavar="DEG",
                    help="joint angles, deg: rig_roll rig_pitch rig_yaw model_pitch model_yaw (default: zero and an example pose)")
     r.add_argument("--flaps", type=float, nargs=4, metavar="DEG", help="compensator flaps 1-4, deg (with --q)")
+    i = sub.add_parser("identify", help="fit the rig's parameters to recorded runs; report and identified parameter file")
+    i.add_argument("config", metavar="CONFIG.toml", help="records, base parameters, parameters to estimate, method (README: Identification)")
+    i.add_argument("--out", required=True, metavar="DIR", help="folder for report.md, its figures and identified.toml")
+    i.add_argument("--overwrite", action="store_true", help="replace report.md and identified.toml if DIR holds them")
     sub.add_parser("train", help="train PPO or SAC on a task and export the law (rig train --help)", add_help=False)
     return ap
 
@@ -256,7 +266,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             from controllers.evaluation.compare import compare
 
             compare(tasks=args.tasks, kinds=args.controllers, episodes=args.episodes, seed=args.seed, quick=args.quick,
-                    modes=args.modes, out_dir=args.out)
+                    modes=args.modes, out_dir=args.out, params_file=args.params)
+        elif args.command == "identify":
+            from rig_cli.identify import run
+
+            try:
+                run(args.config, args.out, overwrite=args.overwrite)
+            except (OSError, RuntimeError) as exc:  # outputs already there, unreadable files, a failed fit
+                raise ValueError(str(exc)) from exc
         elif args.command == "demo":
             demo_roll(args.out, t_final=args.t_final, airspeed=args.airspeed, aileron_deg=args.aileron,
                       plot=not args.no_plot, quiet=args.quiet)

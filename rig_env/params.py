@@ -3,7 +3,9 @@
 The default rig (``rig_env/data/default_rig.toml``) is the Bristol pilot manoeuvre rig with the 1/16
 BAe Hawk (Pattinson, Lowenberg & Goman, AIAA 2009-5727).  Every value in the file carries its origin:
 ``paper`` (that paper), ``rig-code`` (the later Bristol rig's control code) or ``estimate`` with a
-one-line derivation.  Values are validated on load; errors name the field and its allowed range.
+one-line derivation, or ``identified`` (fitted by :mod:`rig_env.sysid`: the entry also carries ``std``,
+the Cramer-Rao standard error in the value's unit, ``records``, the names of the records it was fitted
+to, and ``method``).  Values are validated on load; errors name the field and its allowed range.
 
 Units are SI except where the field name says otherwise (``_deg``, ``_deg_s``, ``_hz``).
 
@@ -42,7 +44,10 @@ SURFACES: tuple[str, ...] = (
 SERVOS: tuple[str, ...] = ("flap1", "flap2", "flap3", "flap4", "hawk_elevator", "hawk_aileron", "hawk_rudder")
 """Physical actuators: four compensator flaps (after mixing) and three Hawk surfaces."""
 
-SOURCES = ("paper", "rig-code", "estimate")
+SOURCES = ("paper", "rig-code", "estimate", "identified")
+IDENTIFIED_KEYS = ("std", "records", "method")
+"""Keys an ``identified`` entry carries besides value, source, note and unit (and no other source may)."""
+_META = ("sources", "identified")  # RigParams fields that record provenance, not parameters
 DATA_DIR = Path(__file__).parent / "data"
 DEFAULT_FILE = DATA_DIR / "default_rig.toml"
 
@@ -236,6 +241,7 @@ class RigParams:
     servos: Servos
     high_incidence: HighIncidence
     sources: Mapping[str, tuple[str, str]] = field(default_factory=dict, compare=False, repr=False)
+    identified: Mapping[str, Mapping[str, Any]] = field(default_factory=dict, compare=False, repr=False)
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -255,8 +261,9 @@ class RigParams:
         except tomllib.TOMLDecodeError as exc:
             raise ParameterError(f"{path}: not valid TOML: {exc}") from None
         sources: dict[str, tuple[str, str]] = {}
-        params = _build(cls, raw, "", sources, str(path))
-        params = dataclasses.replace(params, sources=sources)
+        identified: dict[str, dict[str, Any]] = {}
+        params = _build(cls, raw, "", sources, str(path), identified)
+        params = dataclasses.replace(params, sources=sources, identified=identified)
         params.validate()
         return params
 
@@ -266,7 +273,8 @@ class RigParams:
         Names are those of :data:`PARAM_NAMES` (``group.field`` or ``friction.<joint>.<field>``).
         """
         tree = dataclasses.asdict(self)
-        tree.pop("sources")
+        for meta in _META:
+            tree.pop(meta)
         for name, value in overrides.items():
             parts = name.split(".")
             node: Any = tree
@@ -281,7 +289,8 @@ class RigParams:
         srcs = dict(self.sources)
         for name in overrides:
             srcs[name] = ("override", "set by RigParams.replace")
-        new = dataclasses.replace(new, sources=srcs)
+        ident = {k: v for k, v in self.identified.items() if k not in overrides}
+        new = dataclasses.replace(new, sources=srcs, identified=ident)
         new.validate()
         return new
 
@@ -357,11 +366,18 @@ class RigParams:
             raise ParameterError(f"no source recorded for {name!r}")
         return self.sources[name]
 
+    def provenance(self, name: str) -> dict[str, Any]:
+        """Everything the data file says of a dotted name's origin: ``source`` and ``note``, and for an
+        ``identified`` value also ``std`` (Cramer-Rao standard error, the value's unit), ``records``
+        (list of record names) and ``method``.  ``"high_incidence"`` names the tables."""
+        src, note = self.source(name)
+        return {"source": src, "note": note, **{k: (list(v) if k == "records" else v) for k, v in self.identified.get(name, {}).items()}}
+
 
 # ---------------------------------------------------------------------- helpers
 def _iter_leaves(obj: Any, prefix: str = ""):
     for f in fields(obj):
-        if f.name == "sources" or f.name == "high_incidence":
+        if f.name in _META or f.name == "high_incidence":
             continue
         value = getattr(obj, f.name)
         name = f"{prefix}{f.name}"
@@ -371,16 +387,17 @@ def _iter_leaves(obj: Any, prefix: str = ""):
             yield name, value, f.metadata["range"], f.metadata["unit"]
 
 
-def _build(cls: type, raw: Mapping[str, Any], prefix: str, sources: dict, path: str) -> Any:
+def _build(cls: type, raw: Mapping[str, Any], prefix: str, sources: dict, path: str, identified: dict | None = None) -> Any:
     if not isinstance(raw, Mapping):
         raise ParameterError(f"{path}: [{prefix.rstrip('.')}] must be a table")
-    known = {f.name for f in fields(cls) if f.name != "sources"}
+    identified = {} if identified is None else identified
+    known = {f.name for f in fields(cls) if f.name not in _META}
     unknown = set(raw) - known
     if unknown:
         raise ParameterError(f"{path}: unknown field(s) {sorted(prefix + u for u in unknown)}; allowed: {sorted(known)}")
     kwargs = {}
     for f in fields(cls):
-        if f.name == "sources":
+        if f.name in _META:
             continue
         name = prefix + f.name
         if f.name not in raw:
@@ -388,9 +405,10 @@ def _build(cls: type, raw: Mapping[str, Any], prefix: str, sources: dict, path: 
         entry = raw[f.name]
         ftype = _resolve(cls, f.name)
         if dataclasses.is_dataclass(ftype) and ftype is not HighIncidence:
-            kwargs[f.name] = _build(ftype, entry, name + ".", sources, path)
+            kwargs[f.name] = _build(ftype, entry, name + ".", sources, path, identified)
         elif ftype is HighIncidence:
             kwargs[f.name] = HighIncidence(**{k: tuple(float(x) for x in v) for k, v in _table_entry(entry, name, path).items()})
+            sources[name] = (entry["source"], str(entry.get("note", "")))
         else:
             if not isinstance(entry, Mapping) or "value" not in entry or "source" not in entry:
                 raise ParameterError(f"{path}: {name} must be a table {{ value = ..., source = ... }}")
@@ -400,12 +418,33 @@ def _build(cls: type, raw: Mapping[str, Any], prefix: str, sources: dict, path: 
             note = str(entry.get("note", ""))
             if src == "estimate" and not note:
                 raise ParameterError(f"{path}: {name} is an estimate and needs a 'note' with its derivation")
-            extra = set(entry) - {"value", "source", "note", "unit"}
+            extra = set(entry) - {"value", "source", "note", "unit", *IDENTIFIED_KEYS}
             if extra:
                 raise ParameterError(f"{path}: {name} has unknown key(s) {sorted(extra)}")
+            if src == "identified":
+                identified[name] = _identified_entry(entry, name, path)
+            elif set(entry) & set(IDENTIFIED_KEYS):
+                raise ParameterError(f"{path}: {name}: {sorted(set(entry) & set(IDENTIFIED_KEYS))} belong to source = \"identified\" only")
             kwargs[f.name] = entry["value"]
             sources[name] = (src, note)
     return cls(**kwargs)
+
+
+def _identified_entry(entry: Mapping[str, Any], name: str, path: str) -> dict[str, Any]:
+    missing = [k for k in IDENTIFIED_KEYS if k not in entry]
+    if missing:
+        raise ParameterError(f"{path}: {name} is identified and needs {missing} (std: Cramer-Rao standard error >= 0 in the "
+                             f"value's unit; records: list of record names; method: the identification method)")
+    std = entry["std"]
+    if isinstance(std, bool) or not isinstance(std, (int, float)) or not math.isfinite(std) or std < 0:
+        raise ParameterError(f"{path}: {name}.std = {std!r}: must be a finite number >= 0 (the value's unit)")
+    recs = entry["records"]
+    if not isinstance(recs, list) or not recs or not all(isinstance(r, str) and r for r in recs):
+        raise ParameterError(f"{path}: {name}.records = {recs!r}: must be a non-empty list of record names (strings)")
+    method = entry["method"]
+    if not isinstance(method, str) or not method:
+        raise ParameterError(f"{path}: {name}.method = {method!r}: must be a non-empty string")
+    return {"std": float(std), "records": tuple(recs), "method": method}
 
 
 def _table_entry(entry: Any, name: str, path: str) -> dict:
@@ -428,7 +467,7 @@ def _resolve(cls: type, name: str) -> Any:
 
 def _from_plain(cls: type, tree: Mapping[str, Any]) -> Any:
     kwargs = {}
-    hints = {f.name: _resolve(cls, f.name) for f in fields(cls) if f.name != "sources"}
+    hints = {f.name: _resolve(cls, f.name) for f in fields(cls) if f.name not in _META}
     for name, ftype in hints.items():
         v = tree[name]
         if dataclasses.is_dataclass(ftype):
@@ -441,7 +480,7 @@ def _from_plain(cls: type, tree: Mapping[str, Any]) -> Any:
 def _param_names() -> tuple[str, ...]:
     def walk(cls: type, prefix: str):
         for f in fields(cls):
-            if f.name in ("sources", "high_incidence"):
+            if f.name in (*_META, "high_incidence"):
                 continue
             t = _resolve(cls, f.name)
             if dataclasses.is_dataclass(t):

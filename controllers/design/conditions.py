@@ -31,8 +31,8 @@ def _spread(names: list[str], frac: float, params: RigParams | None = None) -> d
     return out
 
 
-def _nominal_randomise() -> dict[str, tuple[float, float]]:
-    r = _spread(["mass.hawk_mass"], 0.10)
+def _nominal_randomise(params: RigParams | None = None) -> dict[str, tuple[float, float]]:
+    r = _spread(["mass.hawk_mass"], 0.10, params)
     r["servos.compensator.delay_s"] = (0.010, 0.020)
     r["servos.compensator.natural_freq_hz"] = (5.0, 8.0)
     return r
@@ -59,3 +59,12 @@ ROBUST = Conditions("robust", randomise={**_nominal_randomise(), **_spread(_AERO
 GUSTY = Conditions("gusty", turbulence=0.05, randomise=_nominal_randomise())
 """A stress case, not run by default: 5 % gusts are atmospheric, five times a working tunnel's."""
 MODES = {"nominal": NOMINAL, "robust": ROBUST, "gusty": GUSTY}
+
+
+def modes_for(params: RigParams | None = None) -> dict[str, Conditions]:
+    """:data:`MODES` with their +-fraction spreads centred on ``params``' values (an identified rig)
+    instead of the default rig's; the measured ranges (servo delay and bandwidth) stay as they are."""
+    nominal = _nominal_randomise(params)
+    return {"nominal": Conditions("nominal", randomise=nominal),
+            "robust": Conditions("robust", randomise={**nominal, **_spread(_AERO_DERIVATIVES + _FRICTION, 0.20, params)}),
+            "gusty": Conditions("gusty", turbulence=GUSTY.turbulence, randomise=nominal)}

@@ -4,7 +4,10 @@
 task and mode, all laws in it on paired conditions), aggregates the episode metrics
 (:data:`COLUMNS`), prints the tables, and writes into ``out_dir``: ``summary.json`` (settings,
 rows, loop margins, skipped laws, timings), ``summary.csv`` (the rows), the plots and
-``report.md`` (:mod:`controllers.evaluation.report`).  Laws are the registered kinds
+``report.md`` (:mod:`controllers.evaluation.report`).  ``params_file`` (``rig compare --params``): a rig
+parameter file, e.g. an identified one: the model-based laws are designed on it, the environments fly
+it, and the randomised conditions' spreads are centred on its values (:func:`controllers.design.conditions.modes_for`);
+the trained (RL) laws fly it as they were trained.  Laws are the registered kinds
 (``controllers.laws.base.CONTROLLERS``); a kind that cannot be built for a task (an RL kind without a
 shipped policy raises ``FileNotFoundError``; a law that cannot fly the task raises
 ``controllers.laws.base.UnsupportedTask``) is skipped with a printed note.
@@ -25,8 +28,12 @@ from controllers import CONTROLLERS, Controller, LoopSpec, UnsupportedTask, make
 from controllers.evaluation import report
 from controllers.evaluation.summary import COLUMNS, Comparison, aggregate, format_table
 from controllers.evaluation.evaluate import MODES, evaluate
+from controllers.design import DESIGNS
+from controllers.design.conditions import modes_for
 from controllers.design.tuning import plain
+from controllers.laws import law_for
 from rig_env.envs import TASKS, RigVectorEnv
+from rig_env.params import RigParams
 
 QUICK_EPISODES, FULL_EPISODES = 12, 64
 PREFERRED_ORDER = ("pid", "lqr", "ppo", "sac")
@@ -38,12 +45,14 @@ def default_kinds() -> list[str]:
     return kinds
 
 
-def _build(kinds: Sequence[str], task: str, n: int, fields: dict[str, Any], out: TextIO) -> tuple[dict[str, Controller], list[dict[str, str]]]:
+def _build(kinds: Sequence[str], task: str, n: int, fields: dict[str, Any], out: TextIO,
+           params: RigParams | None = None) -> tuple[dict[str, Controller], list[dict[str, str]]]:
     spec = LoopSpec.from_env(RigVectorEnv(1, task=task, **fields))
     laws, skipped = {}, []
     for kind in kinds:
         try:
-            laws[kind] = make_controller(kind, spec, n)
+            designed = params is not None and law_for(kind, spec) in DESIGNS  # trained laws have no design to redo
+            laws[kind] = make_controller(kind, spec, n, params=params) if designed else make_controller(kind, spec, n)
         except (FileNotFoundError, UnsupportedTask) as exc:
             skipped.append({"task": task, "controller": kind, "reason": str(exc)})
             out.write(f"  note: {kind} skipped on {task}: {exc}\n")
@@ -62,11 +71,13 @@ def compare(
     record: int = 3,
     stream: TextIO | None = None,
     progress: bool | TextIO = True,
+    params_file: str | Path | None = None,
 ) -> Comparison:
     """Run the comparison and write its files (none when ``out_dir`` is None); returns the numbers.
 
     ``stream``: where the notes and tables go (default stdout); ``progress``: True for a progress
-    display on stderr, False for none, or a stream.
+    display on stderr, False for none, or a stream; ``params_file``: the rig's parameter file (None:
+    the default rig; a missing or invalid file is a ValueError naming it), see the module docstring.
     """
     stream = stream if stream is not None else sys.stdout
     prog: TextIO | None = sys.stderr if progress is True else (None if progress is False else progress)
@@ -81,21 +92,26 @@ def compare(
     bad_m = [m for m in modes if m not in MODES]
     if bad_m:
         raise ValueError(f"modes: unknown {bad_m}; valid: {sorted(MODES)}")
+    params = None if params_file is None else RigParams.from_toml(params_file)  # ParameterError (a ValueError) names the file
+    conditions = MODES if params is None else modes_for(params)
+    env_params = {} if params_file is None else {"params_file": str(params_file)}
     n = episodes if episodes is not None else (QUICK_EPISODES if quick else FULL_EPISODES)
     if not isinstance(n, int) or n < 1:
         raise ValueError(f"episodes = {n!r}: must be a positive integer")
     settings = {"tasks": tasks, "controllers": kinds, "episodes": n, "seed": seed, "quick": quick, "modes": list(modes),
-                "conditions": {m: {**MODES[m].env_fields(), "randomise": {k: list(v) for k, v in MODES[m].randomise.items()}} for m in modes},
+                "conditions": {m: {**conditions[m].env_fields(), "randomise": {k: list(v) for k, v in conditions[m].randomise.items()}} for m in modes},
+                "params_file": None if params_file is None else str(params_file),
                 "machine": f"{platform.machine()} {platform.system()}, python {platform.python_version()}"}
     cmd = ["rig compare"] + (["--quick"] if quick else []) + [f"--episodes {n}", f"--seed {seed}"]
     cmd += [f"--tasks {' '.join(tasks)}"] if tasks != list(TASKS) else []
     cmd += [f"--controllers {' '.join(kinds)}"] if kinds != default_kinds() else []
     cmd += [f"--modes {' '.join(modes)}"] if list(modes) != ["nominal", "robust"] else []
+    cmd += [f"--params {params_file}"] if params_file is not None else []
     settings["command"] = " ".join(cmd)
     cmp = Comparison(settings)
     t0 = time.perf_counter()
     for task in tasks:
-        laws, skipped = _build(kinds, task, n, MODES[modes[0]].env_fields(), stream)
+        laws, skipped = _build(kinds, task, n, {**conditions[modes[0]].env_fields(), **env_params}, stream, params)
         cmp.skipped += skipped
         if not laws:
             continue
@@ -103,7 +119,8 @@ def compare(
             if hasattr(law, "describe"):
                 cmp.margins.setdefault(task, {})[law_name] = plain(law.describe())
         for mode in modes:
-            res = evaluate(laws, task, n_episodes=n, seed=seed, conditions=MODES[mode], record=record, progress=prog)
+            res = evaluate(laws, task, n_episodes=n, seed=seed, conditions=conditions[mode], record=record, env_overrides=env_params,
+                           progress=prog)
             cmp.results.append(res)
             cmp.rows += aggregate(res)
     cmp.seconds = time.perf_counter() - t0

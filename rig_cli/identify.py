@@ -1,0 +1,318 @@
+"""``rig identify CONFIG.toml --out DIR [--overwrite]``: records in, report and identified parameter file out.
+
+The configuration (TOML; paths relative to the configuration file's folder)::
+
+    params = "my_rig.toml"                # base parameter file (default: the default rig)
+    method = "output_error"               # or "filter_error", "equation_error"
+    estimate = [                          # dotted names of rig_env.PARAM_NAMES, in the report's order
+        "hawk_aero.CM0",
+        { name = "hawk_aero.CMq", start = -4.0, bounds = [-30.0, 0.0] },
+    ]
+
+    [options]                             # optional
+    max_iter = 50                         # iterations, >= 1
+    tol = 1e-6                            # relative cost change that ends the iterations, > 0
+
+    [[record]]                            # one per record, at least one
+    path = "runs/pitch_3211.csv"
+    name = "pitch_3211"                   # optional label (default: the reader's)
+    free_dofs = ["model_pitch"]           # reader options, passed to FlightRecord.read as keywords:
+    airspeed = 20.0                       #   columns, free_dofs, airspeed (m/s or a column), locked (rad), surface_kind, setup
+    columns = { t = "time_s", model_pitch = "pitch_rad" }
+    segment = [2.0, 38.0]                 # optional: keep t0 <= t <= t1, s
+    smooth = 40                           # optional: smoothing span, samples (before resampling)
+    resample = 100.0                      # optional: resample rate, Hz
+
+Unknown keys are errors naming the key and the allowed ones.  :func:`run` writes ``DIR/report.md``
+with its figures, ``DIR/identified.toml`` (the base file with the estimates tagged ``identified``) and
+``DIR/identify.toml`` (a copy of the configuration); a fit that does not converge writes the report
+but no parameter file.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import shutil
+import sys
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping, TextIO
+
+from rig_env.params import DEFAULT_FILE, JOINTS, PARAM_INDEX, RigParams
+from rig_env.sysid.records import SURFACE_KINDS, FlightRecord
+
+METHODS = ("output_error", "filter_error", "equation_error")
+TOP_KEYS = ("params", "method", "estimate", "options", "record")
+OPTION_KEYS = ("max_iter", "tol")
+ESTIMATE_KEYS = ("name", "start", "bounds")
+READER_KEYS = ("columns", "free_dofs", "airspeed", "locked", "surface_kind", "setup")
+RECORD_KEYS = ("path", "name", *READER_KEYS, "segment", "resample", "smooth")
+
+
+class ConfigError(ValueError):
+    """A bad ``rig identify`` configuration: the message names the key and what is allowed."""
+
+
+@dataclass(frozen=True)
+class RecordSpec:
+    """One ``[[record]]``: the file, the reader's keyword options, and the pre-processing (s, Hz, samples)."""
+
+    path: Path
+    reader: Mapping[str, Any] = field(default_factory=dict)
+    name: str | None = None
+    segment: tuple[float, float] | None = None
+    resample: float | None = None
+    smooth: int | None = None
+
+
+@dataclass(frozen=True)
+class IdentifyConfig:
+    """A validated ``rig identify`` configuration (see the module docstring)."""
+
+    source: Path
+    params_file: Path
+    method: str
+    estimate: tuple[str, ...]
+    start: Mapping[str, float]
+    bounds: Mapping[str, tuple[float, float]]
+    records: tuple[RecordSpec, ...]
+    max_iter: int | None = None
+    tol: float | None = None
+
+
+def _unknown(where: str, got: Mapping[str, Any], allowed: tuple[str, ...]) -> None:
+    bad = sorted(set(got) - set(allowed))
+    if bad:
+        raise ConfigError(f"{where}: unknown key(s) {bad}; allowed: {', '.join(allowed)}")
+
+
+def _number(where: str, v: Any) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise ConfigError(f"{where} = {v!r}: must be a finite number")
+    return float(v)
+
+
+def _pair(where: str, v: Any) -> tuple[float, float]:
+    if not isinstance(v, list) or len(v) != 2:
+        raise ConfigError(f"{where} = {v!r}: must be a pair [low, high]")
+    lo, hi = _number(where, v[0]), _number(where, v[1])
+    if not lo < hi:
+        raise ConfigError(f"{where} = {v!r}: needs low < high")
+    return lo, hi
+
+
+def _path(base: Path, where: str, v: Any) -> Path:
+    if not isinstance(v, str) or not v:
+        raise ConfigError(f"{where} = {v!r}: must be a file path (relative to the configuration's folder)")
+    p = Path(v).expanduser()
+    p = p if p.is_absolute() else base / p
+    if not p.is_file():
+        raise ConfigError(f"{where}: file not found: {p}")
+    return p
+
+
+def _estimate(raw: Any) -> tuple[tuple[str, ...], dict[str, float], dict[str, tuple[float, float]]]:
+    if not isinstance(raw, list) or not raw:
+        raise ConfigError("estimate: must be a non-empty list of dotted parameter names or { name, start, bounds } tables")
+    names: list[str] = []
+    start: dict[str, float] = {}
+    bounds: dict[str, tuple[float, float]] = {}
+    for k, item in enumerate(raw):
+        where = f"estimate[{k}]"
+        if isinstance(item, dict):
+            _unknown(where, item, ESTIMATE_KEYS)
+            if "name" not in item:
+                raise ConfigError(f"{where}: needs name (a dotted parameter name)")
+            name = item["name"]
+        else:
+            name, item = item, {}
+        if not isinstance(name, str) or name not in PARAM_INDEX:
+            raise ConfigError(f"{where}: unknown parameter {name!r}; valid names: rig_env.PARAM_NAMES (e.g. hawk_aero.CMalpha)")
+        if name in names:
+            raise ConfigError(f"{where}: {name} is listed twice")
+        names.append(name)
+        if "start" in item:
+            start[name] = _number(f"{where}.start", item["start"])
+        if "bounds" in item:
+            bounds[name] = _pair(f"{where}.bounds", item["bounds"])
+            if name in start and not bounds[name][0] <= start[name] <= bounds[name][1]:
+                raise ConfigError(f"{where}: start = {start[name]} is outside bounds {list(bounds[name])}")
+    return tuple(names), start, bounds
+
+
+def _reader_options(where: str, raw: Mapping[str, Any]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key in READER_KEYS:
+        if key not in raw:
+            continue
+        v, w = raw[key], f"{where}.{key}"
+        if key == "columns":
+            if not isinstance(v, dict) or not all(isinstance(a, str) and isinstance(b, str) for a, b in v.items()):
+                raise ConfigError(f"{w}: must be a table of signal name = \"column name\"")
+        elif key == "free_dofs":
+            if not isinstance(v, list) or not v or any(j not in JOINTS for j in v):
+                raise ConfigError(f"{w} = {v!r}: must be a non-empty list of joints from {list(JOINTS)}")
+        elif key == "airspeed":  # m/s, or the name of the column holding the measured speed
+            v = v if isinstance(v, str) and v else _number(w, v)
+        elif key == "locked":
+            if not isinstance(v, dict) or any(j not in JOINTS for j in v):
+                raise ConfigError(f"{w}: must be a table joint = angle (rad), joints from {list(JOINTS)}")
+            v = {j: _number(f"{w}.{j}", a) for j, a in v.items()}
+        elif key == "surface_kind":
+            if v not in SURFACE_KINDS:
+                raise ConfigError(f"{w} = {v!r}: allowed: {', '.join(SURFACE_KINDS)}")
+        elif key == "setup":
+            if not isinstance(v, dict) or any(n not in PARAM_INDEX for n in v):
+                bad = sorted(set(v) - set(PARAM_INDEX)) if isinstance(v, dict) else v
+                raise ConfigError(f"{w}: must be a table of dotted parameter names = value; unknown: {bad}")
+            v = {n: _number(f"{w}.{n}", a) for n, a in v.items()}
+        out[key] = v
+    return out
+
+
+def _record(base: Path, k: int, raw: Any) -> RecordSpec:
+    where = f"record[{k}]"
+    if not isinstance(raw, dict):
+        raise ConfigError(f"{where}: must be a table ([[record]])")
+    _unknown(where, raw, RECORD_KEYS)
+    if "path" not in raw:
+        raise ConfigError(f"{where}: needs path (the record file)")
+    name = raw.get("name")
+    if name is not None and (not isinstance(name, str) or not name):
+        raise ConfigError(f"{where}.name = {name!r}: must be a non-empty string")
+    seg = None
+    if "segment" in raw:
+        seg = _pair(f"{where}.segment", raw["segment"])
+    rate = None
+    if "resample" in raw:
+        rate = _number(f"{where}.resample", raw["resample"])
+        if rate <= 0:
+            raise ConfigError(f"{where}.resample = {rate}: must be a rate > 0 Hz")
+    span = raw.get("smooth")
+    if span is not None and (isinstance(span, bool) or not isinstance(span, int) or span < 3):
+        raise ConfigError(f"{where}.smooth = {span!r}: must be an integer span >= 3 samples")
+    return RecordSpec(_path(base, f"{where}.path", raw["path"]), _reader_options(where, raw), name, seg, rate, span)
+
+
+def load_config(path: str | Path) -> IdentifyConfig:
+    """Read and validate a ``rig identify`` configuration; ConfigError names the bad key."""
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            raw = tomllib.load(fh)
+    except FileNotFoundError:
+        raise ConfigError(f"configuration not found: {path}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    _unknown(str(path), raw, TOP_KEYS)
+    base = path.resolve().parent
+    params_file = _path(base, "params", raw["params"]) if "params" in raw else DEFAULT_FILE
+    method = raw.get("method", "output_error")
+    if method not in METHODS:
+        raise ConfigError(f"method = {method!r}: allowed: {', '.join(METHODS)}")
+    if "estimate" not in raw:
+        raise ConfigError("estimate: missing; give the dotted names of the parameters to estimate")
+    names, start, bounds = _estimate(raw["estimate"])
+    opts = raw.get("options", {})
+    if not isinstance(opts, dict):
+        raise ConfigError("options: must be a table ([options])")
+    _unknown("options", opts, OPTION_KEYS)
+    max_iter = opts.get("max_iter")
+    if max_iter is not None and (isinstance(max_iter, bool) or not isinstance(max_iter, int) or max_iter < 1):
+        raise ConfigError(f"options.max_iter = {max_iter!r}: must be an integer >= 1")
+    tol = None if "tol" not in opts else _number("options.tol", opts["tol"])
+    if tol is not None and tol <= 0:
+        raise ConfigError(f"options.tol = {tol}: must be > 0")
+    recs = raw.get("record")
+    if not isinstance(recs, list) or not recs:
+        raise ConfigError("record: give at least one [[record]] table with a path")
+    records = tuple(_record(base, k, r) for k, r in enumerate(recs))
+    return IdentifyConfig(path, params_file, method, names, start, bounds, records, max_iter, tol)
+
+
+def read_record(spec: RecordSpec) -> FlightRecord:
+    """Read a record (``FlightRecord.read`` with the reader options) and pre-process it: segment, smooth, resample."""
+    read = getattr(FlightRecord, "read", None)
+    if read is None:
+        raise ConfigError("FlightRecord.read is not available in this installation (the record readers)")
+    rec = read(spec.path, **spec.reader)
+    if spec.name is not None:
+        rec = dataclasses.replace(rec, name=spec.name)
+    if spec.segment is not None:
+        rec = rec.segment(*spec.segment)
+    if spec.smooth is not None:
+        rec = rec.smooth(spec.smooth)
+    if spec.resample is not None:
+        rec = rec.resample(spec.resample)
+    return rec
+
+
+def fit_kwargs(cfg: IdentifyConfig) -> dict[str, Any]:
+    """The keyword arguments of ``rig_env.sysid.fit`` the configuration sets (beside records and params)."""
+    kw: dict[str, Any] = {"estimate": list(cfg.estimate), "method": cfg.method}
+    if cfg.bounds:
+        kw["bounds"] = dict(cfg.bounds)
+    if cfg.start:
+        kw["start"] = dict(cfg.start)
+    if cfg.max_iter is not None:
+        kw["max_iter"] = cfg.max_iter
+    if cfg.tol is not None:
+        kw["tol"] = cfg.tol
+    return kw
+
+
+def run(config: str | Path, out_dir: str | Path, *, overwrite: bool = False, stream: TextIO | None = None,
+        progress: TextIO | None = None) -> dict[str, Path]:
+    """``rig identify``: read the records, fit, write the report and the identified parameter file.
+
+    stream: where the summary goes (default stdout); progress: where the fit's per-iteration lines go
+    (default stderr).  Returns the written files by kind.  Raises ConfigError (a ValueError) for a bad
+    configuration or record, FileExistsError for outputs already there, RuntimeError for a fit that
+    failed or did not converge.
+    """
+    import rig_env.sysid as sysid
+    from rig_env.sysid.paramfile import save_fit_params
+    from rig_env.sysid.report import write_report
+
+    out = stream if stream is not None else sys.stdout
+    prog = progress if progress is not None else sys.stderr
+    cfg = load_config(config)
+    dest = Path(out_dir)
+    targets = {"report": dest / "report.md", "params": dest / "identified.toml", "config": dest / "identify.toml"}
+    if not overwrite:
+        there = [str(p) for p in targets.values() if p.exists()]
+        if there:
+            raise FileExistsError(f"{', '.join(there)} exist(s); pass --overwrite to replace")
+    params = RigParams.from_toml(cfg.params_file)
+    records = []
+    for spec in cfg.records:
+        out.write(f"reading {spec.path}\n")
+        records.append(read_record(spec))
+    fit: Callable[..., Any] | None = getattr(sysid, "fit", None)
+    if fit is None:
+        raise RuntimeError("rig_env.sysid.fit is not available in this installation")
+
+    def report_progress(line: str) -> None:
+        prog.write(f"  {line}\n")
+        prog.flush()
+
+    out.write(f"fitting {len(cfg.estimate)} parameters by {cfg.method} to {len(records)} record(s)\n")
+    out.flush()
+    try:
+        result = fit(records, params, progress=report_progress, **fit_kwargs(cfg))
+    except (ValueError, RuntimeError, ArithmeticError) as exc:
+        raise RuntimeError(f"the fit failed: {exc}") from exc
+    dest.mkdir(parents=True, exist_ok=True)
+    written = {"report": write_report(result, dest, title=f"System identification: {cfg.source.name}", overwrite=overwrite)}
+    shutil.copyfile(cfg.source, targets["config"])
+    written["config"] = targets["config"]
+    out.write(f"wrote {written['report']} and its figures\n")
+    if not result.converged:
+        raise RuntimeError(f"the fit did not converge ({result.message or 'no message'}) after {result.iterations} iterations; "
+                           f"see {written['report']}; no parameter file written")
+    written["params"] = save_fit_params(result, targets["params"], base_file=cfg.params_file, overwrite=overwrite)
+    out.write(f"wrote {written['params']} (fly it: rig compare --params {written['params']})\n")
+    out.flush()
+    return written
