@@ -3,7 +3,7 @@
 The configuration (TOML; paths relative to the configuration file's folder)::
 
     params = "my_rig.toml"                # base parameter file (default: the default rig)
-    method = "output_error"               # or "filter_error", "equation_error"
+    method = "output_error"               # or "filter_error"
     estimate = [                          # dotted names of rig_env.PARAM_NAMES, in the report's order
         "hawk_aero.CM0",
         { name = "hawk_aero.CMq", start = -4.0, bounds = [-30.0, 0.0] },
@@ -17,8 +17,8 @@ The configuration (TOML; paths relative to the configuration file's folder)::
     path = "runs/pitch_3211.csv"
     name = "pitch_3211"                   # optional label (default: the reader's)
     free_dofs = ["model_pitch"]           # reader options, passed to FlightRecord.read as keywords:
-    airspeed = 20.0                       #   columns, free_dofs, airspeed (m/s or a column), locked (rad), surface_kind, setup
-    columns = { t = "time_s", model_pitch = "pitch_rad" }
+    airspeed = 20.0                       #   columns, free_dofs, airspeed (m/s), locked (rad), surface_kind, setup
+    columns = { t = ["time_s", "s"], "q.model_pitch" = ["pitch", "deg"], "surfaces.hawk_elevator" = ["de", "deg"] }
     segment = [2.0, 38.0]                 # optional: keep t0 <= t <= t1, s
     smooth = 40                           # optional: smoothing span, samples (before resampling)
     resample = 100.0                      # optional: resample rate, Hz
@@ -43,7 +43,7 @@ from typing import Any, Callable, Mapping, TextIO
 from rig_env.params import DEFAULT_FILE, JOINTS, PARAM_INDEX, RigParams
 from rig_env.sysid.records import SURFACE_KINDS, FlightRecord
 
-METHODS = ("output_error", "filter_error", "equation_error")
+METHODS = ("output_error", "filter_error")  # rig_env.sysid.fit.METHODS (kept here so parsing a config imports no model)
 TOP_KEYS = ("params", "method", "estimate", "options", "record")
 OPTION_KEYS = ("max_iter", "tol")
 ESTIMATE_KEYS = ("name", "start", "bounds")
@@ -149,13 +149,16 @@ def _reader_options(where: str, raw: Mapping[str, Any]) -> dict[str, Any]:
             continue
         v, w = raw[key], f"{where}.{key}"
         if key == "columns":
-            if not isinstance(v, dict) or not all(isinstance(a, str) and isinstance(b, str) for a, b in v.items()):
-                raise ConfigError(f"{w}: must be a table of signal name = \"column name\"")
+            ok = isinstance(v, dict) and all(isinstance(b, list) and len(b) == 2 and all(isinstance(x, str) for x in b) for b in v.values())
+            if not ok:
+                raise ConfigError(f"{w}: must be a table of field = [\"column name\", \"unit\"] (fields: t, airspeed, "
+                                  "\"q.<joint>\", \"qd.<joint>\", \"surfaces.<surface>\"; see rig_env.sysid.readers)")
+            v = {a: (b[0], b[1]) for a, b in v.items()}
         elif key == "free_dofs":
             if not isinstance(v, list) or not v or any(j not in JOINTS for j in v):
                 raise ConfigError(f"{w} = {v!r}: must be a non-empty list of joints from {list(JOINTS)}")
-        elif key == "airspeed":  # m/s, or the name of the column holding the measured speed
-            v = v if isinstance(v, str) and v else _number(w, v)
+        elif key == "airspeed":  # m/s (a measured series comes through columns: airspeed = ["V", "m/s"])
+            v = _number(w, v)
         elif key == "locked":
             if not isinstance(v, dict) or any(j not in JOINTS for j in v):
                 raise ConfigError(f"{w}: must be a table joint = angle (rad), joints from {list(JOINTS)}")

@@ -155,3 +155,28 @@ def test_bad_requests_are_refused_with_the_field_named(pitch_run):
         sysid.fit(uneven, P, ["hawk_aero.CMq"])
     with pytest.raises(RecordError, match="q has shape"):
         FlightRecord(t=rec.t, free_dofs=("model_pitch",), q=np.zeros((3, 1)))
+
+
+def test_rig_identify_end_to_end_from_a_csv_record(tmp_path, pitch_run):
+    """A record written as CSV, a configuration, ``rig identify``: the report and an identified parameter
+    file that loads back with the estimates, their standard errors and provenance."""
+    from rig_cli.main import main
+
+    assert sysid.METHODS == __import__("rig_cli.identify", fromlist=["METHODS"]).METHODS
+    rec = record_of(pitch_run, 0.1, 7, name="pitch_3211")
+    rec.write(tmp_path / "pitch.csv")
+    (tmp_path / "id.toml").write_text(
+        'method = "output_error"\n'
+        'estimate = ["hawk_aero.CM0", "hawk_aero.CMalpha", { name = "hawk_aero.CMq", start = -5.0 }, "hawk_aero.CMde"]\n'
+        '[[record]]\npath = "pitch.csv"\n'
+    )
+    rc = main(["identify", str(tmp_path / "id.toml"), "--out", str(tmp_path / "out")])
+    assert rc in (0, None)
+    assert (tmp_path / "out" / "report.md").exists()
+    got = RigParams.from_toml(tmp_path / "out" / "identified.toml")
+    prov = got.provenance("hawk_aero.CMq")
+    assert prov["source"] == "identified" and prov["records"] == ["pitch_3211"] and prov["std"] > 0.0
+    assert abs(got.hawk_aero.CMq - P.hawk_aero.CMq) < 4.0 * prov["std"]
+    assert got.hawk_aero.CLalpha == P.hawk_aero.CLalpha and got.source("hawk_aero.CLalpha") == P.source("hawk_aero.CLalpha")
+    rc2 = main(["identify", str(tmp_path / "id.toml"), "--out", str(tmp_path / "out")])
+    assert rc2 == 2  # an existing report is never overwritten silently

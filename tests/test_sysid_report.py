@@ -351,7 +351,7 @@ path = "pitch.csv"
 name = "pitch_3211"
 free_dofs = ["model_pitch"]
 airspeed = 20.0
-columns = { t = "time_s", model_pitch = "pitch_rad" }
+columns = { t = ["time_s", "s"], "q.model_pitch" = ["pitch", "rad"] }
 segment = [0.5, 9.0]
 """
 
@@ -393,7 +393,7 @@ def test_rig_identify_writes_report_and_params(config: Path, tmp_path: Path, par
     assert main(["identify", str(config), "--out", str(out)]) == 0
     io = capsys.readouterr()
     assert "iteration 1: cost 4.1e-3" in io.err and f"wrote {out / 'identified.toml'}" in io.out
-    assert calls["read"] == [("pitch.csv", {"columns": {"t": "time_s", "model_pitch": "pitch_rad"}, "free_dofs": ["model_pitch"], "airspeed": 20.0})]
+    assert calls["read"] == [("pitch.csv", {"columns": {"t": ("time_s", "s"), "q.model_pitch": ("pitch", "rad")}, "free_dofs": ["model_pitch"], "airspeed": 20.0})]
     assert calls["segment"] == (0.5, 9.0)
     records, base, kw = calls["fit"]
     assert records[0].name == "pitch_3211" and base == params
@@ -419,7 +419,7 @@ def test_rig_identify_unconverged_fit_writes_no_params(config: Path, tmp_path: P
 
 
 @pytest.mark.parametrize("edit, match", [
-    (("method = \"output_error\"", "method = \"least_squares\""), "method = 'least_squares': allowed: output_error, filter_error, equation_error"),
+    (("method = \"output_error\"", "method = \"least_squares\""), "method = 'least_squares': allowed: output_error, filter_error"),
     (("\"hawk_aero.CM0\"", "\"hawk_aero.CMzz\""), r"estimate\[0\]: unknown parameter 'hawk_aero.CMzz'"),
     (("bounds = [-30.0, 0.0]", "bounds = [0.0, -30.0]"), r"estimate\[1\].bounds .* needs low < high"),
     (("start = -4.0", "start = 4.0"), r"estimate\[1\]: start = 4.0 is outside bounds"),

@@ -19,10 +19,18 @@ from rig_env.sysid.records import (
     RecordError,
     check_sampling,
 )
+from rig_env.importhook import lazy_attributes
 from rig_env.sysid.result import Fit
 from rig_env.sysid.smoothing import lowess
 
+_LAZY = {  # imported at first use (matplotlib, scipy)
+    "save_fit_params": "rig_env.sysid.paramfile",
+    "write_params": "rig_env.sysid.paramfile",
+    "write_report": "rig_env.sysid.report",
+}
+__getattr__, __dir__ = lazy_attributes("rig_env.sysid", _LAZY, globals())
+
 __all__ = [
     "GAP_FACTOR", "MAX_UPSAMPLE", "METHODS", "ColumnMap", "Fit", "FlightRecord", "RecordError", "check_sampling", "fit",
-    "lowess", "read_frame_log",
+    "lowess", "read_frame_log", "save_fit_params", "write_params", "write_report",
 ]

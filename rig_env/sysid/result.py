@@ -22,7 +22,7 @@ class Fit:
 
     | field | meaning |
     |---|---|
-    | method | ``"output_error"``, ``"filter_error"`` or ``"equation_error"`` |
+    | method | ``"output_error"`` or ``"filter_error"`` |
     | estimate | the estimated parameters' names, in the caller's order |
     | values, initial | {name: value}: the estimates and the start values |
     | std | {name: Cramer-Rao standard error}, corrected for coloured residuals |
