@@ -32,7 +32,7 @@ import numpy as np
 from scipy.linalg import solve_discrete_are
 
 from rig_env.physics import layout as L
-from rig_env.sysid.output_error import Solution
+from rig_env.sysid.output_error import STEP_TOL, Solution
 from rig_env.sysid.problem import Evaluation, Problem
 
 LIN_STEP = 1e-5  # rad, rad/s: linearisation step
@@ -262,8 +262,8 @@ def filter_error(problem: Problem, p0: np.ndarray, *, process_noise: Mapping[str
         items, ok = flt.evaluate(p, True)
         if not ok:
             raise FloatingPointError("filter error: the model blew up at an accepted estimate")
-        if rel < tol and np.max(np.abs(step) / sd) < 1e-3:
-            converged, message = True, f"converged: relative change of the negative log-likelihood {rel:.2e} < {tol:g}"
+        if np.max(np.abs(step) / sd) < STEP_TOL or (rel < tol and np.max(np.abs(step) / sd) < 10 * STEP_TOL):
+            converged, message = True, f"converged: largest step {np.max(np.abs(step) / sd):.2g} standard errors, relative change of the negative log-likelihood {rel:.2e}"
             break
     F, _ = _fisher_and_gradient(items, flt.n_p)
     cov = np.linalg.pinv(F, hermitian=True)

@@ -9,7 +9,9 @@ which with R at its estimate is the negative log-likelihood ``1/2 sum_r N_r ln d
 Step: ``(F + lambda diag F) dp = g`` with ``F = sum S' R^-1 S`` and ``g = sum S' R^-1 v``; a step that
 does not lower J (at the iteration's R) is retried with lambda x 10, an accepted one divides it by 10.
 Parameters leave their bounds never: a step is clipped to them.  Converged when an accepted step lowers
-J by less than ``tol`` relatively and moves no parameter by more than 1e-3 of its standard error.
+moves no parameter by more than 2 % of its standard error (``STEP_TOL``: far inside the estimate's
+uncertainty, and above the finite-difference sensitivities' noise), or lowers J by less than ``tol``
+relatively while moving none by more than 20 %.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import numpy as np
 from rig_env.sysid.covariance import coloured_middle, covariances, fisher_information
 from rig_env.sysid.problem import Evaluation, Problem
 
+STEP_TOL = 0.02  # converged when no parameter moves by more than this many standard errors
 VAR_FLOOR = 1e-18  # rad^2, smallest noise variance (a noise-free record would otherwise give R = 0)
 
 
@@ -105,8 +108,8 @@ def output_error(problem: Problem, p0: np.ndarray, *, max_iter: int = 30, tol: f
         ev = problem.evaluate(p, sensitivities=True)
         if not ev.ok:
             raise FloatingPointError("output error: the model blew up at an accepted estimate")
-        if rel < tol and np.max(np.abs(step) / sd) < 1e-3:
-            converged, message = True, f"converged: relative cost change {rel:.2e} < {tol:g}"
+        if np.max(np.abs(step) / sd) < STEP_TOL or (rel < tol and np.max(np.abs(step) / sd) < 10 * STEP_TOL):
+            converged, message = True, f"converged: largest step {np.max(np.abs(step) / sd):.2g} standard errors, relative cost change {rel:.2e}"
             break
     V = residuals_of(problem, ev)
     R = noise_of(V)
