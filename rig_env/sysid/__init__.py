@@ -7,6 +7,7 @@ parameters back into :class:`rig_env.RigParams` and a parameter file.  See READM
 
 from __future__ import annotations
 
+from rig_env.sysid.inputs import doublet, multisine, peak_factors, three_two_one_one  # scipy only inside multisine()
 from rig_env.sysid.records import FlightRecord, RecordError
 
-__all__ = ["FlightRecord", "RecordError"]
+__all__ = ["FlightRecord", "RecordError", "doublet", "multisine", "peak_factors", "three_two_one_one"]
