@@ -349,6 +349,43 @@ def test_output_limits_always_applied(tmp_path, law_file):
     assert np.all(np.abs(np.diff(cmd, axis=0)) <= du + 1e-12)
 
 
+def test_test_input_is_added_to_the_laws_command_from_arming(tmp_path, law_file):
+    """A 3-2-1-1 on the Hawk elevator (a surface the roll law does not command): every command sent carries
+    schedule(t) at the reference clock's step time (t = 0 at arming) beside the law's own output."""
+    from controllers.deploy.loop import OutputLimits
+    from rig_env.signals import InputSchedule, ThreeTwoOneOne
+
+    sched = InputSchedule({"hawk_elevator": ThreeTwoOneOne(2.0, start_s=0.5)})  # 2.46 s long
+    loop, rig, rec, log = fly(tmp_path, law_file, 3.0, test_input=sched)
+    art, dt = A.load(law_file), 1 / 80
+    on = log["mode"] == pr.MODE_ACTIVE
+    assert loop["final_state"] == "ACTIVE" and on.sum() > 200
+    t_in = np.round(log["obs_t"] / dt) * dt
+    assert t_in[on][0] == 0.0  # armed at the first frame: the input's clock starts there
+    expect = np.where(on, np.radians(sched.value("hawk_elevator", t_in)), 0.0)
+    np.testing.assert_allclose(log["command"][:, 3], expect, rtol=0, atol=1e-12)  # within the limits: sent as scheduled
+    assert log["command"][:, 3].max() == pytest.approx(np.radians(2.0)) and log["command"][:, 3].min() == pytest.approx(np.radians(-2.0))
+    # the whole command is the output limits applied to the law's target plus the input, tick by tick
+    lim = OutputLimits(art, dt, {3: (40.0, 350.0)})
+    for i in range(len(log)):
+        target = np.zeros(6)
+        if on[i]:
+            target[:3] = log["action"][i, :3] * np.radians(art.spec.action_scale_deg)
+            target[3] = np.radians(sched.value("hawk_elevator", t_in[i]))
+        np.testing.assert_array_equal(lim.apply(target), log["command"][i])
+    ends = [e for e in loop["events"] if e["event"] == "test_input_end"]
+    assert len(ends) == 1 and ends[0]["t_input"] == pytest.approx(sched.duration, abs=dt)
+
+
+def test_run_refuses_a_bad_test_input_file(law_file, tmp_path):
+    bad = tmp_path / "input.json"
+    bad.write_text(json.dumps({"format": "rig_env.InputSchedule", "version": 1, "surfaces": {"hawk_elevator": [{"kind": "sawtooth"}]}}))
+    for path, expect in ((bad, "unknown shape kind 'sawtooth'"), (tmp_path / "missing.json", "No such file")):
+        r = subprocess.run([sys.executable, SCRIPT, "run", "--law", str(law_file), "--rig", "udp://127.0.0.1:9", "--duration", "1",
+                            "--test-input", str(path)], env=ENV, capture_output=True, text=True, timeout=60)
+        assert r.returncode == 2 and expect in r.stderr and "Traceback" not in r.stderr, r.stderr
+
+
 # ---------------------------------------------------------------------- faults
 def test_ten_percent_packet_loss_still_completes(tmp_path, law_file):
     loop, rig, rec, log = fly(tmp_path, law_file, 8.0, ("--loss", "0.1", "--cmd-loss", "0.1", "--fault-seed", "3"))

@@ -101,9 +101,14 @@ def law_file(tmp_path_factory) -> Path:
 
 
 def test_run_path_flies_without_heavy_modules(law_file, tmp_path):
+    """... with a test input too (``--test-input``: rig_env.signals, numpy only)."""
     rig = FakeRig()
     out = tmp_path / "modules.json"
-    argv = ["run", "--law", str(law_file), "--rig", f"udp://127.0.0.1:{rig.port}", "--arm", "--duration", "1.0", "--bind", "127.0.0.1"]
+    schedule = tmp_path / "input.json"
+    schedule.write_text(json.dumps({"format": "rig_env.InputSchedule", "version": 1,
+                                    "surfaces": {"hawk_elevator": [{"kind": "doublet", "amplitude_deg": 1.0, "period_s": 0.5, "start_s": 0.2}]}}))
+    argv = ["run", "--law", str(law_file), "--rig", f"udp://127.0.0.1:{rig.port}", "--arm", "--duration", "1.0", "--bind", "127.0.0.1",
+            "--test-input", str(schedule)]
     code = ("import sys, json\n"
             "from controllers.deploy.cli import main\n"
             f"rc = main({argv!r})\n"
@@ -123,3 +128,6 @@ def test_run_path_flies_without_heavy_modules(law_file, tmp_path):
     assert summary["counts"]["fresh"] > 40 and rig.modes.get(pr.MODE_ACTIVE, 0) >= 10, (summary["counts"], rig.modes)
     assert _heavy(result["modules"]) == []
     assert "rig_env.physics.jit" in result["modules"] and "rig_env.envs.observation" in result["modules"]
+    assert "rig_env.signals" in result["modules"]
+    if not summary["faults"]:  # the doublet flew to its end (an overrun latch would have stopped it)
+        assert any(e["event"] == "test_input_end" for e in summary["events"]), summary["events"]

@@ -1,7 +1,7 @@
 """``rig-deploy`` (= ``python scripts/deploy.py``): export a law, fly it on a rig, or serve a simulated rig.
 
     rig-deploy export --controller KIND --task NAME --out PATH [--task-option KEY=VALUE ...] [--rate 80] [--key-file F] [--gains KP KD KFF] [--policy FILE]
-    rig-deploy run --law FILE --rig udp://HOST:PORT [--rate 80] [--arm] [--duration S] [--log PATH] [--key-file F] [--stuck-frames 32]
+    rig-deploy run --law FILE --rig udp://HOST:PORT [--rate 80] [--arm] [--duration S] [--log PATH] [--key-file F] [--stuck-frames 32] [--test-input FILE.json]
     rig-deploy sim-rig --port PORT [--task NAME] [--task-option KEY=VALUE ...] [--rate 80] [--duration S] [--loss P] [--blackout T0 DUR] ...
     rig-deploy verify --law FILE [--key-file F]
     rig-deploy convert-policy OLD NEW [--key-file F]
@@ -14,6 +14,9 @@ The ``run`` path imports numpy, the standard library, the deployed runtime and t
 only (:mod:`controllers.deploy.loop`): no gymnasium, numba, llvmlite, matplotlib, scipy, python-control
 or torch (``tests/test_deploy_imports.py``); ``export`` and ``sim-rig`` import the environments inside
 their functions.
+
+``run --test-input FILE.json`` adds a test input (:class:`rig_env.signals.InputSchedule`, as written by
+its ``save``) to the law's command from each arming (:mod:`controllers.deploy.loop`).
 
 Exit status: 0 success; 2 bad arguments or a refused artefact (the message names what failed);
 3 the run ended in FAULT.  ``run`` arms on SIGUSR1, disarms on SIGUSR2, stops on SIGINT / SIGTERM.
@@ -122,11 +125,19 @@ def cmd_run(a: argparse.Namespace) -> int:
 def _run(a: argparse.Namespace) -> int:
     from controllers.deploy.loop import LoopConfig, RigLoop
 
+    from rig_env.signals import InputSchedule, ScheduleError
+
     art = load(a.law, _key(a.key_file), require_signature=a.key_file is not None)
     rate = a.rate if a.rate is not None else 1.0 / art.spec.dt
+    test_input = None
+    if a.test_input is not None:
+        try:
+            test_input = InputSchedule.load(a.test_input)
+        except ScheduleError as e:
+            raise ValueError(f"--test-input: {e}") from None
     cfg = LoopConfig(rig=_rig_address(a.rig), rate_hz=rate, bind=(a.bind, a.bind_port), duration=a.duration, arm=a.arm, log_path=a.log,
                      seed=a.seed, stale_frames=a.stale_frames, fault_frames=a.fault_frames, realtime=a.realtime,
-                     link_delay_steps=a.link_delay_steps, stuck_frames=a.stuck_frames, stuck_cmd_deg=a.stuck_cmd_deg)
+                     link_delay_steps=a.link_delay_steps, stuck_frames=a.stuck_frames, stuck_cmd_deg=a.stuck_cmd_deg, test_input=test_input)
     loop = RigLoop(art, cfg)
     signal.signal(signal.SIGINT, lambda *_: loop.stop())
     signal.signal(signal.SIGTERM, lambda *_: loop.stop())
@@ -204,6 +215,7 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--key-file")
     r.add_argument("--realtime", action="store_true", help="SCHED_FIFO scheduling (Linux, privileged)")
     r.add_argument("--link-delay-steps", type=int, default=0, help="age of a sensor frame on arrival, control steps (reference lead)")
+    r.add_argument("--test-input", metavar="FILE.json", help="a test input schedule (rig_env.signals.InputSchedule.save) added to the law's command from arming")
     r.set_defaults(func=cmd_run)
     s = sub.add_parser("sim-rig", help="serve the simulated rig")
     s.add_argument("--port", type=int, required=True)

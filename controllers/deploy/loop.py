@@ -61,6 +61,18 @@ needs the command's movement: :mod:`controllers.deploy.stuck`.
 Output limits: ``command = prev + clip(clip(target, -pos, pos) - prev, -rate dt, rate dt)`` with the
 artefact's ``limits`` (default +-40 deg and the servos' 350 deg/s): the safe target is commanded at
 once and the surfaces reach neutral at the servos' own slew rate.
+
+Test input (``LoopConfig.test_input``, a :class:`rig_env.signals.InputSchedule`; ``rig-deploy run
+--test-input FILE.json``): while ACTIVE and the law's output is accepted, ``schedule(t)`` (deg -> rad) is
+added to the law's target before the output limits, so the command sent (the log's ``command``) is the
+law's output plus the test input.  t is the task reference's clock rounded to the control grid,
+``round(obs_t / dt) dt`` (rig time since the arming frame, plus the frame's age ``link_delay_steps`` and
+any bridged frames): t = 0 at arming (with the default ``link_delay_steps = 0``), the same step times
+at which :func:`rig_env.simulate` and the environments evaluate a schedule, so the loop flies the same
+samples.  Every arming restarts it; from ``t >= schedule.duration`` it adds nothing (event
+``test_input_end``); SAFE, FAULT and DISARMED send neutral targets without it.  A surface the law does
+not command but the test input drives is limited at the default rig's servo limits (+-40 deg,
+350 deg/s); :meth:`rig_env.signals.InputSchedule.check` tells beforehand whether the limits will cut it.
 """
 
 from __future__ import annotations
@@ -82,7 +94,8 @@ from controllers.deploy.framelog import FrameLog
 from controllers.deploy.stuck import StuckDetector
 from rig_env.envs.observation import labels, observe, task_for_seed
 from rig_env.envs.sensors import UNLIMITED, Sensors
-from rig_env.params import JOINTS, RigParams, param_batch
+from rig_env.params import JOINTS, SURFACES, RigParams, param_batch
+from rig_env.signals import InputSchedule
 
 DISARMED, ACTIVE, FAULT = 0, 1, 2
 STATES = ("DISARMED", "ACTIVE", "FAULT")
@@ -115,6 +128,7 @@ class LoopConfig:
     stuck_cmd_deg: the command movement (deg, max - min of any surface over the repeats) that shows the
     rig is driven at 18 m/s (scaled by (18 / U)^2 at airspeed U), [0, 80] deg (0: any repeat run of
     ``stuck_frames`` trips, wind or not).
+    test_input: surface test inputs added to the law's command from each arming (module docstring), or None.
     """
 
     rig: tuple[str, int]
@@ -137,6 +151,7 @@ class LoopConfig:
     connect_timeout: float = 5.0
     stuck_frames: int | None = 32
     stuck_cmd_deg: float = 2.0
+    test_input: InputSchedule | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.rate_hz) and 1.0 <= self.rate_hz <= 2000.0):
@@ -158,20 +173,27 @@ class LoopConfig:
             raise ValueError(f"stuck_frames = {sf!r}: None or 0 (disabled), else an integer in [2, 1000000] frames")
         if not (isinstance(self.stuck_cmd_deg, (int, float)) and math.isfinite(self.stuck_cmd_deg) and 0.0 <= self.stuck_cmd_deg <= 80.0):
             raise ValueError(f"stuck_cmd_deg = {self.stuck_cmd_deg!r}: allowed range [0, 80] deg")
+        if self.test_input is not None and not isinstance(self.test_input, InputSchedule):
+            raise ValueError(f"test_input = {self.test_input!r}: must be a rig_env.signals.InputSchedule or None")
 
 
 class OutputLimits:
     """Position and rate limits of the surface commands (rad), applied in every state of the loop.
 
     ``apply(target)``: ``cmd = cmd + clip(clip(target, -pos, pos) - cmd, -rate dt, rate dt)``; target
-    (6,) rad; returns the (6,) command (a view of the internal state: copy to keep it).
+    (6,) rad; returns the (6,) command (a view of the internal state: copy to keep it).  The law's
+    surfaces take the artefact's limits; ``more`` gives others {surface index: (position deg, rate
+    deg/s)} (a test input's); the rest stay at 0.
     """
 
-    def __init__(self, artefact: Artefact, dt: float) -> None:
+    def __init__(self, artefact: Artefact, dt: float, more: dict[int, tuple[float, float]] | None = None) -> None:
         na = artefact.spec.n_actions
         self.pos, self.du, self.cmd = np.zeros(pr.N_SURFACES), np.zeros(pr.N_SURFACES), np.zeros(pr.N_SURFACES)
         self.pos[:na] = np.radians(artefact.limits["position_deg"])
         self.du[:na] = np.radians(artefact.limits["rate_deg_s"]) * dt
+        for j, (pos_deg, rate_deg_s) in (more or {}).items():
+            if j >= na:
+                self.pos[j], self.du[j] = math.radians(pos_deg), math.radians(rate_deg_s) * dt
         self._t = np.zeros(pr.N_SURFACES)
 
     def apply(self, target: np.ndarray) -> np.ndarray:
@@ -192,7 +214,8 @@ class RigLoop:
         self.law = artefact.controller()
         self.sensors = Sensors(1, spec.free_dofs, spec.dt, rate_filter_hz=float(artefact.sensors["rate_filter_hz"]), delay_steps=0, quantise=False)
         ep = self._ep = cfg.episode_seconds or 600.0
-        self._params_row = param_batch(RigParams.default(), 1)  # loaded once: arming must not wait 13 ms for it
+        params = RigParams.default()
+        self._params_row = param_batch(params, 1)  # loaded once: arming must not wait 13 ms for it
         self.task = task_for_seed(spec.task, spec.free_dofs, spec.dt, ep, cfg.seed, airspeed=float(np.mean(spec.airspeed_range)),
                                   options=dict(spec.task_options), params_row=self._params_row)
         built = labels(self.sensors, self.task)
@@ -201,7 +224,14 @@ class RigLoop:
         self.free = np.array([JOINTS.index(j) for j in spec.free_dofs])
         self.lim_max = np.array([UNLIMITED_MAX if j in UNLIMITED else LIMITED_MAX for j in JOINTS])
         self.scale = math.radians(spec.action_scale_deg)
-        self.limits = OutputLimits(artefact, self.period)
+        # the test input: its surfaces' columns in the command, their limits where the law has none (the servos')
+        self.test = cfg.test_input
+        self._test_cols = [] if self.test is None else [(SURFACES.index(s), s) for s in self.test.surfaces]
+        self._test_end = 0.0 if self.test is None else self.test.duration
+        self._test_over = True
+        servos = {j: params.servos.compensator if s.startswith("comp_") else params.servos.hawk for j, s in self._test_cols}
+        more = {j: (sv.limit_deg, sv.rate_limit_deg_s) for j, sv in servos.items()}
+        self.limits = OutputLimits(artefact, self.period, more)
         self.stuck = StuckDetector(spec.free_dofs, cfg.stuck_frames, math.radians(cfg.stuck_cmd_deg), pr.N_SURFACES)
         self.overrun_s = cfg.overrun_s if cfg.overrun_s is not None else 0.5 * self.period
         self.miss_s = (cfg.miss_fraction if cfg.miss_fraction is not None else 1.0 - cfg.phase) * self.period
@@ -420,6 +450,7 @@ class RigLoop:
                 self.task = task_for_seed(self.spec.task, self.spec.free_dofs, self.spec.dt, self._ep, self.cfg.seed, airspeed=self.airspeed, options=dict(self.spec.task_options),
                                          params_row=self._params_row)
                 self.events.append({"tick": k, "t": wake - self.t0, "event": "arm", "seq": self.seq})
+                self._test_over = self.test is None  # a test input restarts at every arming
             else:
                 self.counts["arm_refused"] += 1
                 self.events.append({"tick": k, "event": "arm_refused"})
@@ -455,7 +486,18 @@ class RigLoop:
             self.action[: spec.n_actions] = a
             self.target[: spec.n_actions] = a * self.scale
             mode = pr.MODE_ACTIVE
+            if not self._test_over:
+                self._add_test_input(k, round(obs_t / spec.dt) * spec.dt)
         return mode, compute, obs_t
+
+    def _add_test_input(self, k: int, t: float) -> None:
+        """Add the test input at its time t (s since arming, on the control grid) to ``self.target``, rad."""
+        if t >= self._test_end:
+            self._test_over = True
+            self.events.append({"tick": k, "event": "test_input_end", "t_input": t})
+            return
+        for j, s in self._test_cols:
+            self.target[j] += math.radians(float(self.test.value(s, t)))
 
     def _send(self, cmd: np.ndarray, mode: int, echo: int) -> None:
         pr.pack_command_into(self.tx, self.cmd_seq, echo, cmd, mode)

@@ -27,6 +27,17 @@ Errors are ``ValueError`` naming the field and its allowed range.  ``None`` in a
 | hawk_surfaces | False | bool | Hawk elevator, aileron, rudder are actions too |
 | nonlinear_aero | None (task's) | bool | high-incidence tables (departure_recovery: on by default) |
 | params_file | None | path | rig parameter file (None: the default rig) |
+| pilot_inputs | None | ``rig_env.signals.InputSchedule``, deg | test inputs flown from every episode's start instead of the task's pilot inputs (below) |
+
+``pilot_inputs``: at each control step the schedule is evaluated at the episode's time and held (as
+:func:`rig_env.simulate` holds ``controls``).  Its Hawk surfaces replace the task's pilot inputs (all
+three: a Hawk surface the schedule leaves out is held at 0), and with ``hawk_surfaces`` are added to
+the action's Hawk commands, as the task's are.  Its compensator surfaces are added to the action's
+compensator commands (after the action's clipping to +-40 deg); the servos' position and rate limits
+clip the sum.  So a schedule flies in an environment as in the rig's loop, where a test input is added
+to the law's command before the output limits.  The task's reference, reward and success still follow
+the task's own pilot input (free_flight_emulation's free-Hawk model flies its own 3-2-1-1), so a
+schedule is for identification and test runs, not for scoring those tasks.
 """
 
 from __future__ import annotations
@@ -37,6 +48,7 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 from rig_env.params import JOINTS, PARAM_INDEX
+from rig_env.signals import InputSchedule
 
 MAX_AIRSPEED = 40.0  # m/s: the Bristol 7x5 ft tunnel's working range for the rig
 
@@ -75,6 +87,7 @@ class RigEnvConfig:
     hawk_surfaces: bool = False
     nonlinear_aero: bool | None = None
     params_file: str | None = None
+    pilot_inputs: InputSchedule | None = None
 
     def __post_init__(self) -> None:
         from rig_env.envs.tasks import TASKS  # late: tasks import this module
@@ -136,6 +149,9 @@ class RigEnvConfig:
                 raise ValueError(f"randomise[{name!r}] = ({lo}, {hi}): need finite low <= high")
             rnd[name] = (lo, hi)
         object.__setattr__(self, "randomise", rnd)
+        if self.pilot_inputs is not None and not isinstance(self.pilot_inputs, InputSchedule):
+            raise ValueError(f"pilot_inputs = {self.pilot_inputs!r}: must be a rig_env.signals.InputSchedule or None "
+                             "(InputSchedule.from_data / load build one from plain data)")
         for name in ("quantise", "hawk_surfaces", "nonlinear_aero"):
             v = getattr(self, name)
             if not isinstance(v, bool) and not (name == "nonlinear_aero" and v is None):

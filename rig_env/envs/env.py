@@ -33,7 +33,9 @@ class RigEnv(gym.Env):
     | 3-5 | Hawk elevator, aileron, rudder (``hawk_surfaces`` only; the task's pilot input is added) | +-40 deg |
 
     Out-of-range values are clipped to [-1, 1]; NaN or inf raises ``ValueError``.  The servos then add
-    their delay, lag, rate limit and +-40 deg stop (rig_env.physics.servo).
+    their delay, lag, rate limit and +-40 deg stop (rig_env.physics.servo).  A ``pilot_inputs`` schedule
+    (:class:`rig_env.signals.InputSchedule`) replaces the task's pilot inputs on the Hawk surfaces and is
+    added to the compensator commands (:mod:`rig_env.envs.config`).
 
     ## Observation space
 

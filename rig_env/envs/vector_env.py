@@ -29,7 +29,10 @@ Actions are ``(num_envs, 3)`` (``(num_envs, 6)`` with ``hawk_surfaces``): compen
 elevator, rudder (then Hawk elevator, aileron, rudder), each in [-1, 1] for +-40 deg.  Out-of-range
 values are clipped; a non-finite value raises ``ValueError``.  The task's pilot inputs
 (:meth:`rig_env.envs.tasks.Task.pilot_inputs`: 3-2-1-1s, pulses) are the Hawk surface commands, held
-over each control step; with ``hawk_surfaces`` they are added to the action's Hawk commands.
+over each control step; with ``hawk_surfaces`` they are added to the action's Hawk commands.  A
+configuration's ``pilot_inputs`` schedule (:class:`rig_env.signals.InputSchedule`, evaluated at each
+environment's episode time) replaces the task's pilot inputs on the Hawk surfaces and is added to the
+action's compensator commands (:mod:`rig_env.envs.config`).
 Observations are float32, see :class:`rig_env.envs.env.RigEnv` for the table.
 """
 
@@ -191,6 +194,8 @@ class RigVectorEnv(VectorEnv):
         self.gust = np.zeros((n, 3))
         self.prev_action = np.zeros((n, len(self.action_names)))
         self._phi = float(np.exp(-self.dt / cfg.turbulence_tau))
+        self._schedule = cfg.pilot_inputs
+        self._pilot = np.zeros((n, 3))  # the schedule's Hawk elevator, aileron, rudder, rad
 
     # ------------------------------------------------------------------ reset
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
@@ -332,6 +337,17 @@ class RigVectorEnv(VectorEnv):
         bookkeeping: the environment's own step calls this; benchmarks time it alone)."""
         self.physics.step()
 
+    def _scheduled_inputs(self, a: np.ndarray) -> None:
+        """Surface commands of the step with the configuration's ``pilot_inputs`` schedule at the episode times:
+        its Hawk surfaces as the pilot inputs, its compensator surfaces added to the action's commands (rad)."""
+        sched = self._schedule
+        for j, s in enumerate(HAWK_ACTIONS):
+            self._pilot[:, j] = np.radians(sched.value(s, self.t)) if s in sched.shapes else 0.0
+        _command_inputs(a, self._pilot, _RAD_PER_ACTION, self.U)
+        for j, s in enumerate(COMP_ACTIONS):
+            if s in sched.shapes:
+                self.U[:, L.U_COMP_AILERON + j] += np.radians(sched.value(s, self.t))
+
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if self.keys is None:
             raise RuntimeError("call reset() before step()")
@@ -340,7 +356,10 @@ class RigVectorEnv(VectorEnv):
             self.viewer.clear_held()
         # the task's pilot inputs (Hawk elevator, aileron, rudder, rad): the Hawk surface commands, or
         # added to the action's Hawk commands with hawk_surfaces (the servo limits clip the sum)
-        _command_inputs(a, self.task.pilot_inputs(self.t), _RAD_PER_ACTION, self.U)
+        if self._schedule is None:
+            _command_inputs(a, self.task.pilot_inputs(self.t), _RAD_PER_ACTION, self.U)
+        else:
+            self._scheduled_inputs(a)
         if self.config.turbulence > 0.0:
             nz = rs.normal(self.keys, self.episode, self.steps + 1, rs.S_TURBULENCE, 3)
             sig = self.config.turbulence * self.airspeed[:, None]

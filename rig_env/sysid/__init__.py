@@ -10,7 +10,9 @@ model's kernels when a fit runs).
 
 from __future__ import annotations
 
+from rig_env.importhook import lazy_attributes
 from rig_env.sysid.fit import METHODS, fit
+from rig_env.sysid.inputs import doublet, multisine, peak_factors, three_two_one_one  # scipy only inside multisine()
 from rig_env.sysid.readers import ColumnMap, read_frame_log
 from rig_env.sysid.records import (
     GAP_FACTOR,
@@ -19,7 +21,6 @@ from rig_env.sysid.records import (
     RecordError,
     check_sampling,
 )
-from rig_env.importhook import lazy_attributes
 from rig_env.sysid.result import Fit
 from rig_env.sysid.smoothing import lowess
 
@@ -31,6 +32,7 @@ _LAZY = {  # imported at first use (matplotlib, scipy)
 __getattr__, __dir__ = lazy_attributes("rig_env.sysid", _LAZY, globals())
 
 __all__ = [
-    "GAP_FACTOR", "MAX_UPSAMPLE", "METHODS", "ColumnMap", "Fit", "FlightRecord", "RecordError", "check_sampling", "fit",
-    "lowess", "read_frame_log", "save_fit_params", "write_params", "write_report",
+    "GAP_FACTOR", "MAX_UPSAMPLE", "METHODS", "ColumnMap", "Fit", "FlightRecord", "RecordError", "check_sampling", "doublet",
+    "fit", "lowess", "multisine", "peak_factors", "read_frame_log", "save_fit_params", "three_two_one_one", "write_params",
+    "write_report",
 ]

@@ -14,14 +14,7 @@ import numpy as np
 
 from rig_env.envs.tasks.base import G0, D, Task, sign_of
 from rig_env.physics import layout as L
-
-UNIT_3211 = 0.28  # s, unit period of the 3-2-1-1 (paper Sec. V)
-
-
-def three_two_one_one(t: np.ndarray, t0: np.ndarray, amp: np.ndarray, unit: float = UNIT_3211) -> np.ndarray:
-    """3-2-1-1 input (n,): +amp for 3 units from t0, -amp for 2, +amp for 1, -amp for 1, then 0."""
-    k = (t - t0) / unit
-    return amp * np.select([k < 0.0, k < 3.0, k < 5.0, k < 6.0, k < 7.0], [0.0, 1.0, -1.0, 1.0, -1.0], 0.0)
+from rig_env.signals import UNIT_3211, three_two_one_one  # noqa: F401  the one 3-2-1-1 (per-environment t0, amp); UNIT_3211 re-exported
 
 
 def expm_batch(M: np.ndarray, terms: int = 14) -> np.ndarray:
