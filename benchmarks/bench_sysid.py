@@ -10,7 +10,8 @@ aerodynamic derivatives and the four initial angles and rates:
 
 * ``rig_env.sysid.fit``: Gauss-Newton / Levenberg-Marquardt; the sensitivities of each iteration are one
   batch of 29 environments (nominal and +-step of each of the 14 parameters) in the lane kernel.
-* ``scipy.optimize.least_squares`` (trust-region reflective, the Jacobian by its own 2-point differences):
+* ``scipy.optimize.least_squares`` (trust-region reflective within the same bounds, the Jacobian by its own
+  2-point differences):
   each residual evaluation is one ``rig_env.simulate`` of the record (the per-environment kernel).
 
 JIT compilation is excluded (one warm-up fit of each first).  Times are wall-clock medians of
@@ -34,6 +35,8 @@ sys.path.insert(0, str(ROOT))
 
 from rig_env import RigParams, simulate, sysid  # noqa: E402
 from rig_env.params import PARAM_INDEX  # noqa: E402
+from rig_env.sysid.model import RecordModel  # noqa: E402
+from rig_env.sysid.parameters import ParameterSet  # noqa: E402
 
 FREE = ("rig_pitch", "model_pitch")
 EST = ["hawk_aero.CL0", "hawk_aero.CLalpha", "hawk_aero.CLde", "hawk_aero.CM0", "hawk_aero.CMalpha", "hawk_aero.CMq",
@@ -83,10 +86,13 @@ def fit_scipy(p: RigParams, rec: sysid.FlightRecord, start: dict) -> tuple[float
         r = simulate(pp, x0[:2], x0[2:], T, free_dofs=FREE, controls=surf, airspeed=20.0)
         return (r.q - rec.q).ravel()
 
-    m = sysid.model.RecordModel(rec, p)
+    m = RecordModel(rec, p)
     x_start = np.concatenate([[start[n] for n in names], m.measured_x0()])
+    ps = ParameterSet.build(p, names)  # the same bounds as sysid.fit: each parameter's allowed range
+    lo = np.concatenate([ps.lower, np.full(4, -np.inf)])
+    hi = np.concatenate([ps.upper, np.full(4, np.inf)])
     t0 = time.perf_counter()
-    sol = least_squares(residuals, x_start, method="trf", x_scale="jac")
+    sol = least_squares(residuals, x_start, method="trf", x_scale="jac", bounds=(lo, hi))
     dt = time.perf_counter() - t0
     return dt, {n: float(v) for n, v in zip(names, sol.x)}, n_calls[0]
 
@@ -101,8 +107,6 @@ def main(argv: list[str] | None = None) -> int:
     vec = p.to_vector()
     truth = {n: float(vec[PARAM_INDEX[n]]) for n in EST}
     start = {n: 1.1 * v for n, v in truth.items()}
-    import rig_env.sysid.model  # noqa: F401  (sysid.model for the scipy side's initial state)
-
     print("warm-up (JIT compilation, excluded) ...", flush=True)
     fit_ours(p, rec, start)
     ours = [fit_ours(p, rec, start) for _ in range(a.repeats)]

@@ -3,7 +3,7 @@
 The configuration (TOML; paths relative to the configuration file's folder)::
 
     params = "my_rig.toml"                # base parameter file (default: the default rig)
-    method = "output_error"               # or "filter_error"
+    method = "output_error"               # or "filter_error", "equation_error"
     estimate = [                          # dotted names of rig_env.PARAM_NAMES, in the report's order
         "hawk_aero.CM0",
         { name = "hawk_aero.CMq", start = -4.0, bounds = [-30.0, 0.0] },
@@ -43,7 +43,7 @@ from typing import Any, Callable, Mapping, TextIO
 from rig_env.params import DEFAULT_FILE, JOINTS, PARAM_INDEX, RigParams
 from rig_env.sysid.records import SURFACE_KINDS, FlightRecord
 
-METHODS = ("output_error", "filter_error")  # rig_env.sysid.fit.METHODS (kept here so parsing a config imports no model)
+METHODS = ("output_error", "filter_error", "equation_error")  # rig_env.sysid.fit.METHODS (kept here so parsing a config imports no model)
 TOP_KEYS = ("params", "method", "estimate", "options", "record")
 OPTION_KEYS = ("max_iter", "tol")
 ESTIMATE_KEYS = ("name", "start", "bounds")

@@ -419,7 +419,7 @@ def test_rig_identify_unconverged_fit_writes_no_params(config: Path, tmp_path: P
 
 
 @pytest.mark.parametrize("edit, match", [
-    (("method = \"output_error\"", "method = \"least_squares\""), "method = 'least_squares': allowed: output_error, filter_error"),
+    (("method = \"output_error\"", "method = \"least_squares\""), "method = 'least_squares': allowed: output_error, filter_error, equation_error"),
     (("\"hawk_aero.CM0\"", "\"hawk_aero.CMzz\""), r"estimate\[0\]: unknown parameter 'hawk_aero.CMzz'"),
     (("bounds = [-30.0, 0.0]", "bounds = [0.0, -30.0]"), r"estimate\[1\].bounds .* needs low < high"),
     (("start = -4.0", "start = 4.0"), r"estimate\[1\]: start = 4.0 is outside bounds"),

@@ -19,11 +19,13 @@ from rig_env.sysid.diagnostics import Whiteness
 
 
 def output_scale(name: str) -> tuple[float, str]:
-    """(factor from the model's unit, display unit) of an output: joint angle rad -> deg, joint rate rad/s -> deg/s."""
+    """(factor from the model's unit, display unit) of an output: joint angle rad -> deg, joint rate rad/s -> deg/s, joint acceleration (equation error) rad/s^2 -> deg/s^2."""
     if name in JOINTS:
         return 180.0 / math.pi, "deg"
     if name.endswith("_rate") and name[: -len("_rate")] in JOINTS:
         return 180.0 / math.pi, "deg/s"
+    if name.endswith("_accel") and name[: -len("_accel")] in JOINTS:
+        return 180.0 / math.pi, "deg/s^2"
     return 1.0, "model units"
 
 

@@ -1,17 +1,19 @@
 """``fit``: identify parameters of the rig's model from one or more records.
 
     fit = sysid.fit([rec, ...], params, estimate=["hawk_aero.CMalpha", "friction.rig_roll.Fc"],
-                    method="output_error")     # or "filter_error"
+                    method="output_error")     # or "filter_error", "equation_error"
     fit.values, fit.std, fit.correlation, fit.params, fit.residuals
 
 The model fitted is the environments' own (:class:`rig_env.sysid.model.RecordModel`: the whole
 multibody rig with friction, servos, delays and stops), so ``fit.params`` flies in ``simulate()``, the
 environments and the laws' design as it is.  Methods: :mod:`rig_env.sysid.output_error` (measurement noise
-only) and :mod:`rig_env.sysid.filter_error` (process noise too: turbulence; the paper's method).
+only), :mod:`rig_env.sysid.filter_error` (process noise too: turbulence; the paper's method) and
+:mod:`rig_env.sysid.equation_error` (accelerations regressed on differentiated data: fast start values).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
 import numpy as np
@@ -25,7 +27,7 @@ from rig_env.sysid.result import Fit
 if TYPE_CHECKING:
     from rig_env.sysid.problem import Problem
 
-METHODS = ("output_error", "filter_error")
+METHODS = ("output_error", "filter_error", "equation_error")
 
 
 def fit(
@@ -50,7 +52,7 @@ def fit(
 
     records: one or more :class:`FlightRecord` (fitted jointly; each uniformly sampled); params: the rig
     (every parameter not estimated keeps its value); estimate: dotted names (:data:`rig_env.PARAM_NAMES`);
-    method: "output_error" or "filter_error"; bounds: {name: (low, high)} within each
+    method: "output_error", "filter_error" or "equation_error"; bounds: {name: (low, high)} within each
     parameter's allowed range; start: {name: start value} (default: the value in params);
     initial_state: "estimate" (each record's initial free angles and rates are estimated with the
     parameters, output error) or "measured" (taken from the record's first samples); biases: estimate a
@@ -73,6 +75,18 @@ def fit(
     pset = ParameterSet.build(params, estimate, bounds, start)
     from rig_env.sysid.problem import Problem  # the model and its kernels: imported when a fit runs
 
+    if method == "equation_error":
+        from types import SimpleNamespace
+
+        from rig_env.sysid.equation_error import equation_error
+
+        if biases or initial_state != "estimate" or process_noise:
+            raise ValueError("equation error regresses accelerations: it takes no biases, initial_state or process_noise")
+        sol, models, regs = equation_error(recs, params, pset, friction=friction, stops=stops, nonlinear_aero=nonlinear_aero,
+                                        max_iter=max_iter, progress=progress)
+        outs = tuple(tuple(f"{j}_accel" for j in m.record.free_dofs) for m in models)
+        fit_ = _result(method, SimpleNamespace(records=recs, outputs=outs, names=pset.names), pset, params, sol)  # type: ignore[arg-type]
+        return dataclasses.replace(fit_, times=tuple(r.record.t[rg.keep] for r, rg in zip(models, regs)))
     if method == "output_error":
         from rig_env.sysid.output_error import output_error
 

@@ -162,7 +162,8 @@ def _fit_section(fit: Fit, k: int, prefix: str, out: Path, reference: Mapping[st
               "| record | output | N | L | lags outside band, % | Q | p-value | R^2 | Theil U | residual RMS | unit |",
               "|---|---|---|---|---|---|---|---|---|---|---|"]
     plots = []
-    for rec, names, yh, e in zip(fit.records, fit.outputs, fit.predicted, fit.residuals):
+    for i, (rec, names, yh, e) in enumerate(zip(fit.records, fit.outputs, fit.predicted, fit.residuals)):
+        t = fit.times[i] if fit.times else rec.t
         white = whiteness(e, names)
         meas = fit_measures(yh, e, names)
         for w, m in zip(white, meas):
@@ -171,7 +172,7 @@ def _fit_section(fit: Fit, k: int, prefix: str, out: Path, reference: Mapping[st
             lines.append(f"| {rec.name} | {w.output} | {w.n} | {w.max_lag} | {100 * w.fraction_outside:.1f} [{100 * lo:.0f}, {100 * hi:.0f}] | "
                          f"{fmt(w.q)} | {fmt(w.p_value, 3)} | {fmt(m.r2)} | {fmt(m.theil_u, 3)} | {fmt(s * m.rms)} | {unit} |")
         slug = _slug(rec.name)
-        th = figures.time_history(out / f"{prefix}history_{slug}.png", rec.t, names, yh, e, f"Fit {k}, {rec.name}: outputs and residuals")
+        th = figures.time_history(out / f"{prefix}history_{slug}.png", t, names, yh, e, f"Fit {k}, {rec.name}: outputs and residuals")
         ac = figures.autocorrelation(out / f"{prefix}acf_{slug}.png", rec.dt, white, f"Fit {k}, {rec.name}: residual autocorrelation")
         plots += [f"#### {rec.name}", "", f"![time history]({th.name})", "", f"![residual autocorrelation]({ac.name})", ""]
     return lines + ["", "### Time histories and residual autocorrelation", "", *plots]

@@ -22,7 +22,7 @@ class Fit:
 
     | field | meaning |
     |---|---|
-    | method | ``"output_error"`` or ``"filter_error"`` |
+    | method | ``"output_error"``, ``"filter_error"`` or ``"equation_error"`` |
     | estimate | the estimated parameters' names, in the caller's order |
     | values, initial | {name: value}: the estimates and the start values |
     | std | {name: Cramer-Rao standard error}, corrected for coloured residuals |
@@ -31,7 +31,8 @@ class Fit:
     | params | the rig's parameters with the estimates in (a :class:`RigParams`) |
     | records | the records fitted |
     | outputs | per record, the names of the output columns (``model_pitch``: angle, rad; ``model_pitch_rate``: rad/s) |
-    | predicted, residuals | per record, (n_t, n_outputs): the model's outputs and measured minus predicted |
+    | predicted, residuals | per record, (n_t, n_outputs): the model's outputs and measured minus predicted (equation error: accelerations, rad/s^2, at ``times``) |
+    | times | per record, the sample times (s) of predicted and residuals when they are not the record's own (equation error drops the differentiator's edges); empty otherwise |
     | noise_cov | (n_outputs, n_outputs) measurement-noise covariance estimate (of the first record's outputs when all share them) |
     | nuisance | {name: value}: estimated initial conditions and biases (``x0.<record>.<joint>``, ``bias.<record>.<output>``) |
     | process_noise | {name: value}: filter error's process-noise standard deviations (empty otherwise) |
@@ -54,6 +55,7 @@ class Fit:
     residuals: tuple[np.ndarray, ...]
     noise_cov: np.ndarray
     nuisance: Mapping[str, float] = field(default_factory=dict)
+    times: tuple[np.ndarray, ...] = ()
     process_noise: Mapping[str, float] = field(default_factory=dict)
     cost_history: tuple[float, ...] = ()
     iterations: int = 0
