@@ -305,16 +305,16 @@ def test_frame_log_fresh_frames_once_and_free_dofs_from_header_or_keyword(tmp_pa
     assert FlightRecord.read(tmp_path / "lost.log", allow_gaps=True).resample(80.0, allow_gaps=True).n_t == 10
 
 
-def test_frame_log_of_the_loop_flying_the_simulated_rig(tmp_path):
+def fly_sim_rig(tmp_path: Path, duration: float, task: str = "velocity_vector_roll", rate: float = 80.0):
+    """The loop flying the simulated rig over loopback UDP (both in this process, as threads) with the linear
+    roll-tracking law: (log path, the sim rig, the law's spec)."""
     from controllers import LoopSpec
-    from controllers.deploy.framelog import read_log
     from controllers.deploy.loop import LoopConfig, RigLoop
     from controllers.deploy.simrig import SimRig
     from controllers.design.linear import roll_tracking
     from controllers.laws import artefact as A
     from rig_env.envs import RigVectorEnv
 
-    task, rate, duration = "velocity_vector_roll", 80.0, 3.0
     env = RigVectorEnv(1, task=task)
     spec = LoopSpec.from_env(env)
     art_path = tmp_path / "law.json"
@@ -330,7 +330,14 @@ def test_frame_log_of_the_loop_flying_the_simulated_rig(tmp_path):
     rig_thread.join(timeout=30)
     assert not rig_thread.is_alive() and "error" not in rig_out, rig_out
     print(f"loop: {summary['counts']}; rig: {rig_out['counts']}")
+    return log, rig, spec
 
+
+def test_frame_log_of_the_loop_flying_the_simulated_rig(tmp_path):
+    from controllers.deploy.framelog import read_log
+
+    rate, duration = 80.0, 3.0
+    log, rig, spec = fly_sim_rig(tmp_path, duration, rate=rate)
     rec = FlightRecord.read(log, allow_gaps=True)  # a frame lost on this shared machine is a gap, not a failure
     header, ticks = read_log(log)
     assert rec.free_dofs == spec.free_dofs == tuple(header["free_dofs"]) and rec.surface_kind == "commanded"
