@@ -257,3 +257,19 @@ def test_a_frame_log_of_the_loop_flying_the_simulated_rig_is_read_and_fitted(tmp
     # 0.06 % (z = -2.4) measured: the frames the loop missed on a loaded machine (resampled over) and the
     # sim rig's float32 wire leave a small bias beside a very small standard error; 0.5 % is the physical bar
     assert fit.converged and abs(fit.values["comp_aero.CLde"] / P.comp_aero.CLde - 1.0) < 0.005
+
+
+def test_a_sensor_offset_is_estimated_as_a_bias_and_bounds_hold(pitch_run):
+    """A potentiometer zeroed 0.5 deg off: with ``biases=True`` the offset comes back and the derivatives stay
+    right (CM0 known: a constant angle offset and the trim moment CM0 are the same thing to a 1-DOF record).
+    A bound that excludes the truth holds the estimate on the bound."""
+    rec = record_of(pitch_run, 0.1, 11)
+    off = FlightRecord(t=rec.t, free_dofs=rec.free_dofs, q=rec.q + 0.5 * D, surfaces=rec.surfaces, airspeed=20.0, name="offset")
+    names = EST_1DOF[1:]
+    start = {n: v * 1.05 for n, v in zip(names, truth(names))}
+    fit = sysid.fit(off, P, names, start=start, biases=True)
+    assert fit.nuisance["bias.offset.model_pitch"] == pytest.approx(0.5 * D, abs=0.05 * D)
+    for n, t in zip(names, truth(names)):
+        assert abs(fit.values[n] - t) < 3.0 * fit.std[n]
+    bounded = sysid.fit(rec, P, ["hawk_aero.CMq"], bounds={"hawk_aero.CMq": (-4.0, -1.0)}, start={"hawk_aero.CMq": -2.0})
+    assert bounded.values["hawk_aero.CMq"] == pytest.approx(-4.0)
