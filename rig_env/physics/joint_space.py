@@ -346,10 +346,22 @@ FIXTURE_BASE = (
 
 
 @njit(**_INLINE)
-def fixture_torque(j, q, p):
-    """A test fixture's generalised force on joint j (N m): -k (q_j - neutral) + torque (zero without one)."""
+def fixture_torque(j, qj, p):
+    """A test fixture's generalised force on joint j at angle qj (N m): -k (qj - neutral) + torque (zero
+    without one)."""
     b = FIXTURE_BASE[j]
-    return p[b + 3] - p[b] * (q[j] - p[b + 1])
+    return p[b + 3] - p[b] * (qj - p[b + 1])
+
+
+@njit(**_INLINE)
+def applied_torques(q, qd, z, p, flags):
+    """Friction (:func:`friction_torques`) plus fixture torque of the five joints (a 5-tuple, N m): the
+    joint torques :func:`forces` takes as ``fric``."""
+    f = friction_torques(qd, z, p, flags)
+    return (
+        f[0] + fixture_torque(0, q[0], p), f[1] + fixture_torque(1, q[1], p), f[2] + fixture_torque(2, q[2], p),
+        f[3] + fixture_torque(3, q[3], p), f[4] + fixture_torque(4, q[4], p),
+    )  # fmt: skip
 
 
 @njit(**_INLINE)
@@ -371,11 +383,10 @@ def joint_torque(j, q, qd, z, p, flags):
 
 @njit(**_INLINE)
 def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
-    """Generalised forces Q (5-tuple, N m) of gravity, aerodynamics, friction, stops and a test fixture
-    (:func:`fixture_torque`; zero without one).
+    """Generalised forces Q (5-tuple, N m) of gravity, aerodynamics, stops and the joint torques ``fric``.
 
-    fric: the joints' friction torques (:func:`friction_torques`; the lane kernel computes them in loops
-    of their own, for the free joints only).
+    fric: the joints' friction and test-fixture torques (:func:`applied_torques`; the lane kernel
+    computes them in loops of their own, for the free joints only, so that a locked joint costs nothing).
 
     nonlinear: the stall tables (flags' F_NONLINEAR), unrolled: the compensator's panels written out
     (the lane kernel) rather than looped over (the per-environment kernel vectorises that loop); both
@@ -416,18 +427,18 @@ def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
     t_pivot = add(t_arm, add(cross(r_a, f_a), t_a))
     t_gimbal = add(cross(rho, f_a), t_a)
     return (
-        t_pivot[0] + (fric[0] + stop_torque(0, q, qd, p, flags)) + fixture_torque(0, q, p),
-        dot_pitch(cs, t_pivot) + (fric[1] + stop_torque(1, q, qd, p, flags)) + fixture_torque(1, q, p),
-        dot(a2, t_pivot) + (fric[2] + stop_torque(2, q, qd, p, flags)) + fixture_torque(2, q, p),
-        dot_model_pitch(sc, t_gimbal) + (fric[3] + stop_torque(3, q, qd, p, flags)) + fixture_torque(3, q, p),
-        t_gimbal[2] + (fric[4] + stop_torque(4, q, qd, p, flags)) + fixture_torque(4, q, p),
+        t_pivot[0] + (fric[0] + stop_torque(0, q, qd, p, flags)),
+        dot_pitch(cs, t_pivot) + (fric[1] + stop_torque(1, q, qd, p, flags)),
+        dot(a2, t_pivot) + (fric[2] + stop_torque(2, q, qd, p, flags)),
+        dot_model_pitch(sc, t_gimbal) + (fric[3] + stop_torque(3, q, qd, p, flags)),
+        t_gimbal[2] + (fric[4] + stop_torque(4, q, qd, p, flags)),
     )
 
 
 @njit(**_INLINE)
 def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q):
     """Fill Q (5) with :func:`forces`."""
-    Qt = forces(q, qd, friction_torques(qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
+    Qt = forces(q, qd, applied_torques(q, qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
     for k in range(5):
         Q[k] = Qt[k]
 
@@ -520,7 +531,7 @@ def accelerations(q, qd, z, flaps, u, p, flags, free_idx, n_free, tabs, M, hvec,
     """Joint accelerations qdd (5; zero for locked joints) of the joint-space model, with M, h and Q of
     M qdd + h = Q written to M, hvec and Q (jv: unused scratch, kept for callers)."""
     Mt, ht, kin = mass_matrix_terms(q, qd, p)
-    Qt = forces(q, qd, friction_torques(qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
+    Qt = forces(q, qd, applied_torques(q, qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
     r = (Qt[0] - ht[0], Qt[1] - ht[1], Qt[2] - ht[2], Qt[3] - ht[3], Qt[4] - ht[4])
     x = solve_free(Mt, r, free_mask(free_idx, n_free))
     store_mass_matrix(Mt, ht, M, hvec)
