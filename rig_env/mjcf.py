@@ -15,8 +15,11 @@ composes the joints of one body in order, A = R_1(q_1) R_2(q_2) ...).  A locked 
 rotation folded into the axes of the hinges further out (see :func:`_gimbal`), so any subset of
 joints may be free, including a locked joint between two free ones; no mass is added anywhere.
 
-Only the mechanism is modelled: no aerodynamics, friction, stops, armature, damping or contacts (the
-geoms are visual only).  The locked angles are stored in the model as custom numerics
+Only the mechanism is modelled: no aerodynamics, friction, stops, damping or contacts (the geoms are
+visual only).  A wind-off test fixture on a free joint (``fixture.<joint>.*``) becomes the hinge's
+``armature`` (its inertia, added to the joint's diagonal of MuJoCo's mass matrix as rig_env adds it) and
+its ``stiffness`` and ``springref`` (the spring); a fixture's constant ``torque`` has no MJCF attribute
+and is refused.  The locked angles are stored in the model as custom numerics
 ``locked_<joint>``, so the state helpers below need only the model.
 
 MuJoCo orders its joints along the chain (:data:`CHAIN`), not in :data:`rig_env.JOINTS` order; the
@@ -120,7 +123,7 @@ def _check_joints(free_dofs: Iterable[str], locked: Mapping[str, float] | None) 
 
 
 def _gimbal(
-    joints: tuple[str, ...], free: tuple[str, ...], angles: dict[str, float], indent: str
+    joints: tuple[str, ...], free: tuple[str, ...], angles: dict[str, float], indent: str, extra: Mapping[str, str]
 ) -> tuple[str, np.ndarray, np.ndarray]:
     """Hinge elements of one gimbal (all in the body it turns) and its trailing fixed rotation F (matrix, quat).
 
@@ -128,13 +131,14 @@ def _gimbal(
     rotation C; moving it past a later hinge, C R_b(q) = R_{C b}(q) C, turns that hinge's axis.  So
     the body gets the free hinges with axes F_k b_k (F_k: product of the locked rotations before joint
     k) in order, and the body frame X is A F^T: a vector r in gimbal axes has body coordinates F r.
+    extra: further attributes of each free joint's element (the fixture's), by joint name.
     """
     F = np.eye(3)
     qF = np.array([1.0, 0.0, 0.0, 0.0])
     lines = []
     for j in joints:
         if j in free:
-            lines.append(f'{indent}<joint name="{j}" type="hinge" axis="{_vec(*(F @ np.array(AXES[j])))}"/>')
+            lines.append(f'{indent}<joint name="{j}" type="hinge" axis="{_vec(*(F @ np.array(AXES[j])))}"{extra.get(j, "")}/>')
         else:
             F = F @ _rot(AXES[j], angles[j])
             h = 0.5 * angles[j]
@@ -163,8 +167,15 @@ def to_mjcf(
     if not (math.isfinite(dt) and dt > 0.0):
         raise ValueError(f"timestep: must be a positive finite number of seconds, got {timestep!r}")
     g, m = params.geometry, params.mass
-    arm_joints, Fs, q_s = _gimbal(ARM_JOINTS, free, angles, " " * 6)
-    hawk_joints, Fa, q_a = _gimbal(HAWK_JOINTS, free, angles, " " * 8)
+    extra = {}
+    for j in free:
+        fx = getattr(params.fixture, j)
+        if fx.torque != 0.0:
+            raise ValueError(f"params: fixture.{j}.torque = {fx.torque} N m has no MJCF equivalent (a constant joint force)")
+        if (fx.stiffness, fx.inertia) != (0.0, 0.0):
+            extra[j] = f' armature="{_num(fx.inertia)}" stiffness="{_num(fx.stiffness)}" springref="{_num(fx.neutral)}"'
+    arm_joints, Fs, q_s = _gimbal(ARM_JOINTS, free, angles, " " * 6, extra)
+    hawk_joints, Fa, q_a = _gimbal(HAWK_JOINTS, free, angles, " " * 8, extra)
     # the arm body frame X satisfies A_s = X Fs: a vector r in arm axes has body coordinates Fs r
     arm_cg = Fs @ np.array([g.arm_cg_x, g.arm_cg_y, g.arm_cg_z])
     comp_cg = Fs @ np.array([g.comp_cg_x, g.comp_cg_y, g.comp_cg_z])

@@ -22,6 +22,9 @@ Method (the textbook one, where the kernel uses condensed sums):
   the Hawk's aerodynamic force and moment at its c.g. (eq. 23 plus lateral terms), each of the
   compensator's eight strips (four panels, two Gauss stations) at its own station, friction (eqs.
   19-21, subtracted per eq. 22) and stops;
+* a wind-off test fixture (springs and masses on a joint, the paper's Fig. 4(a)): its inertia on the
+  joint's diagonal of M, its spring and constant torque in Q (:func:`fixture_inertia`,
+  :func:`fixture_force`; zero in flight);
 * ``numpy.linalg.solve`` on the free rows and columns; locked joints have zero derivatives.
 
 Locked joints are expected to have zero rate in ``y`` (as :func:`rig_env.simulate` sets them).
@@ -288,6 +291,23 @@ def stop_torque(p: np.ndarray, j: int, q: float, v: float) -> float:
     return 0.0
 
 
+FIXTURE_BASE = (
+    L.P_FIXTURE_RIG_ROLL_STIFFNESS, L.P_FIXTURE_RIG_PITCH_STIFFNESS, L.P_FIXTURE_RIG_YAW_STIFFNESS,
+    L.P_FIXTURE_MODEL_PITCH_STIFFNESS, L.P_FIXTURE_MODEL_YAW_STIFFNESS,
+)  # fmt: skip
+
+
+def fixture_inertia(p: np.ndarray) -> np.ndarray:
+    """(5,) kg m^2: each joint's test-fixture inertia, added to its diagonal entry of M (a flywheel turning
+    at the joint's rate; the fixture of the paper's Fig. 4(a), zero in flight)."""
+    return np.array([p[b + 2] for b in FIXTURE_BASE])
+
+
+def fixture_force(q: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """(5,) N m: each joint's test-fixture torque, -stiffness (q_j - neutral) + torque (zero in flight)."""
+    return np.array([p[b + 3] - p[b] * (q[j] - p[b + 1]) for j, b in enumerate(FIXTURE_BASE)])
+
+
 def rhs(t: float, y: np.ndarray, flaps: np.ndarray, u: np.ndarray, p: np.ndarray, flags: int, free_idx: np.ndarray, tabs: tuple) -> np.ndarray:
     """dy/dt (15,) of y = [q, qd, z] (15,); the arguments of :func:`rig_env.reference.continuous_rhs`.
 
@@ -298,7 +318,8 @@ def rhs(t: float, y: np.ndarray, flaps: np.ndarray, u: np.ndarray, p: np.ndarray
     q, qd, z = y[0:5], y[5:10], y[10:15]
     kin, bs = bodies(q, qd, p)
     M, h = mass_matrix_and_bias(bs, qd)
-    Q = gravity_force(bs, p) - h
+    M += np.diag(fixture_inertia(p))
+    Q = gravity_force(bs, p) + fixture_force(q, p) - h
     if flags & L.F_AERO:
         nonlinear = bool(flags & L.F_NONLINEAR)
         v_air = np.array([-u[L.U_AIRSPEED], 0.0, 0.0]) + u[L.U_GUST : L.U_GUST + 3]

@@ -212,6 +212,35 @@ class Servos:
 
 
 @dataclass(frozen=True)
+class Fixture:
+    """A wind-off test fixture on one joint (the paper's Sec. IV, Fig. 4(a)): springs and masses.
+
+    Generalised force on the joint ``-stiffness (q - neutral) + torque`` and ``inertia`` added to the
+    joint's diagonal of the joint-space mass matrix.  All zero: no fixture (the rig in flight).
+
+    The inertia is an idealised flywheel on the joint's axis, turning at the joint's rate: it enters
+    M_jj only (no coupling to other joints, no gyroscopic terms), which is exact when this joint is the
+    only free one (a friction test: the parent body is held, the masses turn with the child about a
+    fixed axis) and an idealisation otherwise.  The spring acts on the unwrapped angle (a torsion spring
+    winds up over turns of rig roll or model yaw).
+    """
+
+    stiffness: float = _f(0.0, 1e3, "N m/rad")  # torsional spring k r^2 of the springs at lever r
+    neutral: float = _f(-math.pi, math.pi, "rad")  # joint angle at which the spring is relaxed
+    inertia: float = _f(0.0, 10.0, "kg m^2")  # masses m r^2 turning with the joint
+    torque: float = _f(-10.0, 10.0, "N m")  # constant torque, e.g. a hanging weight's m g r
+
+
+@dataclass(frozen=True)
+class Fixtures:
+    rig_roll: Fixture
+    rig_pitch: Fixture
+    rig_yaw: Fixture
+    model_pitch: Fixture
+    model_yaw: Fixture
+
+
+@dataclass(frozen=True)
 class HighIncidence:
     """Static coefficient tables over angle of attack (deg) for the optional nonlinear model.
 
@@ -239,6 +268,7 @@ class RigParams:
     friction: Friction
     stops: Stops
     servos: Servos
+    fixture: Fixtures
     high_incidence: HighIncidence
     sources: Mapping[str, tuple[str, str]] = field(default_factory=dict, compare=False, repr=False)
     identified: Mapping[str, Mapping[str, Any]] = field(default_factory=dict, compare=False, repr=False)
@@ -270,7 +300,8 @@ class RigParams:
     def replace(self, **overrides: float) -> "RigParams":
         """A copy with dotted-name overrides, e.g. ``p.replace(**{"mass.hawk_mass": 1.2})``.
 
-        Names are those of :data:`PARAM_NAMES` (``group.field`` or ``friction.<joint>.<field>``).
+        Names are those of :data:`PARAM_NAMES` (``group.field``, ``friction.<joint>.<field>`` or
+        ``fixture.<joint>.<field>``).
         """
         tree = dataclasses.asdict(self)
         for meta in _META:

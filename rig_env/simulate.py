@@ -29,7 +29,7 @@ class SimResult:
 
     t: (n_t,) s.  q, qd: (n_t, n_free) or (n_envs, n_t, n_free), rad and rad/s, free joints in
     ``free_dofs`` order.  q_all: the same for all five joints (JOINTS order).  energy: kinetic +
-    gravitational, J.  flaps: servo positions (deg, rig_env.SERVOS order).  z: LuGre bristle states
+    potential (gravity, and a test fixture's spring and weight), J.  flaps: servo positions (deg, rig_env.SERVOS order).  z: LuGre bristle states
     (rad).  constraint_residual: max |C| per sample (DAE only, else None).  status: per-environment
     code (0 ok; see ``status_text``); fail_time: time of the detected blow-up (s) or NaN.  After a
     blow-up an environment's samples hold its last finite state.

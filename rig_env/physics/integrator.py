@@ -233,7 +233,7 @@ def step_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h
 
 @njit(**_JIT)
 def energy_slot(i, X, P, out, W, MW):
-    """Kinetic + gravitational energy (J) of environment i into out[i]."""
+    """Kinetic + potential energy (J; gravity and a test fixture's spring and weight) of environment i into out[i]."""
     x = X[i]
     w = W[i]
     q = x[0:5]
@@ -243,7 +243,7 @@ def energy_slot(i, X, P, out, W, MW):
 
 @njit(parallel=True, **_JIT_BATCH)
 def energy_batch(X, P, out, W, MW):
-    """Kinetic + gravitational energy (J) of every environment into out (n,), in parallel."""
+    """Kinetic + potential energy (J) of every environment into out (n,), in parallel (see :func:`energy_slot`)."""
     for i in prange(X.shape[0]):
         energy_slot(i, X, P, out, W, MW)
 

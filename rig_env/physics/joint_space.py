@@ -20,6 +20,10 @@ Jacobian) gives
 with Q the generalised gravity, aerodynamic, friction and stop torques.  Locked joints keep their
 angle and the equations are solved for the free subset only.
 
+A wind-off test fixture (the paper's Sec. IV, Fig. 4(a): springs and masses on one joint;
+``fixture.<joint>.*``, :class:`rig_env.params.Fixture`) adds -k (q_j - neutral) + torque to Q_j and its
+inertia to M_jj; with the default zero fixture both terms are exact zeros.
+
 The kernels evaluate M, h and Q with every vector in the arm's axes (:func:`arm_kinematics`): each
 entry is a dot product of joint axes with inertias, forces and torques, the same in any axes, and in
 the arm's the arm-fixed points and the arm's inertia about the pivot are constants and two joint axes
@@ -202,6 +206,9 @@ def mass_matrix_terms(q, qd, p):
     I_arm about the pivot (their own inertias plus the parallel-axis terms of their c.g.s), whose
     bias torque about the pivot, sum of r x m b_v + I b_w + w x I w over its parts, is
     I_arm b_s + w_s x I_arm w_s.
+
+    A test fixture's inertia (``fixture.<joint>.inertia``, :class:`rig_env.params.Fixture`) adds to its
+    joint's diagonal entry M_jj only: a flywheel turning at that joint's rate about its axis.
     """
     kin = arm_kinematics(q, qd, p)
     B, cs, a2, sc, rho, w_s, w_a, b_s, b_a, ts = kin
@@ -236,12 +243,12 @@ def mass_matrix_terms(q, qd, p):
     sz, cz = sc
     G3 = (I_gim[1] * cz - I_gim[0] * sz, I_gim[4] * cz - I_gim[3] * sz, I_gim[7] * cz - I_gim[6] * sz)
     Mt = (
-        I_piv[0], dot_pitch(cs, (I_piv[0], I_piv[3], I_piv[6])), I_piv[0] * a2[0] + I_piv[3] * a2[1] + I_piv[6] * a2[2],
-        dot_model_pitch(sc, K0), K0[2],
-        dot_pitch(cs, I1), dot(I1, a2), dot_model_pitch(sc, K1), K1[2],
-        dot(I2, a2), dot_model_pitch(sc, K2), K2[2],
-        dot_model_pitch(sc, G3), G3[2],
-        I_gim[8],
+        I_piv[0] + p[L.P_FIXTURE_RIG_ROLL_INERTIA], dot_pitch(cs, (I_piv[0], I_piv[3], I_piv[6])),
+        I_piv[0] * a2[0] + I_piv[3] * a2[1] + I_piv[6] * a2[2], dot_model_pitch(sc, K0), K0[2],
+        dot_pitch(cs, I1) + p[L.P_FIXTURE_RIG_PITCH_INERTIA], dot(I1, a2), dot_model_pitch(sc, K1), K1[2],
+        dot(I2, a2) + p[L.P_FIXTURE_RIG_YAW_INERTIA], dot_model_pitch(sc, K2), K2[2],
+        dot_model_pitch(sc, G3) + p[L.P_FIXTURE_MODEL_PITCH_INERTIA], G3[2],
+        I_gim[8] + p[L.P_FIXTURE_MODEL_YAW_INERTIA],
     )  # fmt: skip
     # bias (velocity-product) generalised forces; G = (lf, 0, 0): b_s x G + w_s x (w_s x G)
     u = cross_x(w_s, lf)
@@ -279,11 +286,13 @@ def mass_matrix_and_bias(q, qd, p, M, hvec, jv):
 
 @njit(**_JIT)
 def potential_energy(q, p):
-    """Gravitational potential energy (J), zero with every c.g. at the pivot height (z down)."""
+    """Gravitational potential energy (J), zero with every c.g. at the pivot height (z down), plus the
+    test fixtures' (:func:`fixture_potential`: springs and constant torques; zero without a fixture)."""
     As, Aa, axes, G, rho, r_s, r_r, r_ref = frames(q, p)
     g = p[L.P_ENVIRONMENT_GRAVITY]
     z_a = G[2] + rho[2]
-    return -g * (p[L.P_MASS_ARM_MASS] * r_s[2] + p[L.P_MASS_COMP_MASS] * r_r[2] + p[L.P_MASS_HAWK_MASS] * z_a)
+    fixtures = fixture_potential(0, q, p) + fixture_potential(1, q, p) + fixture_potential(2, q, p) + fixture_potential(3, q, p) + fixture_potential(4, q, p)
+    return -g * (p[L.P_MASS_ARM_MASS] * r_s[2] + p[L.P_MASS_COMP_MASS] * r_r[2] + p[L.P_MASS_HAWK_MASS] * z_a) + fixtures
 
 
 @njit(**_JIT)
@@ -326,6 +335,43 @@ def stop_torque(j, q, qd, p, flags):
     return 0.0
 
 
+FIXTURE_BASE = (
+    L.P_FIXTURE_RIG_ROLL_STIFFNESS,
+    L.P_FIXTURE_RIG_PITCH_STIFFNESS,
+    L.P_FIXTURE_RIG_YAW_STIFFNESS,
+    L.P_FIXTURE_MODEL_PITCH_STIFFNESS,
+    L.P_FIXTURE_MODEL_YAW_STIFFNESS,
+)
+"""Offset of joint j's four fixture parameters (stiffness, neutral, inertia, torque) in the parameter vector."""
+
+
+@njit(**_INLINE)
+def fixture_torque(j, qj, p):
+    """A test fixture's generalised force on joint j at angle qj (N m): -k (qj - neutral) + torque (zero
+    without one)."""
+    b = FIXTURE_BASE[j]
+    return p[b + 3] - p[b] * (qj - p[b + 1])
+
+
+@njit(**_INLINE)
+def applied_torques(q, qd, z, p, flags):
+    """Friction (:func:`friction_torques`) plus fixture torque of the five joints (a 5-tuple, N m): the
+    joint torques :func:`forces` takes as ``fric``."""
+    f = friction_torques(qd, z, p, flags)
+    return (
+        f[0] + fixture_torque(0, q[0], p), f[1] + fixture_torque(1, q[1], p), f[2] + fixture_torque(2, q[2], p),
+        f[3] + fixture_torque(3, q[3], p), f[4] + fixture_torque(4, q[4], p),
+    )  # fmt: skip
+
+
+@njit(**_INLINE)
+def fixture_potential(j, q, p):
+    """Potential energy (J) of joint j's fixture: k (q_j - neutral)^2 / 2 - torque q_j."""
+    b = FIXTURE_BASE[j]
+    d = q[j] - p[b + 1]
+    return 0.5 * p[b] * d * d - p[b + 3] * q[j]
+
+
 @njit(**_INLINE)
 def joint_torque(j, q, qd, z, p, flags):
     """Friction and stop torque on joint j (N m, acting on the joint's positive direction).
@@ -337,10 +383,10 @@ def joint_torque(j, q, qd, z, p, flags):
 
 @njit(**_INLINE)
 def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
-    """Generalised forces Q (5-tuple, N m) of gravity, aerodynamics, friction and stops.
+    """Generalised forces Q (5-tuple, N m) of gravity, aerodynamics, stops and the joint torques ``fric``.
 
-    fric: the joints' friction torques (:func:`friction_torques`; the lane kernel computes them in loops
-    of their own, for the free joints only).
+    fric: the joints' friction and test-fixture torques (:func:`applied_torques`; the lane kernel
+    computes them in loops of their own, for the free joints only, so that a locked joint costs nothing).
 
     nonlinear: the stall tables (flags' F_NONLINEAR), unrolled: the compensator's panels written out
     (the lane kernel) rather than looped over (the per-environment kernel vectorises that loop); both
@@ -392,7 +438,7 @@ def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
 @njit(**_INLINE)
 def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q):
     """Fill Q (5) with :func:`forces`."""
-    Qt = forces(q, qd, friction_torques(qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
+    Qt = forces(q, qd, applied_torques(q, qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
     for k in range(5):
         Q[k] = Qt[k]
 
@@ -485,7 +531,7 @@ def accelerations(q, qd, z, flaps, u, p, flags, free_idx, n_free, tabs, M, hvec,
     """Joint accelerations qdd (5; zero for locked joints) of the joint-space model, with M, h and Q of
     M qdd + h = Q written to M, hvec and Q (jv: unused scratch, kept for callers)."""
     Mt, ht, kin = mass_matrix_terms(q, qd, p)
-    Qt = forces(q, qd, friction_torques(qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
+    Qt = forces(q, qd, applied_torques(q, qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
     r = (Qt[0] - ht[0], Qt[1] - ht[1], Qt[2] - ht[2], Qt[3] - ht[3], Qt[4] - ht[4])
     x = solve_free(Mt, r, free_mask(free_idx, n_free))
     store_mass_matrix(Mt, ht, M, hvec)

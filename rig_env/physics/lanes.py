@@ -23,7 +23,7 @@ Why the layout is what it is (each rule was found by making a probe's loop fail 
 A choice that is the same for every lane still costs both sides inside such a loop (the vectoriser
 turns it into a select).  So the joints' friction and bristle updates, the costliest part of the
 right-hand side per joint (friction's exponentials), run in loops of their own, one per
-joint, entered only for the free joints (:func:`stage_friction`, :func:`bristles`): a locked joint's
+joint, entered only for the free joints (:func:`stage_torques`, :func:`bristles`): a locked joint's
 friction is never computed.  With two free joints (velocity-vector roll) that made the lane kernel
 about 12 % faster (median of four alternating A/B runs, ``benchmarks/RESULTS.md``).
 
@@ -55,7 +55,7 @@ from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.integrator import N_Y, RK_C, RK_W, limited_demands
-from rig_env.physics.joint_space import forces, free_mask, friction_torque, mass_matrix_terms, solve_free
+from rig_env.physics.joint_space import fixture_torque, forces, free_mask, friction_torque, mass_matrix_terms, solve_free
 from rig_env.physics.vmath import FASTMATH
 
 W = 8
@@ -75,7 +75,7 @@ OFF_Y0 = OFF_UD + 7 * W  # RK state at the start of the physics step, N_Y
 OFF_K = OFF_Y0 + N_Y * W  # the last stage's derivative, N_Y
 OFF_ACC = OFF_K + N_Y * W  # the stages' weighted sum, N_Y
 OFF_DECAY = OFF_ACC + N_Y * W  # each joint's bristle decay (a, g) over h/2 at the rates of the last half step, 10
-OFF_FRIC = OFF_DECAY + 10 * W  # each joint's friction torque at the current RK stage, 5
+OFF_FRIC = OFF_DECAY + 10 * W  # each joint's friction and fixture torque at the current RK stage, 5
 BLOCK = OFF_FRIC + 5 * W
 """Floats of a block's row before the staged demands (see :func:`row_length`)."""
 OFF_STAGE = BLOCK  # the delayed demands of every physics step of the control step, n_sub x 7
@@ -220,29 +220,39 @@ def bristles(row, free, h, reuse):
 
 
 @njit(**_INLINE)
-def joint_friction(row, j, c, first):
-    """Every lane: joint j's friction torque at the RK stage's rate (start rate + c times the last stage's
-    derivative, as the stage state is formed) and the held bristle state, into row[OFF_FRIC]."""
+def joint_torque(row, j, c, first, friction):
+    """Every lane: joint j's friction torque (with ``friction``, a compile-time constant wherever this is
+    inlined) at the RK stage's rate and the held bristle state, plus its test fixture's torque at the stage's
+    angle (stage values: start value + c times the last stage's derivative, as the stage state is formed),
+    into row[OFF_FRIC]."""
     for lane in range(W):
         v0 = row[OFF_Y0 + (5 + j) * W + lane]
         v = v0 if first else v0 + c * row[OFF_K + (5 + j) * W + lane]
-        z = row[OFF_X + (L.X_Z + j) * W + lane]
-        row[OFF_FRIC + j * W + lane] = friction_torque(j, v, z, load_params(row, OFF_P, lane), L.F_FRICTION)
+        q0 = row[OFF_Y0 + j * W + lane]
+        qj = q0 if first else q0 + c * row[OFF_K + j * W + lane]
+        p = load_params(row, OFF_P, lane)
+        fix = fixture_torque(j, qj, p)
+        if friction:
+            z = row[OFF_X + (L.X_Z + j) * W + lane]
+            row[OFF_FRIC + j * W + lane] = friction_torque(j, v, z, p, L.F_FRICTION) + fix
+        else:
+            row[OFF_FRIC + j * W + lane] = fix
 
 
 @njit(**_INLINE)
-def stage_friction(row, free, c, first):
-    """The free joints' friction torques at one RK stage (call with friction on only; as :func:`bristles`)."""
+def stage_torques(row, free, c, first, friction):
+    """The free joints' friction and fixture torques at one RK stage (as :func:`bristles`: one loop per free
+    joint, a locked joint costs nothing)."""
     if free[0]:
-        joint_friction(row, 0, c, first)
+        joint_torque(row, 0, c, first, friction)
     if free[1]:
-        joint_friction(row, 1, c, first)
+        joint_torque(row, 1, c, first, friction)
     if free[2]:
-        joint_friction(row, 2, c, first)
+        joint_torque(row, 2, c, first, friction)
     if free[3]:
-        joint_friction(row, 3, c, first)
+        joint_torque(row, 3, c, first, friction)
     if free[4]:
-        joint_friction(row, 4, c, first)
+        joint_torque(row, 4, c, first, friction)
 
 
 @njit(**_INLINE)
@@ -286,14 +296,17 @@ def physics_step(row, flags, free, tabs, h, reuse_decay):
         c = RK_C[s] * h
         wgt = RK_W[s]
         first = s == 0
-        if friction:  # the free joints' friction, each in a loop of its own (a locked joint's is never computed)
-            stage_friction(row, free, c, first)
+        # the free joints' friction and fixture torques, each in a loop of its own (a locked joint's are never
+        # computed); branched here so that the loops have no branch
+        if friction:
+            stage_torques(row, free, c, first, True)
+        else:
+            stage_torques(row, free, c, first, False)
         for lane in range(W):
             y0 = load24(row, OFF_Y0, lane)
             yt = y0 if first else axpy24(c, load24(row, OFF_K, lane), y0)
             t = load5(row, OFF_FRIC, lane)
-            on = (f0 & friction, f1 & friction, f2 & friction, f3 & friction, f4 & friction)
-            fric = (t[0] if on[0] else 0.0, t[1] if on[1] else 0.0, t[2] if on[2] else 0.0, t[3] if on[3] else 0.0, t[4] if on[4] else 0.0)
+            fric = (t[0] if f0 else 0.0, t[1] if f1 else 0.0, t[2] if f2 else 0.0, t[3] if f3 else 0.0, t[4] if f4 else 0.0)
             k = rhs_values(
                 yt, fric, load7(row, OFF_UD, lane), load10(row, OFF_U, lane), load_params(row, OFF_P, lane), flags, free, tabs,
             )  # fmt: skip

@@ -16,6 +16,8 @@ Kernels (all advance every environment by one control step of ``n_sub`` physics 
     joint   :func:`rig_env.physics.integrator.step_batch`      joint space, one environment at a time
     dae     :func:`rig_env.physics.dae.step_batch_dae`         the paper's body-coordinate DAE; ``X`` is
                                                                its joint-space image after every step
+                                                               (no test fixture: a non-zero ``fixture.*``
+                                                               is an error, :func:`check_no_fixture`)
     ======  =================================================  ==========================================
 
 each as its serial twin below :data:`rig_env.physics.integrator.PARALLEL_MIN_ENVS` environments (a
@@ -44,6 +46,7 @@ from typing import Callable
 import numpy as np
 from numba import njit
 
+from rig_env.params import PARAM_NAMES
 from rig_env.physics import integrator as integ
 from rig_env.physics import lanes
 from rig_env.physics import layout as L
@@ -53,6 +56,26 @@ KINDS = ("lanes", "joint", "dae")
 
 DELAY_COLUMNS = (L.P_SERVOS_COMPENSATOR_DELAY_S, L.P_SERVOS_HAWK_DELAY_S)
 """Parameter columns of the compensator's and the Hawk's servo transport delays, s."""
+
+
+FIXTURE_COLUMNS = tuple(range(L.P_FIXTURE_RIG_ROLL_STIFFNESS, L.P_FIXTURE_MODEL_YAW_TORQUE + 1))
+"""Parameter columns of the wind-off test fixtures (``fixture.<joint>.*``), which only the joint-space kernels model."""
+
+
+def check_no_fixture(P: np.ndarray) -> None:
+    """ValueError naming the first non-zero ``fixture.*`` parameter of the rows P (n, N_PARAMS), for the DAE.
+
+    The DAE is the paper's formulation of the rig in flight (bodies and constraints); a test fixture's
+    spring, added inertia and weight are joint-space terms (M_jj and Q_j of one joint) that it does not
+    model.  A friction test runs on the joint-space kernels ("lanes" or "joint")."""
+    F = np.asarray(P)[:, FIXTURE_COLUMNS]
+    if np.any(F != 0.0):
+        env, col = (int(a[0]) for a in np.nonzero(F != 0.0))
+        name = PARAM_NAMES[FIXTURE_COLUMNS[col]]
+        raise ValueError(
+            f"{name} = {F[env, col]:g} (environment {env}): the DAE formulation has no test fixture; "
+            "simulate a fixture (a wind-off friction set-up) with formulation='joint'"
+        )
 
 
 def flags_of(aero: bool, friction: bool, stops: bool, servo: bool, nonlinear_aero: bool) -> int:
@@ -233,6 +256,7 @@ class PhysicsBatch:
         else:
             from rig_env.physics import dae
 
+            check_no_fixture(self.P)
             self._work = dae.new_work_dae(self.n_envs)
             self.Y = np.zeros((self.n_envs, dae.N_DAE))
             dae.from_joint_state(self.X, self.P, self.Y)
@@ -244,6 +268,8 @@ class PhysicsBatch:
     def set_params(self, idx: np.ndarray, rows: np.ndarray) -> None:
         """Parameter rows (m, N_PARAMS) for environments idx (m,), with their servo delays; call before
         :meth:`reset` of those environments.  ValueError if a delay exceeds the delay lines (see delay_rows)."""
+        if self._dae:
+            check_no_fixture(np.atleast_2d(rows))
         steps = delay_steps_of(rows, self.h)
         if steps.size and int(steps.max()) >= self.dbuf.shape[1]:
             raise ValueError(f"servo delay of {int(steps.max())} physics steps exceeds the delay lines ({self.dbuf.shape[1] - 1} steps)")
@@ -285,7 +311,8 @@ class PhysicsBatch:
 
     # ------------------------------------------------------------------ diagnostics
     def energy(self, out: np.ndarray) -> None:
-        """Kinetic + gravitational energy (J) of every environment's joint state X into out (n,)."""
+        """Kinetic + potential energy (J; gravity and a test fixture's spring and weight) of every environment's
+        joint state X into out (n,)."""
         if self._energy_work is None:
             self._energy_work = integ.new_work(self.n_envs)
         W, MW = self._energy_work
