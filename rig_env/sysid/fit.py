@@ -41,6 +41,7 @@ def fit(
     initial_state: str = "estimate",
     biases: bool = False,
     process_noise: Mapping[str, float] | None = None,
+    aero: bool | None = None,
     friction: bool = True,
     stops: bool = True,
     nonlinear_aero: bool = False,
@@ -58,7 +59,8 @@ def fit(
     parameters, output error) or "measured" (taken from the record's first samples); biases: estimate a
     constant bias per record and output (output error); process_noise: filter error's start values,
     {joint: std of the process noise on its acceleration, rad/s^2} (default from the records);
-    friction, stops, nonlinear_aero: the model's terms; max_iter, tol: the optimiser's limits;
+    aero (None: on, except for wind-off records, airspeed 0 throughout), friction, stops, nonlinear_aero:
+    the model's terms; max_iter, tol: the optimiser's limits;
     progress: called with a one-line message per iteration.
     """
     if method not in METHODS:
@@ -82,7 +84,7 @@ def fit(
 
         if biases or initial_state != "estimate" or process_noise:
             raise ValueError("equation error regresses accelerations: it takes no biases, initial_state or process_noise")
-        sol, models, regs = equation_error(recs, params, pset, friction=friction, stops=stops, nonlinear_aero=nonlinear_aero,
+        sol, models, regs = equation_error(recs, params, pset, aero=aero, friction=friction, stops=stops, nonlinear_aero=nonlinear_aero,
                                         max_iter=max_iter, progress=progress)
         outs = tuple(tuple(f"{j}_accel" for j in m.record.free_dofs) for m in models)
         fit_ = _result(method, SimpleNamespace(records=recs, outputs=outs, names=pset.names), pset, params, sol)  # type: ignore[arg-type]
@@ -90,7 +92,7 @@ def fit(
     if method == "output_error":
         from rig_env.sysid.output_error import output_error
 
-        problem = Problem(recs, params, pset, initial_state=initial_state, biases=biases, friction=friction, stops=stops,
+        problem = Problem(recs, params, pset, initial_state=initial_state, biases=biases, aero=aero, friction=friction, stops=stops,
                           nonlinear_aero=nonlinear_aero)
         sol = output_error(problem, problem.p0, max_iter=max_iter, tol=tol, progress=progress)
     else:
@@ -98,7 +100,7 @@ def fit(
 
         if biases:
             raise ValueError("biases: the filter-error method here does not estimate output biases (use output error)")
-        problem = Problem(recs, params, pset, initial_state="measured", biases=False, friction=friction, stops=stops,
+        problem = Problem(recs, params, pset, initial_state="measured", biases=False, aero=aero, friction=friction, stops=stops,
                           nonlinear_aero=nonlinear_aero)
         sol = filter_error(problem, problem.p0, process_noise=process_noise, max_iter=max_iter, tol=tol, progress=progress)
     return _result(method, problem, pset, params, sol)

@@ -47,12 +47,14 @@ def measured_outputs(record: FlightRecord) -> np.ndarray:
 class RecordModel:
     """The model of one record: ``run(rows, x0)`` simulates it for each parameter row and initial state.
 
-    params: the rig; friction, stops, nonlinear_aero: the model's terms (aerodynamics always on; servo
-    dynamics on for commanded surfaces).  The record must be uniformly sampled (RecordError otherwise).
+    params: the rig; aero, friction, stops, nonlinear_aero: the model's terms (servo dynamics on for commanded
+    surfaces); aero None: on, except for a wind-off record (airspeed 0 throughout), whose motion through
+    still air the quasi-steady tunnel-flow aerodynamics does not describe (a body swinging at rest air
+    would see 90 deg of incidence).  The record must be uniformly sampled (RecordError otherwise).
     """
 
-    def __init__(self, record: FlightRecord, params: RigParams, *, friction: bool = True, stops: bool = True,
-                 nonlinear_aero: bool = False) -> None:
+    def __init__(self, record: FlightRecord, params: RigParams, *, aero: bool | None = None, friction: bool = True,
+                 stops: bool = True, nonlinear_aero: bool = False) -> None:
         dts = np.diff(record.t)
         dt = float(np.mean(dts))
         if np.max(np.abs(dts - dt)) > UNIFORM_TOL * dt:
@@ -69,7 +71,10 @@ class RecordModel:
         self.z = measured_outputs(record)
         self.n_t = record.n_t
         actual = record.surface_kind == "actual"
-        self.flags = flags_of(True, friction, stops, not actual, nonlinear_aero)
+        if aero is None:
+            aero = bool(np.any(record.airspeed_series() > 0.0))
+        self.aero = aero
+        self.flags = flags_of(aero, friction, stops, not actual, nonlinear_aero)
         base = params.replace(**record.setup) if record.setup else params
         self.base_row = base.to_vector()
         if actual:

@@ -56,6 +56,7 @@ class Problem:
         *,
         initial_state: str = "estimate",
         biases: bool = False,
+        aero: bool | None = None,
         friction: bool = True,
         stops: bool = True,
         nonlinear_aero: bool = False,
@@ -71,7 +72,7 @@ class Problem:
         self.params = params
         self.pset = pset
         self.record_names = unique_names(records)
-        self.models = [RecordModel(r, params, friction=friction, stops=stops, nonlinear_aero=nonlinear_aero) for r in records]
+        self.models = [RecordModel(r, params, aero=aero, friction=friction, stops=stops, nonlinear_aero=nonlinear_aero) for r in records]
         self.outputs = [output_names(r) for r in records]
         k = pset.k
         names = list(pset.names)
