@@ -132,8 +132,11 @@ def test_output_error_lateral_4dof():
     print(f"lateral 4-DOF: {frac:.0%} within 2 sigma; std/scatter {np.round(r, 2)}")
 
 
+@pytest.mark.slow
 def test_filter_error_beats_output_error_in_turbulence():
-    """White vertical gusts (1 m/s rms at 20 m/s: 2.9 deg of incidence) plus 0.05 deg noise, 8 draws."""
+    """White vertical gusts (1 m/s rms at 20 m/s: 2.9 deg of incidence) plus 0.05 deg noise, 24 draws: the
+    filter error's estimates are closer to the truth, and its standard errors honest (the output error's
+    are not: the process noise makes its residuals coloured and its model wrong)."""
 
     def make(seed):
         rng = np.random.default_rng(500 + seed)
@@ -141,26 +144,25 @@ def test_filter_error_beats_output_error_in_turbulence():
         res = pitch_sim(gust=lambda t: np.array([0.0, 0.0, w[int(round(t * 80.0))]]))
         return record_of(res, 0.05, 900 + seed, name=f"turb{seed}")
 
-    recs = [make(s) for s in range(8)]
+    recs = [make(s) for s in range(24)]
     true = truth(EST_1DOF)
     start = {n: v * 1.1 for n, v in zip(EST_1DOF, true)}
-    zs = {}
-    errs = {}
+    out = {}
     for method in ("output_error", "filter_error"):
-        e, z = [], []
+        est, std = [], []
         for rec in recs:
             fit = sysid.fit(rec, P, EST_1DOF, method, start=start)
-            v = np.array([fit.values[n] for n in EST_1DOF])
-            s = np.array([fit.std[n] for n in EST_1DOF])
-            e.append((v - true) / np.abs(true))
-            z.append((v - true) / s)
-        errs[method], zs[method] = np.array(e), np.array(z)
-    rms_oe = np.sqrt(np.mean(errs["output_error"] ** 2))
-    rms_fe = np.sqrt(np.mean(errs["filter_error"] ** 2))
-    print(f"relative rms error: output error {rms_oe:.3f}, filter error {rms_fe:.3f}")
-    assert rms_fe < rms_oe
-    assert np.mean(np.abs(zs["filter_error"]) < 2.0) >= 0.85, np.round(zs["filter_error"], 2)
-    assert np.mean(np.abs(zs["filter_error"]) < 2.0) > np.mean(np.abs(zs["output_error"]) < 2.0)
+            est.append([fit.values[n] for n in EST_1DOF])
+            std.append([fit.std[n] for n in EST_1DOF])
+        est, std = np.array(est), np.array(std)
+        out[method] = (np.sqrt(np.mean(((est - true) / true) ** 2)), np.mean(np.abs((est - true) / std) < 2.0),
+                       np.median(std, axis=0) / est.std(axis=0, ddof=1))
+        print(f"{method}: relative rms error {out[method][0]:.3f}, {out[method][1]:.0%} within 2 sigma, "
+              f"std/scatter {np.round(out[method][2], 2)}")
+    # measured: output error 0.128, 65 %, 0.3-0.87; filter error 0.077, 91 %, 0.77-1.18
+    assert out["filter_error"][0] < out["output_error"][0]
+    assert out["filter_error"][1] >= 0.85 and out["filter_error"][1] > out["output_error"][1]
+    assert np.all((out["filter_error"][2] > 0.7) & (out["filter_error"][2] < 1.5))
 
 
 def test_joint_fit_of_two_records_at_two_airspeeds():

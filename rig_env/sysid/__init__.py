@@ -24,7 +24,11 @@ from rig_env.sysid.records import (
 from rig_env.sysid.result import Fit
 from rig_env.sysid.smoothing import lowess
 
-_LAZY = {  # imported at first use (matplotlib, scipy)
+_LAZY = {  # imported at first use (matplotlib, scipy, the model's kernels)
+    "fig4_setup": "rig_env.sysid.friction",
+    "simulate_friction_test": "rig_env.sysid.friction",
+    "friction_first_estimates": "rig_env.sysid.friction",
+    "free_decay_estimates": "rig_env.sysid.friction",
     "save_fit_params": "rig_env.sysid.paramfile",
     "write_params": "rig_env.sysid.paramfile",
     "write_report": "rig_env.sysid.report",
@@ -33,6 +37,6 @@ __getattr__, __dir__ = lazy_attributes("rig_env.sysid", _LAZY, globals())
 
 __all__ = [
     "GAP_FACTOR", "MAX_UPSAMPLE", "METHODS", "ColumnMap", "Fit", "FlightRecord", "RecordError", "check_sampling", "doublet",
-    "fit", "lowess", "multisine", "peak_factors", "read_frame_log", "save_fit_params", "three_two_one_one", "write_params",
+    "fig4_setup", "fit", "free_decay_estimates", "friction_first_estimates", "lowess", "simulate_friction_test", "multisine", "peak_factors", "read_frame_log", "save_fit_params", "three_two_one_one", "write_params",
     "write_report",
 ]
