@@ -47,6 +47,7 @@ def fit(
     nonlinear_aero: bool = False,
     max_iter: int = 30,
     tol: float = 1e-6,
+    differences: str = "forward",
     progress: Callable[[str], None] | None = None,
 ) -> Fit:
     """Estimate the parameters named in ``estimate`` from ``records``.
@@ -93,7 +94,7 @@ def fit(
         from rig_env.sysid.output_error import output_error
 
         problem = Problem(recs, params, pset, initial_state=initial_state, biases=biases, aero=aero, friction=friction, stops=stops,
-                          nonlinear_aero=nonlinear_aero)
+                          nonlinear_aero=nonlinear_aero, differences=differences)
         sol = output_error(problem, problem.p0, max_iter=max_iter, tol=tol, progress=progress)
     else:
         from rig_env.sysid.filter_error import filter_error

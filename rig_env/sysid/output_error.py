@@ -10,8 +10,9 @@ Step: ``(F + lambda diag F) dp = g`` with ``F = sum S' R^-1 S`` and ``g = sum S'
 does not lower J (at the iteration's R) is retried with lambda x 10, an accepted one divides it by 10.
 Parameters leave their bounds never: a step is clipped to them.  Converged when an accepted step lowers
 moves no parameter by more than 2 % of its standard error (``STEP_TOL``: far inside the estimate's
-uncertainty, and above the finite-difference sensitivities' noise), or lowers J by less than ``tol``
-relatively while moving none by more than 20 %.
+uncertainty, and above the finite-difference sensitivities' noise), or moves none by more than 20 % of
+its standard error while lowering J by less than ``COST_TOL`` = 0.01 (moving one parameter by one standard
+error raises J by 0.5) or by less than ``tol`` relatively.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from rig_env.sysid.covariance import coloured_middle, covariances, fisher_inform
 from rig_env.sysid.problem import Evaluation, Problem
 
 STEP_TOL = 0.02  # converged when no parameter moves by more than this many standard errors
+COST_TOL = 0.01  # ... or, moving none by 10 STEP_TOL, when J falls by less than this (one standard error costs 0.5)
 VAR_FLOOR = 1e-18  # rad^2, smallest noise variance (a noise-free record would otherwise give R = 0)
 
 
@@ -108,7 +110,8 @@ def output_error(problem: Problem, p0: np.ndarray, *, max_iter: int = 30, tol: f
         ev = problem.evaluate(p, sensitivities=True)
         if not ev.ok:
             raise FloatingPointError("output error: the model blew up at an accepted estimate")
-        if np.max(np.abs(step) / sd) < STEP_TOL or (rel < tol and np.max(np.abs(step) / sd) < 10 * STEP_TOL):
+        small = np.max(np.abs(step) / sd) < 10 * STEP_TOL
+        if np.max(np.abs(step) / sd) < STEP_TOL or (small and (rel < tol or J - J_t < COST_TOL)):
             converged, message = True, f"converged: largest step {np.max(np.abs(step) / sd):.2g} standard errors, relative cost change {rel:.2e}"
             break
     V = residuals_of(problem, ev)

@@ -4,8 +4,11 @@ model's outputs and their sensitivities for a full parameter vector, one batch p
 Full parameter vector ``p`` (file units): the k model parameters (:class:`~rig_env.sysid.parameters.ParameterSet`),
 then per record its initial free angles and rates (``x0.<record>.<joint>`` rad, ``x0.<record>.<joint>_rate``
 rad/s) when ``initial_state="estimate"``, then per record an output bias (``bias.<record>.<output>``) when
-``biases=True``.  Sensitivities are central differences: for each record one batch of ``1 + 2 (k + n_x0)``
-environments (nominal, then +step and -step of each parameter that moves this record).
+``biases=True``.  Sensitivities are finite differences, for each record one batch of environments: the
+nominal, then +step of each parameter that moves the record (``differences="forward"``, ``1 + k + n_x0``
+environments) or +step and -step (``"central"``, ``1 + 2 (k + n_x0)``).  Forward is the default: half the
+environments (two lane registers instead of four for 14 parameters), and its O(step) error, 1e-3 of a
+sensitivity, moves the Cramer-Rao bounds by about 0.1 % and the estimate by about 1e-3 of a standard error.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from rig_env.sysid.parameters import ParameterSet
 from rig_env.sysid.records import FlightRecord, RecordError
 
 INITIAL_STATES = ("estimate", "measured")
+DIFFERENCES = ("forward", "central")
 X0_STEP = 1e-5  # rad or rad/s, central-difference step of the initial state
 
 
@@ -60,12 +64,16 @@ class Problem:
         friction: bool = True,
         stops: bool = True,
         nonlinear_aero: bool = False,
+        differences: str = "forward",
     ) -> None:
         if isinstance(records, FlightRecord):
             records = [records]
         records = list(records)
         if not records or not all(isinstance(r, FlightRecord) for r in records):
             raise RecordError("records: give one or more FlightRecord objects")
+        if differences not in DIFFERENCES:
+            raise ValueError(f"differences = {differences!r}; allowed: {', '.join(DIFFERENCES)}")
+        self.central = differences == "central"
         if initial_state not in INITIAL_STATES:
             raise ValueError(f"initial_state = {initial_state!r}; allowed: {', '.join(INITIAL_STATES)}")
         self.records = records
@@ -142,11 +150,12 @@ class Problem:
             moved = list(range(k)) + (list(range(xs.start, xs.stop)) if (sensitivities and xs is not None) else [])
             if not sensitivities:
                 moved = []
-            m = 1 + 2 * len(moved)
+            per = 2 if self.central else 1
+            m = 1 + per * len(moved)
             thetas = np.repeat(p[None, :k], m, axis=0)
             X0 = np.repeat(x0[None, :], m, axis=0)
             for c, i in enumerate(moved):
-                for sgn, e in ((1.0, 1 + 2 * c), (-1.0, 2 + 2 * c)):
+                for sgn, e in (((1.0, 1 + 2 * c), (-1.0, 2 + 2 * c)) if self.central else ((1.0, 1 + c),)):
                     if i < k:
                         thetas[e, i] += sgn * steps[i]
                     else:
@@ -165,6 +174,13 @@ class Problem:
                 continue
             S = np.zeros((model.n_t, model.n_out, self.n_p))
             for c, i in enumerate(moved):
+                if not self.central:
+                    if status[1 + c] == 0:
+                        S[:, :, i] = (Y[1 + c] - Y[0]) / steps[i]
+                    else:
+                        warnings.warn(f"{self.record_names[r]}: the model blew up when {self.names[i]} was perturbed; "
+                                      "its sensitivity is taken as zero", RuntimeWarning, stacklevel=3)
+                    continue
                 up, dn = 1 + 2 * c, 2 + 2 * c
                 good_up, good_dn = status[up] == 0, status[dn] == 0
                 if good_up and good_dn:
