@@ -275,3 +275,13 @@ def test_a_sensor_offset_is_estimated_as_a_bias_and_bounds_hold(pitch_run):
         assert abs(fit.values[n] - t) < 3.0 * fit.std[n]
     bounded = sysid.fit(rec, P, ["hawk_aero.CMq"], bounds={"hawk_aero.CMq": (-4.0, -1.0)}, start={"hawk_aero.CMq": -2.0})
     assert bounded.values["hawk_aero.CMq"] == pytest.approx(-4.0)
+
+
+def test_a_parameter_the_records_cannot_show_is_refused_by_name(pitch_run):
+    """A 1-DOF pitch record says nothing of the rig-roll friction nor of the compensator; the servo delay moves
+    in whole physics steps.  Each is refused by name rather than given a meaningless standard error."""
+    rec = record_of(pitch_run, 0.1, 0)
+    with pytest.raises(ValueError, match=r"friction\.rig_roll\.Fc.*not identifiable"):
+        sysid.fit(rec, P, ["hawk_aero.CMq", "friction.rig_roll.Fc"])
+    with pytest.raises(ValueError, match=r"servos\.hawk\.delay_s.*whole physics steps"):
+        sysid.fit(rec, P, ["servos.hawk.delay_s"])

@@ -225,6 +225,10 @@ def filter_error(problem: Problem, p0: np.ndarray, *, process_noise: Mapping[str
     items, ok = flt.evaluate(p, True)
     if not ok:
         raise FloatingPointError("filter error: the model or its filter blows up at the start values")
+    dead = [flt.names[i] for i in range(problem.k) if all(not np.any(it_["dnu"][:, :, i]) for it_ in items)]
+    if dead:
+        raise ValueError(f"{dead}: no effect on the records' outputs, so not identifiable from them "
+                         "(a locked joint's parameter, a surface never moved, a term switched off, a servo delay)")
     L0 = _nll(items)
     lam = 1e-3
     history = [L0]

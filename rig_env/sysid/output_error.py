@@ -69,6 +69,7 @@ def output_error(problem: Problem, p0: np.ndarray, *, max_iter: int = 30, tol: f
     ev = problem.evaluate(p, sensitivities=True)
     if not ev.ok:
         raise FloatingPointError("output error: the model blows up at the start values; check them and the records' configuration")
+    problem.check_identifiable(ev)
     lam = 1e-3
     history: list[float] = []
     converged, message = False, "maximum number of iterations reached"

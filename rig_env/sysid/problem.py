@@ -136,6 +136,19 @@ class Problem:
         st[: self.k] = self.pset.steps(p[: self.k])
         return st
 
+    def check_identifiable(self, ev: "Evaluation") -> None:
+        """ValueError naming every parameter whose outputs' sensitivity is zero in every record: the records
+        cannot show it (a servo delay moves in whole physics steps, so a small change of it changes nothing)."""
+        dead = []
+        for i, name in enumerate(self.names):
+            if all(S is not None and not np.any(S[:, :, i]) for S in ev.S):
+                dead.append(name)
+        if dead:
+            hint = ("; the servo delays act in whole physics steps (a finite-difference step cannot move them): "
+                    "identify a delay by fitting at a few fixed values" if any("delay_s" in d for d in dead) else "")
+            raise ValueError(f"{dead}: no effect on the records' outputs, so not identifiable from them "
+                             f"(a locked joint's parameter, a surface never moved, a term switched off){hint}")
+
     # ------------------------------------------------------------------ evaluation
     def evaluate(self, p: np.ndarray, sensitivities: bool) -> Evaluation:
         """Outputs of every record at p, with dY/dp (central differences, one batch per record) if asked."""
