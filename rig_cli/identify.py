@@ -38,7 +38,7 @@ import sys
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping, TextIO
+from typing import Any, Mapping, TextIO
 
 from rig_env.params import DEFAULT_FILE, JOINTS, PARAM_INDEX, RigParams
 from rig_env.sysid.records import SURFACE_KINDS, FlightRecord
@@ -293,10 +293,7 @@ def run(config: str | Path, out_dir: str | Path, *, overwrite: bool = False, str
     for spec in cfg.records:
         out.write(f"reading {spec.path}\n")
         records.append(read_record(spec))
-    fit: Callable[..., Any] | None = getattr(sysid, "fit", None)
-    if fit is None:
-        raise RuntimeError("rig_env.sysid.fit is not available in this installation")
-
+    fit = sysid.fit
     def report_progress(line: str) -> None:
         prog.write(f"  {line}\n")
         prog.flush()

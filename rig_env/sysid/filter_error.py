@@ -222,6 +222,8 @@ def filter_error(problem: Problem, p0: np.ndarray, *, process_noise: Mapping[str
     say = progress or (lambda s: None)
     flt = _Filter(problem, process_noise)
     p = np.clip(np.concatenate([np.asarray(p0, dtype=np.float64)[: problem.k], flt.p0[problem.k :]]), flt.lower, flt.upper)
+    say("filter error: innovations and sensitivities at the start values (the first fit in a fresh installation compiles "
+        "the model's kernels once, a minute or two; numba caches them on disk)")
     items, ok = flt.evaluate(p, True)
     if not ok:
         raise FloatingPointError("filter error: the model or its filter blows up at the start values")

@@ -66,6 +66,8 @@ def output_error(problem: Problem, p0: np.ndarray, *, max_iter: int = 30, tol: f
     """Fit ``problem`` from ``p0`` by output error (see the module docstring)."""
     say = progress or (lambda s: None)
     p = problem.clip(np.asarray(p0, dtype=np.float64))
+    say("output error: sensitivities at the start values (the first fit in a fresh installation compiles the model's "
+        "kernels once, a minute or two; numba caches them on disk)")
     ev = problem.evaluate(p, sensitivities=True)
     if not ev.ok:
         raise FloatingPointError("output error: the model blows up at the start values; check them and the records' configuration")
