@@ -13,13 +13,14 @@ from __future__ import annotations
 from rig_env.importhook import lazy_attributes
 from rig_env.sysid.fit import METHODS, fit
 from rig_env.sysid.inputs import doublet, multisine, peak_factors, three_two_one_one  # scipy only inside multisine()
-from rig_env.sysid.readers import ColumnMap, read_frame_log
+from rig_env.sysid.readers import ColumnMap
 from rig_env.sysid.records import (
     GAP_FACTOR,
     MAX_UPSAMPLE,
     FlightRecord,
     RecordError,
     check_sampling,
+    read_frame_log,
 )
 from rig_env.sysid.result import Fit
 from rig_env.sysid.smoothing import lowess

@@ -53,14 +53,17 @@ import math
 import os
 import re
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 
 from rig_env.framelog_format import FORMAT as LOG_FORMAT
 from rig_env.framelog_format import read_log
 from rig_env.params import JOINTS, SURFACES
-from rig_env.sysid.records import FlightRecord, RecordError, check_sampling
+from rig_env.sysid.checks import RecordError, check_sampling
+
+if TYPE_CHECKING:
+    from rig_env.sysid.records import FlightRecord
 
 ColumnMap = Mapping[str, tuple[str, str]]
 """``{field: (column name, unit)}``; fields ``t``, ``q.<joint>``, ``qd.<joint>``, ``surfaces.<surface>``, ``airspeed``."""
@@ -221,10 +224,10 @@ def _log_header(p: Path) -> dict[str, Any] | None:
     return h if isinstance(h, dict) and h.get("format") == LOG_FORMAT else None
 
 
-def read(path: str | os.PathLike, columns: ColumnMap | None = None, *, free_dofs: Sequence[str] | None = None,
-         locked: Mapping[str, float] | None = None, surface_kind: str | None = None, airspeed: float | None = None,
-         setup: Mapping[str, float] | None = None, name: str | None = None, allow_gaps: bool = False) -> FlightRecord:
-    """A record from a file (see the module docstring): own layout, a foreign file with ``columns``, or a frame log.
+def read_fields(path: str | os.PathLike, columns: ColumnMap | None = None, *, free_dofs: Sequence[str] | None = None,
+                locked: Mapping[str, float] | None = None, surface_kind: str | None = None, airspeed: float | None = None,
+                setup: Mapping[str, float] | None = None, name: str | None = None, allow_gaps: bool = False) -> dict[str, Any]:
+    """The fields (``FlightRecord(**fields)``, which :meth:`FlightRecord.read` builds) of a record from a file (see the module docstring): own layout, a foreign file with ``columns``, or a frame log.
 
     Keywords give (foreign files) or replace (own layout, frame logs) the configuration: ``free_dofs``,
     ``locked`` ({joint: rad}), ``surface_kind``, ``airspeed`` (m/s, constant; not with an airspeed column),
@@ -238,8 +241,8 @@ def read(path: str | os.PathLike, columns: ColumnMap | None = None, *, free_dofs
             raise RecordError(f"{p}: a frame log has a fixed layout; columns= is for CSV, .npz and .mat files")
         if airspeed is not None:
             raise RecordError(f"{p}: a frame log carries the measured airspeed series; airspeed= is for files without one")
-        return read_frame_log(p, free_dofs=free_dofs, locked=locked, surface_kind=surface_kind or "commanded", setup=setup, name=name,
-                              allow_gaps=allow_gaps)
+        return frame_log_fields(p, free_dofs=free_dofs, locked=locked, surface_kind=surface_kind or "commanded", setup=setup, name=name,
+                                allow_gaps=allow_gaps)
     meta, data = {"csv": _read_csv, "npz": _read_npz, "mat": _read_mat}[kind](p)
     config: dict[str, Any] = {}
     if columns is None:
@@ -254,7 +257,7 @@ def read(path: str | os.PathLike, columns: ColumnMap | None = None, *, free_dofs
 
 
 def _build(p: Path, data: dict[str, np.ndarray], cmap: dict[str, tuple[str, str, float]], config: dict[str, Any],
-           free_dofs: Sequence[str] | None, allow_gaps: bool) -> FlightRecord:
+           free_dofs: Sequence[str] | None, allow_gaps: bool) -> dict[str, Any]:
     series: dict[str, np.ndarray] = {}
     for fld, (col, _unit, factor) in cmap.items():
         series[fld] = _column(p, data, col, fld) * factor
@@ -294,7 +297,7 @@ def _build(p: Path, data: dict[str, np.ndarray], cmap: dict[str, tuple[str, str,
         raise RecordError(f"{p}: no airspeed column mapped; give the tunnel speed as airspeed= (m/s, 0 for wind off) or map 'airspeed'")
     if surfaces and config.get("surface_kind") is None:
         raise RecordError(f"{p}: surface columns given: say what they are, surface_kind='commanded' (sent to the servos) or 'actual' (deflections)")
-    return FlightRecord(
+    return dict(
         t=t, free_dofs=tuple(free), q=np.column_stack([series[f"q.{j}"] for j in free]),
         qd=np.column_stack([series[f"qd.{j}"] for j in free]) if rate_joints else None,
         surfaces=surfaces, airspeed=air, locked=config.get("locked"), surface_kind=config.get("surface_kind") or "commanded",
@@ -412,10 +415,10 @@ def _read_mat(p: Path) -> tuple[dict[str, Any] | None, dict[str, np.ndarray]]:
 
 
 # ---------------------------------------------------------------------------------------------- frame logs
-def read_frame_log(path: str | os.PathLike, *, free_dofs: Sequence[str] | None = None, locked: Mapping[str, float] | None = None,
-                   surface_kind: str = "commanded", setup: Mapping[str, float] | None = None, name: str | None = None,
-                   allow_gaps: bool = False) -> FlightRecord:
-    """A record from the real-time loop's frame log: one sample per fresh sensor frame.
+def frame_log_fields(path: str | os.PathLike, *, free_dofs: Sequence[str] | None = None, locked: Mapping[str, float] | None = None,
+                     surface_kind: str = "commanded", setup: Mapping[str, float] | None = None, name: str | None = None,
+                     allow_gaps: bool = False) -> dict[str, Any]:
+    """The fields of a record from the real-time loop's frame log (``rig_env.sysid.read_frame_log`` builds it): one sample per fresh sensor frame.
 
     Samples: the ticks with ``fresh = 1``, each sensor frame once (first use of its ``seq``); ``t`` = the
     frame's ``rig_time`` (s); ``q`` = its angles of the free joints (rad); ``airspeed`` = the measured series
@@ -473,7 +476,7 @@ def read_frame_log(path: str | os.PathLike, *, free_dofs: Sequence[str] | None =
     if locked is None:
         locked = {j: float(np.mean(angles[:, k])) for k, j in enumerate(JOINTS) if j not in free}
     cmd = np.degrees(frames["command"].astype(np.float64))
-    return FlightRecord(
+    return dict(
         t=t, free_dofs=free, q=angles[:, idx], surfaces={s: cmd[:, k] for k, s in enumerate(SURFACES)},
         airspeed=frames["airspeed"].astype(np.float64), locked=locked, surface_kind=surface_kind, setup=setup or {}, name=label,
     )

@@ -46,6 +46,7 @@ from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 import numpy as np
 
 from rig_env.params import JOINTS, SURFACES
+from rig_env.sysid.checks import GAP_FACTOR, RecordError, check_sampling  # noqa: F401  (re-exported)
 from rig_env.sysid.smoothing import DEFAULT_ITERATIONS, DEFAULT_SPAN, lowess
 
 if TYPE_CHECKING:
@@ -54,13 +55,8 @@ if TYPE_CHECKING:
 
 SURFACE_KINDS = ("commanded", "actual")
 AIRSPEED_RANGE = (0.0, 60.0)  # m/s, as simulate() allows
-GAP_FACTOR = 1.5  # a sample interval over this many median intervals is a gap (check_sampling)
 MAX_UPSAMPLE = 2.0  # resample() refuses rates above this many times the record's own (median) rate
 SMOOTH_CHANNELS = ("q", "qd", "surfaces", "airspeed")
-
-
-class RecordError(ValueError):
-    """A record that cannot be used: the message names the field and what is allowed."""
 
 
 def _float_array(name: str, a: object, ndim: int) -> np.ndarray:
@@ -75,24 +71,6 @@ def _float_array(name: str, a: object, ndim: int) -> np.ndarray:
         first = np.argwhere(bad)[0]
         raise RecordError(f"{name}: {int(bad.sum())} non-finite value(s), the first at index {tuple(int(i) for i in first)}")
     return arr
-
-
-def check_sampling(t: np.ndarray, name: str = "record", allow_gaps: bool = False, factor: float = GAP_FACTOR) -> None:
-    """Raise :class:`RecordError` at the first gap in the sample times ``t`` (n,), s (the readers' check).
-
-    A gap is an interval longer than ``factor`` (1.5) times the median interval: one lost sample on a
-    regular grid doubles an interval, while a real-time loop's timing jitter stays well inside half a
-    period.  ``allow_gaps``: skip the check (a record with lost frames, interpolated over afterwards).
-    """
-    if allow_gaps or np.size(t) < 3:
-        return
-    dt = np.diff(np.asarray(t, dtype=np.float64))
-    med = float(np.median(dt))
-    long = dt > factor * med
-    if long.any():
-        k = int(np.argmax(long))
-        raise RecordError(f"{name}: t: gap of {dt[k]:.6g} s after t = {t[k]:.6g} s ({int(long.sum())} interval(s) longer than {factor:g} x the "
-                          f"median {med:.6g} s); select the parts around it with segment(), or read with allow_gaps=True")
 
 
 def _held_index(t: np.ndarray, tq: np.ndarray) -> np.ndarray:
@@ -415,14 +393,25 @@ class FlightRecord:
     def read(cls, path: str | os.PathLike, columns: ColumnMap | None = None, *, free_dofs: Sequence[str] | None = None,
              locked: Mapping[str, float] | None = None, surface_kind: str | None = None, airspeed: float | None = None,
              setup: Mapping[str, float] | None = None, name: str | None = None, allow_gaps: bool = False) -> FlightRecord:
-        """A record from a frame log, .csv, .npz or .mat file (:func:`rig_env.sysid.readers.read`).
+        """A record from a frame log, .csv, .npz or .mat file (:func:`rig_env.sysid.readers.read_fields`).
 
         The project's own files and frame logs need no ``columns``; a foreign file needs the column map
         ``{field: (column, unit)}`` and its configuration (``airspeed=`` unless mapped, ``surface_kind=``
         when surfaces are mapped, ``locked=``, ``setup=``, ``name=``).  Gaps in the times are an error
         unless ``allow_gaps`` (:func:`check_sampling`).
         """
-        from rig_env.sysid.readers import read
+        from rig_env.sysid.readers import read_fields
 
-        return read(path, columns, free_dofs=free_dofs, locked=locked, surface_kind=surface_kind, airspeed=airspeed, setup=setup,
-                    name=name, allow_gaps=allow_gaps)
+        return cls(**read_fields(path, columns, free_dofs=free_dofs, locked=locked, surface_kind=surface_kind, airspeed=airspeed,
+                                 setup=setup, name=name, allow_gaps=allow_gaps))
+
+
+def read_frame_log(path: str | os.PathLike, *, free_dofs: Sequence[str] | None = None, locked: Mapping[str, float] | None = None,
+                   surface_kind: str = "commanded", setup: Mapping[str, float] | None = None, name: str | None = None,
+                   allow_gaps: bool = False) -> FlightRecord:
+    """A record from the real-time loop's frame log (:func:`rig_env.sysid.readers.frame_log_fields`: one sample
+    per fresh sensor frame, the command sent after it held until the next)."""
+    from rig_env.sysid.readers import frame_log_fields
+
+    return FlightRecord(**frame_log_fields(path, free_dofs=free_dofs, locked=locked, surface_kind=surface_kind, setup=setup, name=name,
+                                           allow_gaps=allow_gaps))
