@@ -20,10 +20,17 @@ def _actions(rng: np.random.Generator, n: int, k: int = 3) -> np.ndarray:
     return rng.uniform(-1.2, 1.2, size=(n, k))
 
 
-@pytest.mark.parametrize("task", ["velocity_vector_roll", "bank_to_bank"])
-def test_next_step_equals_sync_vector_env_of_rigenv(task):
+def _full_elevator(rng: np.random.Generator, n: int) -> np.ndarray:
+    """Full compensator elevator with a little noise: the departure task's model pitch runs into its stop."""
+    return np.array([0.0, 1.0, 0.0]) + rng.uniform(-0.1, 0.1, size=(n, 3))
+
+
+@pytest.mark.parametrize("task, policy, min_term", [("velocity_vector_roll", _actions, 0), ("bank_to_bank", _actions, 0),
+                                                     ("departure_recovery", _full_elevator, 1)])
+def test_next_step_equals_sync_vector_env_of_rigenv(task, policy, min_term):
     """Observations, rewards, terminations, truncations and the end-of-episode metrics equal Gymnasium's own
-    next-step vectorisation of the scalar environment, step for step, across several autoresets."""
+    next-step vectorisation of the scalar environment, step for step, across several autoresets (truncations,
+    and terminations at a stop for the departure task)."""
     n, seed, steps = 3, 11, 170
     venv = RigVectorEnv(n, task=task, autoreset_mode=NEXT, **SHORT)
     sync = SyncVectorEnv([lambda: RigEnv(task=task, **SHORT)] * n, autoreset_mode=NEXT)
@@ -31,15 +38,15 @@ def test_next_step_equals_sync_vector_env_of_rigenv(task):
     o1, _ = venv.reset(seed=seed)
     o2, _ = sync.reset(seed=seed)
     np.testing.assert_array_equal(o1, o2)
-    rng, ends, restarts = np.random.default_rng(1), 0, 0
+    rng, ends, restarts, terms = np.random.default_rng(1), 0, 0, 0
     done_before = np.zeros(n, dtype=bool)
     for _ in range(steps):
-        a = _actions(rng, n)
+        a = policy(rng, n)
         r1 = venv.step(a)
         r2 = sync.step(a)
         for x, y in zip(r1[:4], r2[:4]):
             np.testing.assert_array_equal(x, y)
-        done = r1[2] | r1[3]
+        done, terms = r1[2] | r1[3], terms + int(r1[2].sum())
         if done.any():
             ends += int(done.sum())
             for k in ("success", "rms_error", "status"):
@@ -49,7 +56,7 @@ def test_next_step_equals_sync_vector_env_of_rigenv(task):
         restarts += int(done_before.sum())
         assert np.all(r1[1][done_before] == 0.0) and not (r1[2] | r1[3])[done_before].any()  # the reset step
         done_before = done
-    assert ends >= 2 * n and restarts >= n  # several autoresets in every environment
+    assert ends >= 2 * n and restarts >= n and terms >= min_term  # several autoresets in every environment
 
 
 def test_next_step_actions_differ_only_where_used():
