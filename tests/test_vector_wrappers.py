@@ -123,8 +123,8 @@ def test_normalize_observation_runs_and_normalises():
 def test_transform_flatten_and_dtype_observation():
     base = _next()
     low = base.single_observation_space.low
-    space = gym.spaces.Box(2.0 * base.observation_space.low, 2.0 * base.observation_space.high, dtype=np.float32)
-    tr = vw.TransformObservation(base, lambda o: 2.0 * o, observation_space=space)
+    single = gym.spaces.Box(2.0 * low, 2.0 * base.single_observation_space.high, dtype=np.float32)
+    tr = vw.TransformObservation(base, lambda o: 2.0 * o, single_observation_space=single)
     o_t, _ = tr.reset(seed=0)
     o_b, _ = RigVectorEnv(4, autoreset_mode=NEXT, episode_seconds=0.25).reset(seed=0)
     np.testing.assert_array_equal(o_t, 2.0 * o_b)
