@@ -9,6 +9,8 @@
         aileron ramped to +20 deg over 1 s and held; prints a summary, writes DIR/demo_roll.png
     rig draw [--out DIR] [--q DEG DEG DEG DEG DEG] [--flaps DEG DEG DEG DEG]
         the rig picture with its frames (DIR/rig_frames.png)
+    rig --version
+        the installed version (importlib.metadata; rig_env.__version__ when not installed)
     rig identify CONFIG.toml --out DIR [--overwrite]
         fit the rig's parameters to recorded runs (rig_env.sysid; the configuration: rig_cli.identify):
         writes DIR/report.md with its figures and DIR/identified.toml, a parameter file for --params
@@ -220,17 +222,38 @@ def draw(out_dir: str | Path = "out", q_deg: Sequence[float] | None = None, flap
     return path
 
 
+def version() -> str:
+    """The installed distribution's version (``importlib.metadata``), else ``rig_env.__version__``."""
+    from importlib.metadata import PackageNotFoundError
+    from importlib.metadata import version as dist_version
+
+    try:
+        return dist_version("rig_env")
+    except PackageNotFoundError:
+        import rig_env
+
+        return rig_env.__version__
+
+
 def _parser() -> argparse.ArgumentParser:
+    from controllers import LAWS
+    from rig_env.envs.tasks import TASKS
+
+    tasks, kinds = sorted(TASKS), sorted(LAWS)
     ap = argparse.ArgumentParser(prog="rig", description="Bristol 5-DOF manoeuvre rig model (AIAA 2009-5727).")
+    ap.add_argument("--version", action="version", version=f"rig {version()}", help="print the version and exit")
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
     c = sub.add_parser("compare", help="every control law on every task, nominal and robust; tables, plots, report")
     c.add_argument("--quick", action="store_true", help="12 episodes per law, task and mode (default 64)")
     c.add_argument("--out", default="out/compare", metavar="DIR", help="output folder (default: out/compare)")
-    c.add_argument("--episodes", type=int, default=None, metavar="N", help="episodes per law, task and mode")
+    c.add_argument("--episodes", type=int, default=None, metavar="N", help="episodes per law, task and mode (default 64, --quick 12)")
     c.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the episodes (default 0)")
-    c.add_argument("--tasks", nargs="+", default=None, metavar="T", help="task names (default: all)")
-    c.add_argument("--controllers", nargs="+", default=None, metavar="K", help="controller kinds (default: all registered)")
-    c.add_argument("--modes", nargs="+", default=["nominal", "robust"], metavar="M", help="nominal and/or robust (default both)")
+    # tasks and kinds are listed, not argparse choices: compare checks them (one-line error) and knows kinds registered later
+    c.add_argument("--tasks", nargs="+", default=None, metavar="T", help=f"task names: {', '.join(tasks)} (default: all)")
+    c.add_argument("--controllers", nargs="+", default=None, metavar="K",
+                   help=f"controller kinds: {', '.join(kinds)} (default: all registered)")
+    c.add_argument("--modes", nargs="+", default=["nominal", "robust"], choices=["nominal", "robust"], metavar="M",
+                   help="nominal (the default rig) and/or robust (randomised parameters) (default both)")
     c.add_argument("--params", default=None, metavar="FILE.toml",
                    help="rig parameter file (e.g. rig identify's identified.toml) the laws are designed on and fly (default: the default rig)")
     d = sub.add_parser("demo", help="velocity-vector roll at 20 m/s with the compensator ailerons (paper Fig. 7)")
@@ -238,13 +261,13 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--t-final", type=float, default=25.0, metavar="S", help="simulated time, s (default 25)")
     d.add_argument("--airspeed", type=float, default=20.0, metavar="M/S", help="tunnel speed, m/s (default 20)")
     d.add_argument("--aileron", type=float, default=20.0, metavar="DEG", help="held compensator aileron, deg (default 20)")
-    d.add_argument("--no-plot", action="store_true", help="do not write the plot")
+    d.add_argument("--no-plot", action="store_true", help="do not write the plot (only the summary table: deg, deg/s, J, s)")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     r = sub.add_parser("draw", help="picture of the rig with its frames and joints")
     r.add_argument("--out", default="out", metavar="DIR", help="directory for rig_frames.png (default: out)")
     r.add_argument("--q", type=float, nargs=5, metavar="DEG",
                    help="joint angles, deg: rig_roll rig_pitch rig_yaw model_pitch model_yaw (default: zero and an example pose)")
-    r.add_argument("--flaps", type=float, nargs=4, metavar="DEG", help="compensator flaps 1-4, deg (with --q)")
+    r.add_argument("--flaps", type=float, nargs=4, metavar="DEG", help="compensator flaps 1-4 deflections, deg, within +-40 (with --q)")
     i = sub.add_parser("identify", help="fit the rig's parameters to recorded runs; report and identified parameter file")
     i.add_argument("config", metavar="CONFIG.toml", help="records, base parameters, parameters to estimate, method (README: Identification)")
     i.add_argument("--out", required=True, metavar="DIR", help="folder for report.md, its figures and identified.toml")

@@ -24,6 +24,9 @@ from rig_env.envs import registration as _registration
 from rig_env.params import JOINTS, PARAM_NAMES, SERVOS, SURFACES, ParameterError, RigParams, param_batch
 from rig_env.physics import jit as _jit
 
+__version__ = "0.1.0"
+"""The package version (pyproject.toml's); ``rig --version`` prefers the installed distribution's metadata."""
+
 if TYPE_CHECKING:
     from rig_env.linear import linearize, trim
     from rig_env.mjcf import to_mjcf
@@ -56,6 +59,7 @@ class _Package(types.ModuleType):
 sys.modules[__name__].__class__ = _Package
 
 __all__ = [
+    "__version__",
     "JOINTS",
     "PARAM_NAMES",
     "SERVOS",

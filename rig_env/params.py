@@ -25,6 +25,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from rig_env.params_io import IDENTIFIED_KEYS, ParameterError, params_text, write_checked
+
 JOINTS: tuple[str, ...] = ("rig_roll", "rig_pitch", "rig_yaw", "model_pitch", "model_yaw")
 """Canonical joint names, in the order of every joint-space array."""
 
@@ -45,15 +47,10 @@ SERVOS: tuple[str, ...] = ("flap1", "flap2", "flap3", "flap4", "hawk_elevator", 
 """Physical actuators: four compensator flaps (after mixing) and three Hawk surfaces."""
 
 SOURCES = ("paper", "rig-code", "estimate", "identified")
-IDENTIFIED_KEYS = ("std", "records", "method")
-"""Keys an ``identified`` entry carries besides value, source, note and unit (and no other source may)."""
 _META = ("sources", "identified")  # RigParams fields that record provenance, not parameters
 DATA_DIR = Path(__file__).parent / "data"
 DEFAULT_FILE = DATA_DIR / "default_rig.toml"
 
-
-class ParameterError(ValueError):
-    """Invalid rig parameter: the message names the field and its allowed range."""
 
 
 def _f(lo: float, hi: float, unit: str) -> Any:
@@ -391,6 +388,33 @@ class RigParams:
             np.asarray(hi.comp_CN, dtype=np.float64),
         )
 
+    def to_toml(self, path: str | Path, overwrite: bool = False, *, base_file: str | Path | None = None) -> Path:
+        """Write a complete parameter file at ``path`` (every group and value, laid out as the default file)
+        that :meth:`from_toml` reads back to the same values and sources; returns the path.
+
+        Each value keeps its recorded source and note (and, if identified, ``std``, ``records``, ``method``);
+        a value without one (set by :meth:`replace`) takes the source of ``base_file`` (default: the default
+        rig) if it is that file's value, else a ParameterError names it.  FileExistsError if ``path``
+        exists and not ``overwrite``.
+        """
+        base = RigParams.from_toml(DEFAULT_FILE if base_file is None else base_file)
+        text = params_text(self, lambda name: self.file_provenance(name, base), HEADER)
+        return write_checked(text, path, RigParams.from_toml, self, overwrite)
+
+    def file_provenance(self, name: str, base: "RigParams") -> dict[str, Any]:
+        """The provenance a parameter file records for ``name``: its own (:meth:`provenance`), else ``base``'s
+        if the value is ``base``'s; ParameterError otherwise (a value set by :meth:`replace` and never sourced)."""
+        if self.sources.get(name, ("",))[0] in SOURCES:
+            return self.provenance(name)
+        if name == "high_incidence":
+            same = base.high_incidence == self.high_incidence
+        else:
+            same = _leaf(base, name) == _leaf(self, name)
+        if name in base.sources and same:
+            return base.provenance(name)
+        raise ParameterError(f"{name} has no recorded source (set by RigParams.replace?) and differs from the base file; "
+                             f"give it in identified, or write it into a base file with its source")
+
     def source(self, name: str) -> tuple[str, str]:
         """(source tag, note) of a dotted parameter name as recorded in its data file."""
         if name not in self.sources:
@@ -406,6 +430,20 @@ class RigParams:
 
 
 # ---------------------------------------------------------------------- helpers
+HEADER = """# Rig parameters (written by rig_env: RigParams.to_toml or rig_env.sysid.paramfile).
+# Every value: source = paper | rig-code | estimate | identified; identified values carry std (Cramer-Rao
+# standard error, the value's unit), the records they were fitted to and the method.
+# Units SI unless the field name says _deg, _deg_s or _hz. Axes: x towards the model (upstream), y starboard, z down.
+"""
+
+
+def _leaf(params: Any, name: str) -> Any:
+    obj = params
+    for part in name.split("."):
+        obj = getattr(obj, part)
+    return obj
+
+
 def _iter_leaves(obj: Any, prefix: str = ""):
     for f in fields(obj):
         if f.name in _META or f.name == "high_incidence":

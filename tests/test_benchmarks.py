@@ -41,3 +41,11 @@ def test_rate_counts_env_steps():
     calls = []
     best, per_cpu = b.rate(lambda: calls.append(1), 64, seconds=0.01, min_calls=3, repeats=1)
     assert len(calls) >= 1 + 3 and best > 0 and per_cpu > 0
+
+
+def test_autoreset_bench_times_both_modes():
+    """benchmarks/bench_autoreset.py on a tiny batch: both modes step, one rate per round."""
+    from benchmarks import bench_autoreset
+
+    r = bench_autoreset.bench(2, 0.1, 0.01, 2)
+    assert sorted(r) == ["NextStep", "SameStep"] and all(len(v) == 2 and min(v) > 0 for v in r.values())

@@ -72,3 +72,27 @@ def test_cli_compare_errors_are_one_line(capsys):
     assert "unknown" in err and "nope" in err and "Traceback" not in err
     with pytest.raises(SystemExit):
         main(["compare", "--help"])
+
+
+def test_cli_version_and_help_list_choices_and_units(capsys):
+    """rig --version prints the installed distribution's version (rig_env.__version__ when not installed)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    import rig_env
+
+    with pytest.raises(SystemExit) as ex:
+        main(["--version"])
+    assert ex.value.code == 0
+    try:
+        want = version("rig_env")
+    except PackageNotFoundError:
+        want = rig_env.__version__
+    assert capsys.readouterr().out.strip() == f"rig {want}"
+    with pytest.raises(SystemExit):
+        main(["compare", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "velocity_vector_roll" in text and "pid" in text and "nominal" in text
+    with pytest.raises(SystemExit):
+        main(["demo", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "m/s" in text and "deg" in text and ", s" in text

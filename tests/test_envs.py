@@ -320,3 +320,49 @@ def test_env_seeds_option_equals_scalar_env_seeds():
         venv.reset(options={"env_seeds": [1, 2]})
     with pytest.raises(ValueError, match="unknown key"):
         venv.reset(options={"seeds": seeds})
+
+
+@pytest.mark.parametrize("env_id", list(ENV_IDS))
+def test_registered_time_limit_is_the_tasks_own(env_id):
+    """spec.max_episode_steps = the task's default_episode_seconds x the default control rate (the longest task's
+    for the generic id), and the environment made from the id ends its episodes there itself."""
+    from rig_env.envs.config import RigEnvConfig
+    from rig_env.envs.registration import MAX_EPISODE_STEPS
+
+    rate = RigEnvConfig().control_rate
+    task = ENV_IDS[env_id].get("task")
+    seconds = TASKS[task].default_episode_seconds if task else max(t.default_episode_seconds for t in TASKS.values())
+    assert gym.spec(env_id).max_episode_steps == MAX_EPISODE_STEPS[env_id] == round(seconds * rate)
+    if task:
+        assert gym.make(env_id).unwrapped.vec.max_steps == gym.spec(env_id).max_episode_steps
+
+
+def test_an_episode_through_make_is_truncated_once_at_the_limit_with_its_metrics():
+    """gymnasium.make wraps TimeLimit(spec.max_episode_steps); the environment truncates at the same step, so the
+    episode ends exactly once, at step 640, with the environment's metrics (not a bare TimeLimit cut)."""
+    env = gym.make("rig_env/VelocityVectorRoll-v0")
+    assert any(isinstance(w, gym.wrappers.TimeLimit) for w in _wrappers(env))
+    env.reset(seed=0)
+    ends = []
+    for k in range(1, 700):
+        _, _, term, trunc, info = env.step(np.zeros(3))
+        if term or trunc:
+            ends.append((k, term, trunc, "rms_error" in info))
+            env.reset()
+        if k == 640:
+            break
+    assert ends == [(640, False, True, True)]
+
+
+def test_make_vec_caps_the_batch_at_the_spec_and_max_episode_steps_is_checked():
+    venv = gym.make_vec("rig_env/ManoeuvreRig-v0", num_envs=2, vectorization_mode="vector_entry_point", task="bank_to_bank")
+    assert venv.max_steps == 1360
+    assert RigVectorEnv(1, max_episode_steps=5).max_steps == 5 and RigVectorEnv(1, max_episode_steps=-1).max_steps == 640
+    with pytest.raises(ValueError, match="max_episode_steps"):
+        RigVectorEnv(1, max_episode_steps=0)
+
+
+def _wrappers(env):
+    while isinstance(env, gym.Wrapper):
+        yield env
+        env = env.env

@@ -98,3 +98,25 @@ def test_static_balance_and_roll_imbalance(params):
     roll_moment = m.hawk_mass * g.hawk_cg_z + m.arm_mass * g.arm_cg_z + m.comp_mass * g.comp_cg_z
     assert abs(pitch_moment) < 0.02  # kg m
     assert 0.05 < roll_moment < 0.398  # below the rig-code no-model value
+
+
+def test_to_toml_round_trip_values_sources_and_identified(params, tmp_path: Path):
+    """A complete file: from_toml reads back the same values, sources and identified entries; a replaced value
+    is written with the default file's source only when it is the default's value."""
+    from rig_env.sysid.paramfile import write_params
+
+    ident = {"mass.hawk_mass": {"value": 1.2, "std": 0.01, "records": ["r1"], "method": "output_error"}}
+    fitted = RigParams.from_toml(write_params(params, tmp_path / "fit.toml", identified=ident))
+    back = RigParams.from_toml(fitted.to_toml(tmp_path / "again.toml"))
+    assert back == fitted and back.sources == fitted.sources and back.identified == fitted.identified
+    assert back.provenance("mass.hawk_mass")["std"] == 0.01 and back.source("mass.hawk_mass")[0] == "identified"
+    body = [ln for ln in (tmp_path / "again.toml").read_text().splitlines() if not ln.startswith("#")]
+    assert sum(ln.count("source =") for ln in body) == len(fitted.sources)  # every value carries its own
+    default = RigParams.from_toml(params.to_toml(tmp_path / "default.toml"))
+    assert default == params and default.sources == params.sources
+    with pytest.raises(FileExistsError, match="overwrite"):
+        params.to_toml(tmp_path / "default.toml")
+    params.to_toml(tmp_path / "default.toml", overwrite=True)
+    with pytest.raises(ParameterError, match="hawk_mass has no recorded source"):
+        params.replace(**{"mass.hawk_mass": 1.3}).to_toml(tmp_path / "unsourced.toml")
+    assert not (tmp_path / "unsourced.toml").exists()

@@ -1,20 +1,23 @@
 """Gymnasium environments of the manoeuvre rig; importing this package registers them (when gymnasium is imported).
 
-| id | task | entry_point | vector_entry_point |
-|---|---|---|---|
-| ``rig_env/VelocityVectorRoll-v0`` | velocity_vector_roll | RigEnv | RigVectorEnv |
-| ``rig_env/BankToBank-v0`` | bank_to_bank | RigEnv | RigVectorEnv |
-| ``rig_env/PullUpPushOver-v0`` | pull_up_push_over | RigEnv | RigVectorEnv |
-| ``rig_env/ForcedOscillation-v0`` | forced_oscillation (``task_options={"axis": "sway_yaw"}`` for sway-yaw) | RigEnv | RigVectorEnv |
-| ``rig_env/FreeFlightEmulation-v0`` | free_flight_emulation | RigEnv | RigVectorEnv |
-| ``rig_env/DepartureRecovery-v0`` | departure_recovery | RigEnv | RigVectorEnv |
-| ``rig_env/ManoeuvreRig-v0`` | any, by the ``task`` argument | RigEnv | RigVectorEnv |
+| id | task | max_episode_steps (80 Hz) | entry_point | vector_entry_point |
+|---|---|---|---|---|
+| ``rig_env/VelocityVectorRoll-v0`` | velocity_vector_roll | 640 (8 s) | RigEnv | RigVectorEnv |
+| ``rig_env/BankToBank-v0`` | bank_to_bank | 1360 (17 s) | RigEnv | RigVectorEnv |
+| ``rig_env/PullUpPushOver-v0`` | pull_up_push_over | 640 (8 s) | RigEnv | RigVectorEnv |
+| ``rig_env/ForcedOscillation-v0`` | forced_oscillation (``task_options={"axis": "sway_yaw"}`` for sway-yaw) | 800 (10 s) | RigEnv | RigVectorEnv |
+| ``rig_env/FreeFlightEmulation-v0`` | free_flight_emulation | 480 (6 s) | RigEnv | RigVectorEnv |
+| ``rig_env/DepartureRecovery-v0`` | departure_recovery | 640 (8 s) | RigEnv | RigVectorEnv |
+| ``rig_env/ManoeuvreRig-v0`` | any, by the ``task`` argument | 1360 (the longest task's) | RigEnv | RigVectorEnv |
 
 The tasks, their observation entries, rewards and success criteria: :mod:`rig_env.envs.tasks`.
 Every id accepts the :class:`RigEnvConfig` fields as keyword arguments, e.g.
 ``gymnasium.make("rig_env/ManoeuvreRig-v0", task="bank_to_bank", free_dofs=("rig_roll",), airspeed=18.0)``
 or ``gymnasium.make_vec("rig_env/VelocityVectorRoll-v0", num_envs=1024, vectorization_mode="vector_entry_point")``.
-SB3: :class:`rig_env.envs.sb3.RigSB3VecEnv` (imported lazily; stable-baselines3 is optional).
+``make_vec(..., autoreset_mode=AutoresetMode.NEXT_STEP)`` gives the batch Gymnasium's next-step
+autoreset (its vector observation wrappers need it); same-step is the default.
+SB3: :class:`rig_env.envs.sb3.RigSB3VecEnv` (imported lazily; stable-baselines3 is optional);
+:func:`rig_env.envs.sb3.as_sb3_vec_env` points a Gymnasium ``VectorEnv`` at it.
 
 Importing this package imports neither gymnasium nor numba: the classes below are imported at their
 first use (PEP 562), so that :mod:`rig_env.envs.observation` (the observation builder the rig's

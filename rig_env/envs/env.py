@@ -64,7 +64,9 @@ class RigEnv(gym.Env):
 
     Terminated: blow-up of the integration (``info["status"]`` 1 non-finite, 2 runaway rate) or a
     free limited joint more than 2 deg beyond its stop.  Truncated: the task's time limit
-    (``episode_seconds``).  At the end, ``info`` holds the metrics (``success``, ``rms_error``,
+    (``episode_seconds`` at the control rate, capped at ``max_episode_steps`` control steps when given;
+    the registered ids' ``spec.max_episode_steps`` equal the tasks' limits, so ``gymnasium.make``'s
+    ``TimeLimit`` truncates at the same step).  At the end, ``info`` holds the metrics (``success``, ``rms_error``,
     ``rise_time``, ``settling_time``, ``overshoot_pct``, ``control_effort``, ``control_rate``,
     ``constraint_violations``, ``episode_time``, ``segments``, ``segments_settled``, ``status``,
     ``stop_exceeded``).  Step the environment again only after ``reset()``.
@@ -84,8 +86,10 @@ class RigEnv(gym.Env):
 
     metadata: dict[str, Any] = {"render_modes": list(RENDER_MODES)}
 
-    def __init__(self, config: RigEnvConfig | None = None, render_mode: str | None = None, **fields: Any) -> None:
-        self.vec = RigVectorEnv(1, config, render_mode=render_mode, **fields)
+    def __init__(
+        self, config: RigEnvConfig | None = None, render_mode: str | None = None, max_episode_steps: int | None = None, **fields: Any
+    ) -> None:
+        self.vec = RigVectorEnv(1, config, render_mode=render_mode, max_episode_steps=max_episode_steps, **fields)
         self.render_mode, self.metadata = self.vec.render_mode, {**type(self).metadata, "render_fps": self.vec.metadata["render_fps"]}
         self.config = self.vec.config
         self.observation_space = self.vec.single_observation_space

@@ -23,6 +23,21 @@ ENV_IDS: dict[str, dict[str, str]] = {
     "rig_env/ManoeuvreRig-v0": {},
 }
 
+MAX_EPISODE_STEPS: dict[str, int] = {
+    "rig_env/VelocityVectorRoll-v0": 640,  # 8 s at the default 80 Hz control rate
+    "rig_env/BankToBank-v0": 1360,  # 17 s
+    "rig_env/PullUpPushOver-v0": 640,  # 8 s
+    "rig_env/ForcedOscillation-v0": 800,  # 10 s
+    "rig_env/FreeFlightEmulation-v0": 480,  # 6 s
+    "rig_env/DepartureRecovery-v0": 640,  # 8 s
+    "rig_env/ManoeuvreRig-v0": 1360,  # the longest task's, so no task chosen by keyword is cut short
+}
+"""Each id's ``spec.max_episode_steps``: the task's own time limit (``default_episode_seconds`` x the default
+control rate, control steps), so ``gymnasium.make``'s ``TimeLimit`` ends an episode at the same step as the
+environment itself (once, with the episode's metrics in ``info``) and ``make_vec`` caps the batch there too.
+With ``episode_seconds`` or ``control_rate`` changed through ``make``, pass ``max_episode_steps`` to match
+(or -1 for none: the environment still ends its episodes)."""
+
 _armed = False
 
 
@@ -38,6 +53,7 @@ def register_envs() -> None:
             entry_point="rig_env.envs.env:RigEnv",
             vector_entry_point="rig_env.envs.vector_env:RigVectorEnv",
             kwargs=dict(kwargs),
+            max_episode_steps=MAX_EPISODE_STEPS[env_id],
             disable_env_checker=False,
         )
 
@@ -50,4 +66,4 @@ def register_when_imported() -> None:
         when_imported("gymnasium", register_envs)
 
 
-__all__ = ["ENV_IDS", "register_envs", "register_when_imported"]
+__all__ = ["ENV_IDS", "MAX_EPISODE_STEPS", "register_envs", "register_when_imported"]

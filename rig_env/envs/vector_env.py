@@ -1,4 +1,4 @@
-"""``RigVectorEnv``: a batch of rig environments over one physics batch (Gymnasium VectorEnv, same-step autoreset).
+"""``RigVectorEnv``: a batch of rig environments over one physics batch (Gymnasium VectorEnv, same- or next-step autoreset).
 
 The physics is a :class:`rig_env.physics.pipeline.PhysicsBatch` (``self.physics``: state ``X``,
 parameters ``P``, inputs ``U``, servo delay lines, status; the same pipeline :func:`rig_env.simulate`
@@ -17,13 +17,26 @@ environment ``i`` of a batch reset with seed ``s`` runs exactly as ``RigEnv`` re
 ``reset(seed=None)`` advances every environment's).  ``reset(seed=None)`` before any seeded reset draws
 ``s`` from the batch generator ``self.np_random``.
 
-Same-step autoreset (``metadata["autoreset_mode"] = AutoresetMode.SAME_STEP``): when environment ``i``
-terminates or truncates, ``step`` returns the first observation of its next episode and puts the
-last one in ``infos["final_obs"][i]`` and the episode's metrics in ``infos["final_info"]`` (arrays over
-the batch with ``_name`` masks, Gymnasium's convention).  ``final_info`` keys: ``success``,
-``status`` (0 ok, 1 non-finite state, 2 runaway rate; a blown-up environment is terminated, the others
-carry on), ``stop_exceeded``, :data:`rig_env.envs.metrics.METRIC_NAMES` and the task's own
-(``Task.episode_metrics``, e.g. ``amplitude_ratio`` of the forced oscillation).
+Autoreset (``autoreset_mode``, also ``metadata["autoreset_mode"]``; Gymnasium's two modes):
+
+- ``AutoresetMode.SAME_STEP`` (the default, what SB3 expects): when environment ``i`` terminates or
+  truncates, ``step`` returns the first observation of its next episode and puts the last one in
+  ``infos["final_obs"][i]`` and the episode's metrics in ``infos["final_info"]`` (arrays over the batch
+  with ``_name`` masks, Gymnasium's convention).
+- ``AutoresetMode.NEXT_STEP`` (what Gymnasium's vector observation wrappers and CleanRL-style loops
+  expect): the ending step returns the last observation itself and the metrics at the top level of
+  ``infos`` (``infos["success"]``, ``infos["_success"]``, ...); the next ``step`` ignores that
+  environment's action and returns the first observation of its next episode with reward 0, not
+  terminated, not truncated.  Step for step equal to ``SyncVectorEnv([lambda: RigEnv(...)] * n,
+  autoreset_mode=AutoresetMode.NEXT_STEP)``.
+
+Metric keys: ``success``, ``status`` (0 ok, 1 non-finite state, 2 runaway rate; a blown-up environment
+is terminated, the others carry on), ``stop_exceeded``, :data:`rig_env.envs.metrics.METRIC_NAMES` and
+the task's own (``Task.episode_metrics``, e.g. ``amplitude_ratio`` of the forced oscillation).
+
+Episode length: ``episode_seconds`` (the task's default when None) at the control rate, capped at
+``max_episode_steps`` control steps when that is given (what ``gymnasium.make_vec`` passes from the
+registered spec, so the batch ends episodes where ``gymnasium.make``'s ``TimeLimit`` ends them).
 
 Actions are ``(num_envs, 3)`` (``(num_envs, 6)`` with ``hawk_surfaces``): compensator aileron,
 elevator, rudder (then Hawk elevator, aileron, rudder), each in [-1, 1] for +-40 deg.  Out-of-range
@@ -108,13 +121,27 @@ def _episode_ends(status, beyond, steps, max_steps, reward, terminated, truncate
     return any_done
 
 
+def _autoreset_mode(mode: AutoresetMode | str) -> AutoresetMode:
+    """SAME_STEP or NEXT_STEP from an ``AutoresetMode`` or its value; anything else is a ValueError."""
+    try:
+        m = AutoresetMode(mode)
+    except ValueError:
+        m = None
+    if m not in (AutoresetMode.SAME_STEP, AutoresetMode.NEXT_STEP):
+        raise ValueError(f"autoreset_mode = {mode!r}: must be AutoresetMode.SAME_STEP or AutoresetMode.NEXT_STEP ('SameStep', 'NextStep')")
+    return m
+
+
 class RigVectorEnv(VectorEnv):
     """``num_envs`` rig environments stepped together; configuration as :class:`RigEnvConfig` fields.
 
-    ``RigVectorEnv(num_envs, config=None, render_mode=None, **fields)``: ``fields`` override ``config``
-    (an unknown name or out-of-range value is a ``ValueError``); ``render_mode`` None, "rgb_array" or
-    "human" (:mod:`rig_env.envs.render`; ``metadata["render_fps"]`` is the control rate).  See the
-    module docstring for seeding, autoreset and infos, and :class:`rig_env.envs.env.RigEnv` for the
+    ``RigVectorEnv(num_envs, config=None, render_mode=None, autoreset_mode=AutoresetMode.SAME_STEP,
+    max_episode_steps=None, **fields)``: ``fields`` override ``config`` (an unknown name or out-of-range
+    value is a ``ValueError``); ``render_mode`` None, "rgb_array" or "human" (:mod:`rig_env.envs.render`;
+    ``metadata["render_fps"]`` is the control rate); ``autoreset_mode`` SAME_STEP or NEXT_STEP (an
+    ``AutoresetMode`` or its value, "SameStep" / "NextStep"); ``max_episode_steps`` caps the episode
+    at that many control steps (None or -1: no cap beyond ``episode_seconds``).  See the module
+    docstring for seeding, autoreset and infos, and :class:`rig_env.envs.env.RigEnv` for the
     observation and action tables.
     """
 
@@ -122,9 +149,23 @@ class RigVectorEnv(VectorEnv):
     action_scale_deg: float = ACTION_SCALE_DEG
     """Compensator deflection, deg, of a normalised action of 1 (every action entry)."""
 
-    def __init__(self, num_envs: int = 1, config: RigEnvConfig | None = None, render_mode: str | None = None, **fields: Any) -> None:
+    def __init__(
+        self,
+        num_envs: int = 1,
+        config: RigEnvConfig | None = None,
+        render_mode: str | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.SAME_STEP,
+        max_episode_steps: int | None = None,
+        **fields: Any,
+    ) -> None:
         if not isinstance(num_envs, (int, np.integer)) or isinstance(num_envs, bool) or not 1 <= num_envs <= 1_000_000:
             raise ValueError(f"num_envs = {num_envs!r}: must be an integer in [1, 1000000]")
+        mode = _autoreset_mode(autoreset_mode)
+        if max_episode_steps is not None and (
+            not isinstance(max_episode_steps, (int, np.integer)) or isinstance(max_episode_steps, bool)
+            or not (max_episode_steps >= 1 or max_episode_steps == -1)
+        ):
+            raise ValueError(f"max_episode_steps = {max_episode_steps!r}: must be a positive integer, -1 or None (no cap)")
         cfg = (config or RigEnvConfig()).with_overrides(**fields)
         self.config, self.num_envs, self.render_mode = cfg, int(num_envs), check_render_mode(render_mode)
         n = self.num_envs
@@ -134,8 +175,13 @@ class RigVectorEnv(VectorEnv):
         self.episode_seconds = float(cfg.episode_seconds or task_cls.default_episode_seconds)
         self.dt, self.h, self.n_sub = rates(cfg.control_rate, cfg.physics_dt)
         self.max_steps = max(1, int(round(self.episode_seconds / self.dt)))
+        """Control steps of an episode at the time limit (truncation)."""
+        if max_episode_steps is not None and max_episode_steps != -1:
+            self.max_steps = min(self.max_steps, int(max_episode_steps))
         fps = float(cfg.control_rate)  # one frame per control step; metadata is per instance (rates differ)
-        self.metadata = {**type(self).metadata, "render_fps": int(fps) if fps.is_integer() else fps}
+        self.metadata = {**type(self).metadata, "render_fps": int(fps) if fps.is_integer() else fps, "autoreset_mode": mode}
+        self._next_step = mode is AutoresetMode.NEXT_STEP
+        self._pending: np.ndarray | None = None  # next-step mode: environments that ended on the last step
         self.viewer = EnvViewer(self.render_mode, fps, cfg.task) if self.render_mode is not None else None
         bad = [j for j in cfg.locked_deg if j in self.free_dofs]
         if bad:
@@ -226,6 +272,9 @@ class RigVectorEnv(VectorEnv):
             if mask.shape != (self.num_envs,):
                 raise ValueError(f"options['reset_mask']: expected shape ({self.num_envs},), got {mask.shape}")
         self._reset_envs(np.flatnonzero(mask))
+        if self._pending is not None:  # next-step mode: a reset environment has nothing left to autoreset
+            left = self._pending[~mask[self._pending]]
+            self._pending = left if left.size else None
         if self.viewer is not None:
             self.viewer.clear_held()
             if self.render_mode == "human":
@@ -354,6 +403,10 @@ class RigVectorEnv(VectorEnv):
         a = self.check_actions(actions)
         if self.viewer is not None:
             self.viewer.clear_held()
+        pending, self._pending = self._pending, None
+        if pending is not None:  # next-step mode: the environments that ended on the last step start their next
+            self.episode[pending] += np.uint64(1)  # episode: stepped from its reset state (a blown-up state may
+            self._reset_envs(pending)  # be non-finite), then reset again below, so the step is discarded
         # the task's pilot inputs (Hawk elevator, aileron, rudder, rad): the Hawk surface commands, or
         # added to the action's Hawk commands with hawk_surfaces (the servo limits clip the sum)
         if self._schedule is None:
@@ -379,6 +432,9 @@ class RigVectorEnv(VectorEnv):
         terminated, truncated, reward_out = np.empty(n, dtype=bool), np.empty(n, dtype=bool), np.empty(n)
         any_done = _episode_ends(self.status, beyond, self.steps, self.max_steps, reward, terminated, truncated, reward_out)
         reward = reward_out
+        if pending is not None:
+            terminated[pending], truncated[pending], reward[pending] = False, False, 0.0
+            any_done = bool(terminated.any() or truncated.any())
         seg, y, r, err, band = self.task.tracked(self.t, q, qd, ref)
         self.metrics.update(self.t, seg, y, r, err, band, a, self.prev_action, on_stop)
         self.prev_action = a
@@ -386,23 +442,37 @@ class RigVectorEnv(VectorEnv):
         infos: dict[str, Any] = {}
         if any_done:
             idx = np.flatnonzero(terminated | truncated)
-            infos = self._final_infos(idx, obs, q, qd, ref, truncated, beyond)
-            if self.viewer is not None:
-                self.viewer.hold(self, idx)  # frames show an ended episode's last state until the next step
-            self.episode[idx] += np.uint64(1)
-            self._reset_envs(idx)
-            obs[idx] = self._observe()[idx]
+            if self._next_step:  # the last observation now, the reset on the next step
+                infos = self._episode_info(idx, q, qd, ref, truncated, beyond)
+                self._pending = idx
+            else:
+                infos = self._final_infos(idx, obs, q, qd, ref, truncated, beyond)
+                if self.viewer is not None:
+                    self.viewer.hold(self, idx)  # frames show an ended episode's last state until the next step
+                self.episode[idx] += np.uint64(1)
+                self._reset_envs(idx)
+                obs[idx] = self._observe()[idx]
+        if pending is not None:  # the same reset state again: the first observation of the next episode
+            self._reset_envs(pending)
+            obs[pending] = self._observe()[pending]
         if self.render_mode == "human":
             self.viewer.show(self)
         return obs, reward, terminated, truncated, infos
 
     def _final_infos(self, idx, obs, q, qd, ref, truncated, beyond) -> dict[str, Any]:
+        """Same-step infos of the environments ``idx`` that ended: ``final_obs``, ``final_info`` and masks."""
+        fi = self._episode_info(idx, q, qd, ref, truncated, beyond)
+        mask = fi["_success"]
+        final_obs = np.full(self.num_envs, None, dtype=object)
+        for i in idx:
+            final_obs[i] = obs[i].copy()
+        return {"final_obs": final_obs, "_final_obs": mask, "final_info": fi, "_final_info": mask}
+
+    def _episode_info(self, idx, q, qd, ref, truncated, beyond) -> dict[str, Any]:
+        """The episode metrics of the environments ``idx`` that ended: (num_envs,) arrays with ``_name`` masks."""
         n = self.num_envs
         mask = np.zeros(n, dtype=bool)
         mask[idx] = True
-        final_obs = np.full(n, None, dtype=object)
-        for i in idx:
-            final_obs[i] = obs[i].copy()
         m = self.metrics.finish(idx, self.t)
         m.update(self.task.episode_metrics(idx))
         m["success"] = truncated[idx] & self.task.success(q[idx], qd[idx], ref[idx], m)
@@ -413,7 +483,7 @@ class RigVectorEnv(VectorEnv):
             full = np.zeros(n, dtype=v.dtype)
             full[idx] = v
             fi[k], fi[f"_{k}"] = full, mask
-        return {"final_obs": final_obs, "_final_obs": mask, "final_info": fi, "_final_info": mask}
+        return fi
 
     def render(self) -> EnvFrames | None:
         """rgb_array: the frames of every environment, drawn lazily when indexed (``frames[0]``: the

@@ -11,14 +11,12 @@ laws' design (``params=``) and ``rig compare --params``.  :func:`save_fit_params
 
 from __future__ import annotations
 
-import dataclasses
-import functools
-import json
 import math
 from pathlib import Path
 from typing import Any, Mapping
 
-from rig_env.params import DEFAULT_FILE, IDENTIFIED_KEYS, PARAM_INDEX, SOURCES, HighIncidence, ParameterError, RigParams
+from rig_env.params import DEFAULT_FILE, IDENTIFIED_KEYS, PARAM_INDEX, ParameterError, RigParams
+from rig_env.params_io import params_text, write_checked
 from rig_env.sysid.result import Fit
 
 HEADER = """# Rig parameters with identified values (written by rig_env.sysid.paramfile).
@@ -26,26 +24,6 @@ HEADER = """# Rig parameters with identified values (written by rig_env.sysid.pa
 # standard error, the value's unit), the records they were fitted to and the method.
 # Units SI unless the field name says _deg, _deg_s or _hz. Axes: x towards the model (upstream), y starboard, z down.
 """
-
-
-def _toml(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if not math.isfinite(v):
-            raise ParameterError(f"cannot write the non-finite value {v!r}")
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v, ensure_ascii=False)  # a TOML basic string: JSON's escapes are TOML's
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml(x) for x in v) + "]"
-    raise ParameterError(f"cannot write {type(v).__name__} {v!r} to a parameter file")
-
-
-def _leaf(params: RigParams, name: str) -> Any:
-    return functools.reduce(getattr, name.split("."), params)
 
 
 def _check_identified(identified: Mapping[str, Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
@@ -64,65 +42,15 @@ def _check_identified(identified: Mapping[str, Mapping[str, Any]]) -> dict[str, 
     return out
 
 
-def _provenance(params: RigParams, base: RigParams, name: str) -> dict[str, Any]:
-    """The source entries of a value not identified now: its own, else the base file's if the value is the same."""
-    if params.sources.get(name, ("",))[0] in SOURCES:
-        return params.provenance(name)
-    same = base.high_incidence == params.high_incidence if name == "high_incidence" else _leaf(base, name) == _leaf(params, name)
-    if name in base.sources and same:
-        return base.provenance(name)
-    raise ParameterError(f"{name} has no recorded source (set by RigParams.replace?) and differs from the base file; "
-                         f"give it in identified, or write it into a base file with its source")
-
-
-def _entry(value: Any, unit: str, prov: Mapping[str, Any]) -> str:
-    items = [("value", value), ("source", prov["source"]), ("unit", unit)]
-    if prov.get("note"):
-        items.append(("note", prov["note"]))
-    for k in IDENTIFIED_KEYS:
-        if k in prov:
-            items.append((k, prov[k]))
-    return "{ " + ", ".join(f"{k} = {_toml(v)}" for k, v in items) + " }"
-
-
-def _group(obj: Any, prefix: str, params: RigParams, base: RigParams, ident: Mapping[str, Mapping[str, Any]], lines: list[str]) -> None:
-    leaves, subs = [], []
-    for f in dataclasses.fields(obj):
-        v = getattr(obj, f.name)
-        (subs if dataclasses.is_dataclass(v) else leaves).append(f)
-    if leaves:
-        lines += ["", f"[{prefix}]"]
-        for f in leaves:
-            name = f"{prefix}.{f.name}"
-            if name in ident:
-                e = ident[name]
-                prov = {"source": "identified", "note": f"identified by {e['method']} from {', '.join(e['records'])}", **e}
-                value: Any = e["value"]
-            else:
-                prov, value = _provenance(params, base, name), getattr(obj, f.name)
-            lines.append(f"{f.name} = {_entry(value, f.metadata['unit'], prov)}")
-    for f in subs:
-        _group(getattr(obj, f.name), f"{prefix}.{f.name}", params, base, ident, lines)
-
-
 def params_toml(params: RigParams, identified: Mapping[str, Mapping[str, Any]] | None = None,
                 base_file: str | Path | None = None) -> str:
     """The text of :func:`write_params` (same arguments, nothing written)."""
     ident = _check_identified(identified or {})
     base = RigParams.from_toml(DEFAULT_FILE if base_file is None else base_file)
     params = params.replace(**{k: e["value"] for k, e in ident.items()}) if ident else params
-    lines = [HEADER.rstrip("\n")]
-    for f in dataclasses.fields(params):
-        if f.name in ("sources", "identified", "high_incidence"):
-            continue
-        _group(getattr(params, f.name), f.name, params, base, ident, lines)
-    prov = _provenance(params, base, "high_incidence")
-    lines += ["", "[high_incidence]", f"source = {_toml(prov['source'])}"]
-    if prov.get("note"):
-        lines.append(f"note = {_toml(prov['note'])}")
-    for f in dataclasses.fields(HighIncidence):
-        lines.append(f"{f.name} = {_toml([float(x) for x in getattr(params.high_incidence, f.name)])}")
-    return "\n".join(lines) + "\n"
+    override = {k: (e["value"], {"source": "identified", "note": f"identified by {e['method']} from {', '.join(e['records'])}", **e})
+                for k, e in ident.items()}
+    return params_text(params, lambda name: params.file_provenance(name, base), HEADER, override)
 
 
 def write_params(params: RigParams, path: str | Path, *, identified: Mapping[str, Mapping[str, Any]] | None = None,
@@ -135,25 +63,15 @@ def write_params(params: RigParams, path: str | Path, *, identified: Mapping[str
     or, where ``params`` has none (a value set by ``RigParams.replace``), from ``base_file`` (default:
     the default rig) if it holds the same value; otherwise a ParameterError names the value.  The file
     is loaded back before it is written (``RigParams.from_toml`` validates it and must give the same
-    values).  FileExistsError if ``path`` exists and not ``overwrite``.
+    values).  FileExistsError if ``path`` exists and not ``overwrite``.  The format is
+    :mod:`rig_env.params_io`'s (also :meth:`RigParams.to_toml`'s).
     """
     path = Path(path)
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists; pass overwrite=True (rig identify: --overwrite) to replace it")
     text = params_toml(params, identified, base_file)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text)
-    try:
-        back = RigParams.from_toml(tmp)
-        want = params.replace(**{k: float(e["value"]) for k, e in (identified or {}).items()}) if identified else params
-        if back != want:
-            raise ParameterError(f"{path}: the written file does not load back to the same values (a writer bug)")
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    tmp.replace(path)
-    return path
+    want = params.replace(**{k: float(e["value"]) for k, e in (identified or {}).items()}) if identified else params
+    return write_checked(text, path, RigParams.from_toml, want, overwrite)
 
 
 def fit_identified(fit: Fit) -> dict[str, dict[str, Any]]:

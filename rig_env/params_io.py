@@ -1,0 +1,106 @@
+"""The text of a parameter file: a tree of frozen parameter dataclasses written as TOML, one copy of the format.
+
+The lowest layer of ``rig_env`` (imports no other module of the project), so that both
+:meth:`rig_env.params.RigParams.to_toml` and :mod:`rig_env.sysid.paramfile` (identified values) write
+through it.  Layout as ``rig_env/data/default_rig.toml``: a ``[group]`` table per dataclass of leaves,
+each leaf ``name = { value = ..., source = ..., unit = ..., note = ..., std/records/method }``, then the
+``[high_incidence]`` tables (``source``, ``note`` and one float array per field).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+
+class ParameterError(ValueError):
+    """Invalid rig parameter: the message names the field and its allowed range."""
+
+
+IDENTIFIED_KEYS = ("std", "records", "method")
+"""Keys an ``identified`` entry carries besides value, source, note and unit (and no other source may)."""
+
+Provenance = Callable[[str], Mapping[str, Any]]
+"""A dotted name (or ``"high_incidence"``) -> its ``source``, ``note`` and, if identified, ``std``, ``records``, ``method``."""
+
+
+def toml_value(v: Any) -> str:
+    """A TOML literal of a bool, int, finite float, string or list of them; ParameterError otherwise."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise ParameterError(f"cannot write the non-finite value {v!r}")
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)  # a TOML basic string: JSON's escapes are TOML's
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(toml_value(x) for x in v) + "]"
+    raise ParameterError(f"cannot write {type(v).__name__} {v!r} to a parameter file")
+
+
+def _entry(value: Any, unit: str, prov: Mapping[str, Any]) -> str:
+    items = [("value", value), ("source", prov["source"]), ("unit", unit)]
+    if prov.get("note"):
+        items.append(("note", prov["note"]))
+    for k in IDENTIFIED_KEYS:
+        if k in prov:
+            items.append((k, prov[k]))
+    return "{ " + ", ".join(f"{k} = {toml_value(v)}" for k, v in items) + " }"
+
+
+def _group(obj: Any, prefix: str, provenance: Provenance, override: Mapping[str, tuple[Any, Mapping[str, Any]]], lines: list[str]) -> None:
+    leaves, subs = [], []
+    for f in dataclasses.fields(obj):
+        (subs if dataclasses.is_dataclass(getattr(obj, f.name)) else leaves).append(f)
+    if leaves:
+        lines += ["", f"[{prefix}]"]
+        for f in leaves:
+            name = f"{prefix}.{f.name}"
+            value, prov = override[name] if name in override else (getattr(obj, f.name), provenance(name))
+            lines.append(f"{f.name} = {_entry(value, f.metadata['unit'], prov)}")
+    for f in subs:
+        _group(getattr(obj, f.name), f"{prefix}.{f.name}", provenance, override, lines)
+
+
+def params_text(params: Any, provenance: Provenance, header: str,
+                override: Mapping[str, tuple[Any, Mapping[str, Any]]] | None = None) -> str:
+    """The complete parameter file of ``params`` (a ``RigParams``): every value with ``provenance(name)``,
+    except the dotted names of ``override``, written as ``(value, provenance)``; ``header``: comment lines."""
+    lines = [header.rstrip("\n")]
+    for f in dataclasses.fields(params):
+        if f.name in ("sources", "identified", "high_incidence"):
+            continue
+        _group(getattr(params, f.name), f.name, provenance, override or {}, lines)
+    prov = provenance("high_incidence")
+    lines += ["", "[high_incidence]", f"source = {toml_value(prov['source'])}"]
+    if prov.get("note"):
+        lines.append(f"note = {toml_value(prov['note'])}")
+    hi = params.high_incidence
+    for f in dataclasses.fields(hi):
+        lines.append(f"{f.name} = {toml_value([float(x) for x in getattr(hi, f.name)])}")
+    return "\n".join(lines) + "\n"
+
+
+def write_checked(text: str, path: str | Path, load: Callable[[Path], Any], want: Any, overwrite: bool = False) -> Path:
+    """Write ``text`` at ``path`` only if ``load`` reads it back equal to ``want`` (through a temporary file
+    beside it, then renamed); FileExistsError if ``path`` exists and not ``overwrite``.  Returns the path."""
+    path = Path(path)
+    if path.exists() and not overwrite:
+        raise FileExistsError(f"{path} exists; pass overwrite=True (rig identify: --overwrite) to replace it")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text)
+    try:
+        if load(tmp) != want:
+            raise ParameterError(f"{path}: the written file does not load back to the same values (a writer bug)")
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    tmp.replace(path)
+    return path
