@@ -18,7 +18,8 @@ tick waits for one at most ``frame_wait`` periods (``select`` with a timeout), n
 If the loop wakes more than a period late, it skips to the current tick (skipped ticks are misses).
 
 Per tick: read frames (others' addresses: ``n_foreign``; bad length / magic / version / CRC / non-finite:
-``n_corrupt``; not newer than the last: ``n_old``), update :class:`rig_env.envs.sensors.Sensors`
+``n_corrupt``; wrong MAC for the link key: ``auth``; another session: ``session``; not newer than the last:
+``n_old``; implausible: ``implausible`` and ``implausible_<reason>``), update :class:`rig_env.envs.sensors.Sensors`
 (``noise=None``, ``quantise=False``, ``delay_steps=0``) and build the observation with
 :func:`rig_env.envs.observation.observe` (the environments' own builder), call the law, apply the
 output position and rate limits (always, in every state), send the command, log the record.  A missing
@@ -39,7 +40,9 @@ environments (the tests) uses their compiled kernels.
 | sensor range | non-finite (refused by the CRC/finite check); limited joints beyond +-90 deg, unlimited beyond +-1e4 rad, flaps beyond +-60 deg, airspeed outside [0, 45] m/s | FAULT |
 | rig status | RIG_FAULT bit set | FAULT |
 | controller | exception or non-finite output | FAULT |
-| overrun | the law's ``act`` longer than ``overrun_s`` (half a period) | FAULT |
+| overrun | the law's ``act`` longer than ``overrun_s`` (half a period) on ``overrun_ticks`` (3) consecutive ticks, or on more than 8 of the last 100 (:mod:`controllers.deploy.overrun`) | FAULT |
+| command acknowledgement | the rig's frames acknowledge none of the last ``ack_frames`` (8) commands sent (:meth:`RigLoop.ack_lag`) | FAULT ``command_ack`` while ACTIVE; arming refused |
+| implausible frames | ``implausible_frames`` (3) consecutive frames refused by :mod:`controllers.deploy.plausibility` | FAULT ``implausible`` |
 | stuck sensor (ACTIVE only) | a free joint's reading bit-identical for ``stuck_frames`` (32) consecutive fresh frames while a commanded surface moved by ``stuck_cmd_deg`` (2 deg at 18 m/s, scaled by (18 / U)^2) or more over them (:mod:`controllers.deploy.stuck`) | FAULT, naming the joint |
 
 Why two stale bounds: a single 3-frame latch trips on random 10 % packet loss about once every
