@@ -249,7 +249,7 @@ def test_keyed_flight_ignores_a_stray_sender_survives_a_spike_and_faults_when_co
     assert c["auth"] == c["session"] == c["corrupt"] == 0 and c["fresh"] > 100
     # the stray's 120 commands: all ignored and counted, none applied.  Once the loop's hello made the session, the rig
     # ignores other addresses (cmd_foreign); one arriving before it is refused by its MAC (cmd_auth) or, keyed, because a
-    # session starts only with a DISARMED hello (cmd_foreign)
+    # session starts only with a neutral command, never an ACTIVE one (cmd_foreign)
     assert sent == {"plain": 60, "keyed": 60} and rc.get("cmd_auth", 0) + rc["cmd_foreign"] == 120
     assert not np.any(np.isclose(rec["cmd"], np.radians(stray_deg), atol=1e-6))
     # the 8 ms stall at the 40th call: counted as an overrun, no fault
@@ -261,3 +261,17 @@ def test_keyed_flight_ignores_a_stray_sender_survives_a_spike_and_faults_when_co
     assert np.all(log["state"][i0:k] == ACTIVE)
     assert 1.5 + 7 * T <= log["rig_time"][k] <= 1.5 + 11 * T, log["rig_time"][k]
     assert rc["cmd_blackout"] > 0
+
+
+def test_cli_refuses_a_bad_link_key_file_with_exit_2(tmp_path, artefact, capsys):
+    from controllers.deploy.cli import main
+
+    law = tmp_path / "law.json"
+    A.save(artefact, law)
+    loose = tmp_path / "link.key"
+    loose.write_text(KEY.hex())
+    os.chmod(loose, 0o644)
+    assert main(["run", "--law", str(law), "--rig", "udp://127.0.0.1:9", "--link-key-file", str(loose)]) == 2
+    assert f"link key file {loose}: readable by group or others" in capsys.readouterr().err
+    assert main(["sim-rig", "--port", "0", "--link-key-file", str(tmp_path / "absent.key")]) == 2
+    assert "absent.key: cannot read" in capsys.readouterr().err

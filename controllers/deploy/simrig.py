@@ -2,8 +2,8 @@
 
 The model is :class:`rig_env.envs.RigVectorEnv` as a batch of one (the same physics, task, sensor
 noise and converter quantisation as training; ``link_delay_steps = 0``: the network is the delay).
-The rig waits (bounded) for its client's session: the first valid command frame in mode DISARMED (the
-loop's hello; authenticated when the rig has a link key) fixes the client's address and session id for
+The rig waits (bounded) for its client's session: the first valid command frame in a neutral mode
+(DISARMED, the loop's hello, or SAFE; authenticated when the rig has a link key) fixes the client's address and session id for
 the run.  Commands from any other address or session, and with a key any command without the right MAC,
 are counted and ignored (a sender that starts with an ACTIVE command never becomes the client); of the
 session's commands only a seq newer than the last applied is taken (replays are counted as old).  Each
@@ -230,7 +230,7 @@ class SimRig:
                 self.counts["cmd_auth" if e.reason == "mac" else "cmd_corrupt"] += 1
                 continue
             if self.client is None:
-                if c.mode != pr.MODE_DISARMED or c.session == 0:  # a session starts with a hello, never with a flying command
+                if c.mode == pr.MODE_ACTIVE or c.session == 0:  # a session starts with a neutral command (a hello), never a flying one
                     self.counts["cmd_foreign"] += 1
                     continue
                 self.client, self.session = addr, c.session
