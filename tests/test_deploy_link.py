@@ -275,3 +275,34 @@ def test_cli_refuses_a_bad_link_key_file_with_exit_2(tmp_path, artefact, capsys)
     assert f"link key file {loose}: readable by group or others" in capsys.readouterr().err
     assert main(["sim-rig", "--port", "0", "--link-key-file", str(tmp_path / "absent.key")]) == 2
     assert "absent.key: cannot read" in capsys.readouterr().err
+
+
+def test_keyless_rig_is_not_captured_by_a_stray_that_starts_flying_first(tmp_path, artefact):
+    """The issue's incident without a key: a stray sends ACTIVE 34 deg commands before the loop starts; the rig waits for a hello."""
+    from test_deploy import SimRigProcess
+
+    law = tmp_path / "law.json"
+    A.save(artefact, law)
+    rig = SimRigProcess(tmp_path, 1.5)
+    try:
+        s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        s.bind(("127.0.0.1", 0))
+        b = bytearray(pr.COMMAND_SIZE)
+        for i in range(20):
+            pr.pack_command_into(b, i, pr.NO_ECHO, [np.radians(34.0)] * 6, pr.MODE_ACTIVE, 1234)
+            s.sendto(b, ("127.0.0.1", rig.port))
+        time.sleep(0.2)
+        loop = RigLoop(A.load(law), LoopConfig(rig=("127.0.0.1", rig.port), rate_hz=80.0, bind=("127.0.0.1", 0), duration=1.5, arm=True))
+        out = loop.run()
+        for i in range(20, 40):  # and once the loop holds the session
+            pr.pack_command_into(b, i, pr.NO_ECHO, [np.radians(34.0)] * 6, pr.MODE_ACTIVE, 1234)
+            s.sendto(b, ("127.0.0.1", rig.port))
+        s.close()
+        rs = rig.finish()
+    finally:
+        rig.kill()
+    with np.load(rig.record, allow_pickle=False) as z:
+        cmd = z["cmd"]
+    assert rs["counts"]["cmd_foreign"] >= 20 and out["counts"]["fresh"] > 80 and out["counts"]["session"] == 0
+    assert out["final_state"] == "ACTIVE" and not out["faults"], out["faults"]
+    assert not np.any(np.isclose(cmd, np.radians(34.0), atol=1e-6))
