@@ -396,6 +396,9 @@ def test_ten_percent_packet_loss_still_completes(tmp_path, law_file):
     assert loop["final_state"] == "ACTIVE" and not loop["faults"]
     assert rig["final_info"]["success"] == 1.0
     assert abs(rig["final_info"]["rms_error"] - off["final_info"]["rms_error"]) < 1.0
+    # the command loss is visible to the loop: a dropped command leaves the next frame's ack behind (unless that frame
+    # is lost too, 10 %), so about 0.9 of the rig's dropped commands show as unapplied frames; 0.7 leaves the binomial scatter
+    assert loop["counts"]["unapplied"] >= 0.7 * rig["counts"]["cmd_dropped"] > 0
 
 
 def test_blackout_safe_within_three_frames_and_latched_until_rearmed(tmp_path, law_file):

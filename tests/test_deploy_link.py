@@ -260,7 +260,7 @@ def test_keyed_flight_ignores_a_stray_sender_survives_a_spike_and_faults_when_co
     i0 = np.flatnonzero(log["seq"] >= 0)[0]
     assert np.all(log["state"][i0:k] == ACTIVE)
     assert 1.5 + 7 * T <= log["rig_time"][k] <= 1.5 + 11 * T, log["rig_time"][k]
-    assert rc["cmd_blackout"] > 0
+    assert rc["cmd_blackout"] > 0 and c["unapplied"] >= 8  # the frames that showed the commands unapplied are counted
 
 
 def test_cli_refuses_a_bad_link_key_file_with_exit_2(tmp_path, artefact, capsys):

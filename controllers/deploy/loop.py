@@ -19,7 +19,8 @@ If the loop wakes more than a period late, it skips to the current tick (skipped
 
 Per tick: read frames (others' addresses: ``n_foreign``; bad length / magic / version / CRC / non-finite:
 ``n_corrupt``; wrong MAC for the link key: ``auth``; another session: ``session``; not newer than the last:
-``n_old``; implausible: ``implausible`` and ``implausible_<reason>``), update :class:`rig_env.envs.sensors.Sensors`
+``n_old``; implausible: ``implausible`` and ``implausible_<reason>``; fresh frames whose ``ack`` is not the
+newest command sent: ``unapplied``), update :class:`rig_env.envs.sensors.Sensors`
 (``noise=None``, ``quantise=False``, ``delay_steps=0``) and build the observation with
 :func:`rig_env.envs.observation.observe` (the environments' own builder), call the law, apply the
 output position and rate limits (always, in every state), send the command, log the record.  A missing
@@ -275,7 +276,7 @@ class RigLoop:
         self.seq, self.cmd_seq, self.have_frame, self.t_origin, self._first = -1, 0, False, 0.0, False
         self._arm_req, self._disarm_req, self._stop = False, False, False
         self.counts = {k: 0 for k in ("fresh", "missed", "foreign", "corrupt", "old", "resync", "tx_error", "arm_refused", "deadline_miss", "skipped",
-                                      "auth", "session", "implausible", *(f"implausible_{r}" for r in IMPLAUSIBLE_REASONS), "overrun")}
+                                      "auth", "session", "implausible", *(f"implausible_{r}" for r in IMPLAUSIBLE_REASONS), "overrun", "unapplied")}
         self.corrupt_reasons: dict[str, int] = {}
         self.events: list[dict[str, Any]] = []
         self.sock: socket.socket | None = None
@@ -483,7 +484,9 @@ class RigLoop:
         if self.status & pr.STATUS_RIG_FAULT:
             bad = True
             self._latch(F_RIG, k, f"rig status 0x{self.status:x}")
-        if (lag := self.ack_lag()) >= self.cfg.ack_frames:  # the rig applies none of our commands: no arming, and FAULT if flying
+        lag = self.ack_lag()
+        self.counts["unapplied"] += lag > 0  # the newest command sent was not applied before this frame: lost, late or flooded out
+        if lag >= self.cfg.ack_frames:  # the rig applies none of our commands: no arming, and FAULT if flying
             bad = True
             if self.state == ACTIVE:
                 self._latch(F_LINK, k, f"the rig acknowledged none of the last {min(lag, self.cmd_seq)} commands (newest ack {self.acked})")
