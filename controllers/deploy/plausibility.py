@@ -8,7 +8,7 @@ in one tick, or bits this loop does not know.  :class:`Plausibility` refuses suc
 |---|---|
 | ``reserved`` | the header's reserved field is not 0 |
 | ``status`` | a status bit other than :data:`controllers.deploy.protocol.STATUS_KNOWN` is set |
-| ``time`` | ``|rig_time| > TIME_MAX`` (1e7 s, 116 days), or ``dt`` outside ``[0.25 n T, 4 n T]`` (time backwards, stalled or racing) |
+| ``time`` | ``|rig_time| > TIME_MAX`` (1e10 s, 317 years: any rig clock, since boot or since 1970, passes), or ``dt`` outside ``[0.25 n T, 4 n T]`` (time backwards, stalled or racing) |
 | ``joint_rate`` | some joint moved by more than ``JOINT_RATE_MAX dt + JOINT_SLACK`` (50 rad/s, 0.01 rad) |
 
 Why these bounds: the rig clock advances one period per tick and ``seq`` one per tick, so over ``n``
@@ -33,7 +33,7 @@ import numpy as np
 
 from controllers.deploy import protocol as pr
 
-TIME_MAX = 1.0e7  # s
+TIME_MAX = 1.0e10  # s
 PERIOD_RANGE = (0.25, 4.0)  # accepted rig-time step, in periods per seq step
 JOINT_RATE_MAX = 50.0  # rad/s
 JOINT_SLACK = 0.01  # rad
