@@ -154,7 +154,7 @@ class SimRig:
         self.last_cmd = start
         lateness = np.zeros(n + 1)
         final: dict[str, Any] = {}
-        self.applied = self.cmd_seq  # the hello: neutral, applied
+        self.applied = self.cmd_seq if self.cmd_seq >= 0 else pr.NO_ECHO  # the hello: neutral, applied
         self._record(rec, 0)
         self._emit(0, 0.0, start)
         k = 0
@@ -177,7 +177,7 @@ class SimRig:
                     self.cmd[:] = 0.0
                     self.counts["cmd_timeout_ticks"] += 1
                 a = np.clip(self.cmd[:n_a] / math.radians(ACTION_SCALE_DEG), -1.0, 1.0)[None]
-                self.applied = self.cmd_seq  # the newest command read (after a command timeout: still the last one applied)
+                self.applied = self.cmd_seq if self.cmd_seq >= 0 else pr.NO_ECHO  # the newest command read (after a timeout: still the last)
                 self._record_cmd(rec, k - 1, a)
                 _, _, term, trunc, info = env.step(a)
                 if term[0] or trunc[0]:
