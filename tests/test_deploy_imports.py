@@ -47,7 +47,7 @@ def test_import_rig_env_and_the_observation_builder_is_light():
 
 
 class FakeRig:
-    """80 Hz sensor frames of a slowly rocking rig to whoever sent the first datagram; counts the commands by mode."""
+    """80 Hz sensor frames of a slowly rocking rig to whoever sent the first datagram (its session, its commands acknowledged); counts the commands by mode."""
 
     def __init__(self, rate: float = 80.0) -> None:
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -62,15 +62,16 @@ class FakeRig:
 
     def _run(self) -> None:
         buf = bytearray(pr.SENSOR_SIZE)
-        peer, seq, t0, nxt = None, 0, None, 0.0
+        peer, seq, t0, nxt, ack, session = None, 0, None, 0.0, pr.NO_ECHO, 0
         deadline = time.monotonic() + 90.0  # never outlives the test
         while not self.stop.is_set() and time.monotonic() < deadline:
             try:
                 data, addr = self.sock.recvfrom(256)
                 peer = addr
                 try:
-                    _, _, _, mode = pr.unpack_command(data)
-                    self.modes[mode] = self.modes.get(mode, 0) + 1
+                    c = pr.unpack_command(data)
+                    self.modes[c.mode] = self.modes.get(c.mode, 0) + 1
+                    ack, session = c.seq, c.session  # serve its session, acknowledge its commands
                 except pr.FrameError:
                     pass
             except (TimeoutError, BlockingIOError):
@@ -80,7 +81,7 @@ class FakeRig:
                 t0 = now if t0 is None else t0
                 w = math.sin(3.0 * (now - t0))  # every joint moves a little: the stuck-sensor watchdog stays quiet
                 angles = (0.01 * w, 0.002 * w, 0.003 * w, 0.02 + 0.004 * w, 0.005 * w)
-                pr.pack_sensor_into(buf, seq, now - t0, angles, (0.0,) * 4, 20.0, pr.STATUS_SIMULATED)
+                pr.pack_sensor_into(buf, seq, now - t0, angles, (0.0,) * 4, 20.0, pr.STATUS_SIMULATED, ack, session)
                 self.sock.sendto(buf, peer)
                 seq += 1
                 nxt = now + self.period

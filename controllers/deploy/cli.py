@@ -1,7 +1,7 @@
 """``rig-deploy`` (= ``python scripts/deploy.py``): export a law, fly it on a rig, or serve a simulated rig.
 
     rig-deploy export --controller KIND --task NAME --out PATH [--task-option KEY=VALUE ...] [--rate 80] [--key-file F] [--gains KP KD KFF] [--policy FILE]
-    rig-deploy run --law FILE --rig udp://HOST:PORT [--rate 80] [--arm] [--duration S] [--log PATH] [--key-file F] [--stuck-frames 32] [--test-input FILE.json]
+    rig-deploy run --law FILE --rig udp://HOST:PORT [--rate 80] [--arm] [--duration S] [--log PATH] [--key-file F] [--link-key-file F] [--stuck-frames 32] [--test-input FILE.json]
     rig-deploy sim-rig --port PORT [--task NAME] [--task-option KEY=VALUE ...] [--rate 80] [--duration S] [--loss P] [--blackout T0 DUR] ...
     rig-deploy verify --law FILE [--key-file F]
     rig-deploy convert-policy OLD NEW [--key-file F]
@@ -44,6 +44,12 @@ def _key(path: str | None) -> bytes | None:
         return Path(path).read_bytes().strip()
     except OSError as e:
         raise ArtefactError(f"key file {path}: cannot read ({e.strerror})") from None
+
+
+def _link_key(path: str | None) -> bytes | None:
+    from controllers.deploy.protocol import read_link_key
+
+    return None if path is None else read_link_key(path)
 
 
 def _rig_address(url: str) -> tuple[str, int]:
@@ -137,7 +143,8 @@ def _run(a: argparse.Namespace) -> int:
             raise ValueError(f"--test-input: {e}") from None
     cfg = LoopConfig(rig=_rig_address(a.rig), rate_hz=rate, bind=(a.bind, a.bind_port), duration=a.duration, arm=a.arm, log_path=a.log,
                      seed=a.seed, stale_frames=a.stale_frames, fault_frames=a.fault_frames, realtime=a.realtime,
-                     link_delay_steps=a.link_delay_steps, stuck_frames=a.stuck_frames, stuck_cmd_deg=a.stuck_cmd_deg, test_input=test_input)
+                     link_delay_steps=a.link_delay_steps, stuck_frames=a.stuck_frames, stuck_cmd_deg=a.stuck_cmd_deg, test_input=test_input,
+                     link_key=_link_key(a.link_key_file), ack_frames=a.ack_frames)
     loop = RigLoop(art, cfg)
     signal.signal(signal.SIGINT, lambda *_: loop.stop())
     signal.signal(signal.SIGTERM, lambda *_: loop.stop())
@@ -156,12 +163,12 @@ def cmd_sim_rig(a: argparse.Namespace) -> int:
     from controllers.deploy.simrig import Faults, SimRig
 
     faults = Faults(loss=a.loss, cmd_loss=a.cmd_loss, delay=a.delay, duplicate=a.duplicate, reorder=a.reorder, corrupt=a.corrupt,
-                    blackout=tuple(a.blackout) if a.blackout else None,
+                    blackout=tuple(a.blackout) if a.blackout else None, cmd_blackout=tuple(a.cmd_blackout) if a.cmd_blackout else None,
                     stuck=(a.stuck[0], float(a.stuck[1]), float(a.stuck[2])) if a.stuck else None, seed=a.fault_seed)
     fields: dict[str, Any] = {"task_options": task_options(a.task_option)}
     if a.no_noise:
         fields.update(angle_noise_deg=0.0, flap_noise_deg=0.0, airspeed_noise=0.0)
-    rig = SimRig(a.port, a.task, a.rate, a.duration, a.seed, faults, host=a.host, realtime=a.realtime, **fields)
+    rig = SimRig(a.port, a.task, a.rate, a.duration, a.seed, faults, host=a.host, realtime=a.realtime, link_key=_link_key(a.link_key_file), **fields)
     print(json.dumps({"listening": [a.host, rig.port], "task": a.task, "rate_hz": a.rate}), flush=True)
     signal.signal(signal.SIGTERM, lambda *_: rig.stop())
     summary = rig.run()
@@ -213,6 +220,8 @@ def parser() -> argparse.ArgumentParser:
                    help="FAULT when a free joint's reading repeats for this many frames while the command moves (0: off)")
     r.add_argument("--stuck-cmd-deg", type=float, default=2.0, help="command movement, deg at 18 m/s (x (18/U)^2 at U), that shows the rig is driven (stuck-sensor watchdog)")
     r.add_argument("--key-file")
+    r.add_argument("--link-key-file", metavar="FILE", help="shared link key (hex or raw, >= 16 bytes, mode 600): MAC on every frame; the rig needs the same key")
+    r.add_argument("--ack-frames", type=int, default=8, help="FAULT command_ack when the rig acknowledges none of this many commands sent")
     r.add_argument("--realtime", action="store_true", help="SCHED_FIFO scheduling (Linux, privileged)")
     r.add_argument("--link-delay-steps", type=int, default=0, help="age of a sensor frame on arrival, control steps (reference lead)")
     r.add_argument("--test-input", metavar="FILE.json", help="a test input schedule (rig_env.signals.InputSchedule.save) added to the law's command from arming")
@@ -232,6 +241,8 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--reorder", type=float, default=0.0)
     s.add_argument("--corrupt", type=float, default=0.0)
     s.add_argument("--blackout", type=float, nargs=2, metavar=("T0", "DUR"))
+    s.add_argument("--cmd-blackout", type=float, nargs=2, metavar=("T0", "DUR"), help="drop every command in this span of rig time (no ack)")
+    s.add_argument("--link-key-file", metavar="FILE", help="shared link key (as for run): only the loop's authenticated commands fly the rig")
     s.add_argument("--stuck", nargs=3, metavar=("JOINT", "T0", "DUR"))
     s.add_argument("--fault-seed", type=int, default=0)
     s.add_argument("--no-noise", action="store_true", help="no sensor noise (quantisation stays)")

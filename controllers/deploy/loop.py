@@ -18,7 +18,9 @@ tick waits for one at most ``frame_wait`` periods (``select`` with a timeout), n
 If the loop wakes more than a period late, it skips to the current tick (skipped ticks are misses).
 
 Per tick: read frames (others' addresses: ``n_foreign``; bad length / magic / version / CRC / non-finite:
-``n_corrupt``; not newer than the last: ``n_old``), update :class:`rig_env.envs.sensors.Sensors`
+``n_corrupt``; wrong MAC for the link key: ``auth``; another session: ``session``; not newer than the last:
+``n_old``; implausible: ``implausible`` and ``implausible_<reason>``; fresh frames whose ``ack`` is not the
+newest command sent: ``unapplied``), update :class:`rig_env.envs.sensors.Sensors`
 (``noise=None``, ``quantise=False``, ``delay_steps=0``) and build the observation with
 :func:`rig_env.envs.observation.observe` (the environments' own builder), call the law, apply the
 output position and rate limits (always, in every state), send the command, log the record.  A missing
@@ -39,7 +41,9 @@ environments (the tests) uses their compiled kernels.
 | sensor range | non-finite (refused by the CRC/finite check); limited joints beyond +-90 deg, unlimited beyond +-1e4 rad, flaps beyond +-60 deg, airspeed outside [0, 45] m/s | FAULT |
 | rig status | RIG_FAULT bit set | FAULT |
 | controller | exception or non-finite output | FAULT |
-| overrun | the law's ``act`` longer than ``overrun_s`` (half a period) | FAULT |
+| overrun | the law's ``act`` longer than ``overrun_s`` (half a period) on ``overrun_ticks`` (3) consecutive ticks, or on more than 8 of the last 100 (:mod:`controllers.deploy.overrun`) | FAULT |
+| command acknowledgement | the rig's frames acknowledge none of the last ``ack_frames`` (8) commands sent (:meth:`RigLoop.ack_lag`) | FAULT ``command_ack`` while ACTIVE; arming refused |
+| implausible frames | ``implausible_frames`` (3) consecutive frames refused by :mod:`controllers.deploy.plausibility` | FAULT ``implausible`` |
 | stuck sensor (ACTIVE only) | a free joint's reading bit-identical for ``stuck_frames`` (32) consecutive fresh frames while a commanded surface moved by ``stuck_cmd_deg`` (2 deg at 18 m/s, scaled by (18 / U)^2) or more over them (:mod:`controllers.deploy.stuck`) | FAULT, naming the joint |
 
 Why two stale bounds: a single 3-frame latch trips on random 10 % packet loss about once every
@@ -80,10 +84,11 @@ from __future__ import annotations
 import gc
 import math
 import os
+import secrets
 import select
 import socket
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -91,6 +96,8 @@ import numpy as np
 from controllers.deploy import protocol as pr
 from controllers.laws.artefact import Artefact
 from controllers.deploy.framelog import FrameLog
+from controllers.deploy.overrun import OverrunWatchdog
+from controllers.deploy.plausibility import REASONS as IMPLAUSIBLE_REASONS, Plausibility
 from controllers.deploy.stuck import StuckDetector
 from rig_env.envs.observation import labels, observe, task_for_seed
 from rig_env.envs.sensors import UNLIMITED, Sensors
@@ -99,9 +106,9 @@ from rig_env.signals import InputSchedule
 
 DISARMED, ACTIVE, FAULT = 0, 1, 2
 STATES = ("DISARMED", "ACTIVE", "FAULT")
-F_STALE, F_SENSOR, F_RIG, F_CONTROLLER, F_OVERRUN, F_STUCK = 1, 2, 4, 8, 16, 32
+F_STALE, F_SENSOR, F_RIG, F_CONTROLLER, F_OVERRUN, F_STUCK, F_LINK, F_IMPLAUSIBLE = 1, 2, 4, 8, 16, 32, 64, 128
 FAULTS = {F_STALE: "stale", F_SENSOR: "sensor_range", F_RIG: "rig_status", F_CONTROLLER: "controller", F_OVERRUN: "overrun",
-          F_STUCK: "stuck_sensor"}
+          F_STUCK: "stuck_sensor", F_LINK: "command_ack", F_IMPLAUSIBLE: "implausible"}
 LIMITED_MAX = math.radians(90.0)
 UNLIMITED_MAX = 1.0e4
 FLAP_MAX = math.radians(60.0)
@@ -129,6 +136,12 @@ class LoopConfig:
     rig is driven at 18 m/s (scaled by (18 / U)^2 at airspeed U), [0, 80] deg (0: any repeat run of
     ``stuck_frames`` trips, wind or not).
     test_input: surface test inputs added to the law's command from each arming (module docstring), or None.
+    link_key: the shared link key (>= 16 bytes, :func:`controllers.deploy.protocol.read_link_key`): every frame
+    carries its MAC and a frame without the right one is refused (``auth``); None: no key, MACs all zero.
+    ack_frames: FAULT ``command_ack`` while ACTIVE (and arming refused) when the rig's frames acknowledge none
+    of the last ``ack_frames`` commands sent, [1, 1000].  implausible_frames: consecutive implausible frames
+    that latch FAULT ``implausible`` (:mod:`controllers.deploy.plausibility`), [1, 1000].  overrun_ticks:
+    consecutive overruns of ``overrun_s`` that latch FAULT ``overrun`` (:mod:`controllers.deploy.overrun`), [1, 100].
     """
 
     rig: tuple[str, int]
@@ -152,6 +165,10 @@ class LoopConfig:
     stuck_frames: int | None = 32
     stuck_cmd_deg: float = 2.0
     test_input: InputSchedule | None = None
+    link_key: bytes | None = field(default=None, repr=False)
+    ack_frames: int = 8
+    implausible_frames: int = 3
+    overrun_ticks: int = 3
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.rate_hz) and 1.0 <= self.rate_hz <= 2000.0):
@@ -175,6 +192,12 @@ class LoopConfig:
             raise ValueError(f"stuck_cmd_deg = {self.stuck_cmd_deg!r}: allowed range [0, 80] deg")
         if self.test_input is not None and not isinstance(self.test_input, InputSchedule):
             raise ValueError(f"test_input = {self.test_input!r}: must be a rig_env.signals.InputSchedule or None")
+        if self.link_key is not None and not (isinstance(self.link_key, bytes) and len(self.link_key) >= pr.KEY_MIN_BYTES):
+            raise ValueError(f"link_key: bytes of length >= {pr.KEY_MIN_BYTES} or None")
+        for name, hi in (("ack_frames", 1000), ("implausible_frames", 1000), ("overrun_ticks", 100)):
+            v = getattr(self, name)
+            if not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= hi):
+                raise ValueError(f"{name} = {v!r}: an integer in [1, {hi}]")
 
 
 class OutputLimits:
@@ -234,6 +257,11 @@ class RigLoop:
         self.limits = OutputLimits(artefact, self.period, more)
         self.stuck = StuckDetector(spec.free_dofs, cfg.stuck_frames, math.radians(cfg.stuck_cmd_deg), pr.N_SURFACES)
         self.overrun_s = cfg.overrun_s if cfg.overrun_s is not None else 0.5 * self.period
+        self.overrun = OverrunWatchdog(self.overrun_s, cfg.overrun_ticks)
+        # the link: this run's session id (non-zero), the key, the frame plausibility checks, the newest acknowledged command
+        self.session, self.key = secrets.randbits(32) or 1, cfg.link_key
+        self.plaus = Plausibility(self.period)
+        self.implausible_run, self.acked = 0, -1
         self.miss_s = (cfg.miss_fraction if cfg.miss_fraction is not None else 1.0 - cfg.phase) * self.period
         self.rig = (socket.gethostbyname(cfg.rig[0]), int(cfg.rig[1]))
         # preallocated per-tick buffers
@@ -247,7 +275,8 @@ class RigLoop:
         self.state, self.fault, self.missed = DISARMED, 0, 0
         self.seq, self.cmd_seq, self.have_frame, self.t_origin, self._first = -1, 0, False, 0.0, False
         self._arm_req, self._disarm_req, self._stop = False, False, False
-        self.counts = {k: 0 for k in ("fresh", "missed", "foreign", "corrupt", "old", "resync", "tx_error", "arm_refused", "deadline_miss", "skipped")}
+        self.counts = {k: 0 for k in ("fresh", "missed", "foreign", "corrupt", "old", "resync", "tx_error", "arm_refused", "deadline_miss", "skipped",
+                                      "auth", "session", "implausible", *(f"implausible_{r}" for r in IMPLAUSIBLE_REASONS), "overrun", "unapplied")}
         self.corrupt_reasons: dict[str, int] = {}
         self.events: list[dict[str, Any]] = []
         self.sock: socket.socket | None = None
@@ -353,21 +382,45 @@ class RigLoop:
                 self.counts["foreign"] += 1
                 continue
             try:
-                seq, rt, ang, fl, air, st = pr.unpack_sensor(memoryview(self.rx)[:n])
+                fr = pr.unpack_sensor(memoryview(self.rx)[:n], self.key)
             except pr.FrameError as e:
+                if e.reason == "mac":  # intact, but not from a holder of the link key (or a key on one side only)
+                    self.counts["auth"] += 1
+                    continue
                 self.counts["corrupt"] += 1
                 self.corrupt_reasons[e.reason] = self.corrupt_reasons.get(e.reason, 0) + 1
+                continue
+            seq = fr.seq
+            if fr.session != self.session:  # the rig serves another client (or a frame of an earlier run)
+                self.counts["session"] += 1
                 continue
             if self.seq >= 0 and not pr.newer(seq, self.seq):
                 if self.missed < self.cfg.fault_frames:
                     self.counts["old"] += 1
                     continue
                 self.counts["resync"] += 1  # stale past the latch bound (so FAULT or DISARMED): a restarted rig's new count
-            
-            self.seq, self.rig_time, self.airspeed, self.status = seq, rt, air, st
-            self.angles[:], self.flaps[:] = ang, fl
+                self.plaus.reset()
+            why = self.plaus.check(seq, fr.rig_time, fr.angles, fr.status, fr.reserved)
+            if why is not None:  # dropped like a corrupt frame; _sense latches after implausible_frames in a row
+                self.counts["implausible"] += 1
+                self.counts[f"implausible_{why}"] += 1
+                self.implausible_run += 1
+                continue
+            self.plaus.accept(seq, fr.rig_time, fr.angles)
+            self.implausible_run = 0
+            if fr.ack != pr.NO_ECHO and (self.acked < 0 or pr.newer(fr.ack, self.acked)):
+                self.acked = fr.ack
+            self.seq, self.rig_time, self.airspeed, self.status = seq, fr.rig_time, fr.airspeed, fr.status
+            self.angles[:], self.flaps[:] = fr.angles, fr.flaps
             fresh = True
         return fresh
+
+    def ack_lag(self) -> int:
+        """Commands sent since the newest one the rig acknowledged (all sent when none was; 2**32 for an ack of an unsent seq)."""
+        if self.acked < 0:
+            return self.cmd_seq
+        d = (self.cmd_seq - 1 - self.acked) & 0xFFFFFFFF
+        return d if d < 0x80000000 else 1 << 32
 
     def _latch(self, bit: int, tick: int, detail: str) -> None:
         if not self.fault & bit:
@@ -404,6 +457,9 @@ class RigLoop:
             while not fresh and (rest := limit - time.perf_counter()) > 0.0:
                 if select.select([self.sock], [], [], rest)[0]:
                     fresh = self._drain()
+        if self.implausible_run >= self.cfg.implausible_frames:
+            self._latch(F_IMPLAUSIBLE, k, f"{self.implausible_run} implausible frames in a row (counts: "
+                                          + ", ".join(f"{r} {self.counts['implausible_' + r]}" for r in IMPLAUSIBLE_REASONS) + ")")
         if not fresh:
             self.counts["missed"] += 1
             self.missed += 1
@@ -428,6 +484,12 @@ class RigLoop:
         if self.status & pr.STATUS_RIG_FAULT:
             bad = True
             self._latch(F_RIG, k, f"rig status 0x{self.status:x}")
+        lag = self.ack_lag()
+        self.counts["unapplied"] += lag > 0  # the newest command sent was not applied before this frame: lost, late or flooded out
+        if lag >= self.cfg.ack_frames:  # the rig applies none of our commands: no arming, and FAULT if flying
+            bad = True
+            if self.state == ACTIVE:
+                self._latch(F_LINK, k, f"the rig acknowledged none of the last {min(lag, self.cmd_seq)} commands (newest ack {self.acked})")
         j = self.stuck.update(self.angles[self.free], self.limits.cmd, self.airspeed)  # the last command sent, in effect on the rig
         if j >= 0 and self.state == ACTIVE:
             st = self.stuck
@@ -446,6 +508,7 @@ class RigLoop:
             if fresh and not bad_now:
                 self.state, self.fault, self.t_origin = ACTIVE, 0, self.rig_time
                 self.law.reset()
+                self.overrun.reset()
                 # the task's reference restarts at arming, for the measured airspeed (as an env reset draws it)
                 self.task = task_for_seed(self.spec.task, self.spec.free_dofs, self.spec.dt, self._ep, self.cfg.seed, airspeed=self.airspeed, options=dict(self.spec.task_options),
                                          params_row=self._params_row)
@@ -478,10 +541,12 @@ class RigLoop:
             self._latch(F_CONTROLLER, k, f"{type(e).__name__}: {e}")
             return mode, time.perf_counter() - c0, obs_t
         compute = time.perf_counter() - c0
+        slow = self.overrun.update(compute)
+        self.counts["overrun"] += compute > self.overrun_s
         if not np.all(np.isfinite(a)):
             self._latch(F_CONTROLLER, k, "non-finite action")
-        elif compute > self.overrun_s:
-            self._latch(F_OVERRUN, k, f"act took {compute * 1e3:.2f} ms > {self.overrun_s * 1e3:.2f} ms")
+        elif slow is not None:
+            self._latch(F_OVERRUN, k, slow)
         else:
             self.action[: spec.n_actions] = a
             self.target[: spec.n_actions] = a * self.scale
@@ -500,7 +565,7 @@ class RigLoop:
             self.target[j] += math.radians(float(self.test.value(s, t)))
 
     def _send(self, cmd: np.ndarray, mode: int, echo: int) -> None:
-        pr.pack_command_into(self.tx, self.cmd_seq, echo, cmd, mode)
+        pr.pack_command_into(self.tx, self.cmd_seq, echo, cmd, mode, self.session, self.key)
         self.cmd_seq += 1
         try:
             self.sock.sendto(self.tx, self.rig)

@@ -2,8 +2,13 @@
 
 The model is :class:`rig_env.envs.RigVectorEnv` as a batch of one (the same physics, task, sensor
 noise and converter quantisation as training; ``link_delay_steps = 0``: the network is the delay).
-The rig waits (bounded) for the first valid command frame, whose sender becomes the client; then, on
-absolute deadlines ``start + k / rate``:
+The rig waits (bounded) for its client's session: the first valid command frame in a neutral mode
+(DISARMED, the loop's hello, or SAFE; authenticated when the rig has a link key) fixes the client's address and session id for
+the run.  Commands from any other address or session, and with a key any command without the right MAC,
+are counted and ignored (a sender that starts with an ACTIVE command never becomes the client); of the
+session's commands only a seq newer than the last applied is taken (replays are counted as old).  Each
+sensor frame carries the client's session id and ``ack``, the seq of the newest command applied before
+it.  Then, on absolute deadlines ``start + k / rate``:
 
     tick 0:  send sensor frame 0 (the state after ``reset(seed)``)
     tick k:  read commands (newest seq wins), step the physics one control step with it,
@@ -22,6 +27,7 @@ so a command answering frame ``k - 1`` that arrives before tick ``k`` acts exact
 | reorder | probability a frame is held back and sent after the next one |
 | corrupt | probability one byte of a frame is flipped |
 | blackout | (t0, duration) s of rig time: no sensor frames at all |
+| cmd_blackout | (t0, duration) s of rig time: every command of the session dropped (none applied nor acknowledged) |
 | stuck | (joint, t0, duration): that joint's angle frozen in the frames |
 
 Fault draws come from ``numpy.random.default_rng(faults.seed)`` (reproducible).  The run ends after
@@ -57,6 +63,7 @@ class Faults:
     reorder: float = 0.0
     corrupt: float = 0.0
     blackout: tuple[float, float] | None = None
+    cmd_blackout: tuple[float, float] | None = None
     stuck: tuple[str, float, float] | None = None
     seed: int = 0
 
@@ -67,8 +74,10 @@ class Faults:
                 raise ValueError(f"{k} = {v!r}: allowed range [0, 1]")
         if not (math.isfinite(self.delay) and 0.0 <= self.delay <= 1.0):
             raise ValueError(f"delay = {self.delay!r} s: allowed range [0, 1] s")
-        if self.blackout is not None and not (self.blackout[0] >= 0 and self.blackout[1] > 0):
-            raise ValueError(f"blackout = {self.blackout!r}: need (t0 >= 0, duration > 0) s")
+        for k in ("blackout", "cmd_blackout"):
+            v = getattr(self, k)
+            if v is not None and not (v[0] >= 0 and v[1] > 0):
+                raise ValueError(f"{k} = {v!r}: need (t0 >= 0, duration > 0) s")
         if self.stuck is not None:
             if self.stuck[0] not in JOINTS:
                 raise ValueError(f"stuck joint {self.stuck[0]!r}: valid names {list(JOINTS)}")
@@ -92,9 +101,13 @@ class SimRig:
     """The simulated rig server; :meth:`run` serves one client for ``duration`` s and returns a summary."""
 
     def __init__(self, port: int, task: str, rate_hz: float = 80.0, duration: float = 20.0, seed: int = 0, faults: Faults = Faults(),
-                 host: str = "127.0.0.1", cmd_timeout: float = 0.25, wait_timeout: float = 30.0, realtime: bool = False, **fields: Any) -> None:
+                 host: str = "127.0.0.1", cmd_timeout: float = 0.25, wait_timeout: float = 30.0, realtime: bool = False,
+                 link_key: bytes | None = None, **fields: Any) -> None:
         if not (math.isfinite(duration) and duration > 0):
             raise ValueError(f"duration = {duration}: must be > 0 s")
+        if link_key is not None and len(link_key) < pr.KEY_MIN_BYTES:
+            raise ValueError(f"link_key: at least {pr.KEY_MIN_BYTES} bytes")
+        self.key = link_key
         self.env = make_env(task, rate_hz, duration, **fields)
         warm = make_env(task, rate_hz, duration, **fields)  # a separate env: load the numba cache (or compile) outside the run
         warm.reset(seed=seed)
@@ -123,7 +136,9 @@ class SimRig:
         env.reset(seed=self.seed)
         n = self.n_steps
         rec = {"t": np.zeros(n + 1), "q": np.zeros((n + 1, 5)), "qd": np.zeros((n + 1, 5)), "cmd": np.zeros((n + 1, 6)), "mode": np.zeros(n + 1, np.int8)}
-        self.client, self.cmd_seq, self.cmd, self.mode = None, -1, np.zeros(6), pr.MODE_DISARMED
+        self.client, self.session, self.cmd_seq, self.cmd, self.mode = None, 0, -1, np.zeros(6), pr.MODE_DISARMED
+        self.rig_time = 0.0
+        self.applied = pr.NO_ECHO  # seq of the newest command applied (the frames' ack)
         self.queue: collections.deque = collections.deque()
         self.held: tuple[bytes, int, bool] | None = None
         self.sent_seq = -1
@@ -139,6 +154,7 @@ class SimRig:
         self.last_cmd = start
         lateness = np.zeros(n + 1)
         final: dict[str, Any] = {}
+        self.applied = self.cmd_seq if self.cmd_seq >= 0 else pr.NO_ECHO  # the hello: neutral, applied
         self._record(rec, 0)
         self._emit(0, 0.0, start)
         k = 0
@@ -155,11 +171,13 @@ class SimRig:
                     time.sleep(max(0.0, min(nxt - now, 0.002)))
                 now = time.perf_counter()
                 lateness[k] = now - deadline
+                self.rig_time = (k - 1) * self.period  # the commands read now answer frame k - 1
                 self._read_commands(now)
                 if now - self.last_cmd > self.cmd_timeout:
                     self.cmd[:] = 0.0
                     self.counts["cmd_timeout_ticks"] += 1
                 a = np.clip(self.cmd[:n_a] / math.radians(ACTION_SCALE_DEG), -1.0, 1.0)[None]
+                self.applied = self.cmd_seq if self.cmd_seq >= 0 else pr.NO_ECHO  # the newest command read (after a timeout: still the last)
                 self._record_cmd(rec, k - 1, a)
                 _, _, term, trunc, info = env.step(a)
                 if term[0] or trunc[0]:
@@ -207,21 +225,31 @@ class SimRig:
                 self.counts["cmd_foreign"] += 1
                 continue
             try:
-                seq, _echo, surf, mode = pr.unpack_command(memoryview(self.rxbuf)[:nb])
-            except pr.FrameError:
-                self.counts["cmd_corrupt"] += 1
-                continue
-            if self.faults.cmd_loss and self.rng.random() < self.faults.cmd_loss:
-                self.counts["cmd_dropped"] += 1
+                c = pr.unpack_command(memoryview(self.rxbuf)[:nb], self.key)
+            except pr.FrameError as e:
+                self.counts["cmd_auth" if e.reason == "mac" else "cmd_corrupt"] += 1
                 continue
             if self.client is None:
-                self.client = addr
+                if c.mode == pr.MODE_ACTIVE or c.session == 0:  # a session starts with a neutral command (a hello), never a flying one
+                    self.counts["cmd_foreign"] += 1
+                    continue
+                self.client, self.session = addr, c.session
+            elif c.session != self.session:
+                self.counts["cmd_foreign"] += 1
+                continue
+            f = self.faults
+            if f.cmd_loss and self.rng.random() < f.cmd_loss:
+                self.counts["cmd_dropped"] += 1
+                continue
+            if f.cmd_blackout is not None and f.cmd_blackout[0] <= self.rig_time < f.cmd_blackout[0] + f.cmd_blackout[1]:
+                self.counts["cmd_blackout"] += 1
+                continue
             self.counts["cmd_received"] += 1
-            if self.cmd_seq >= 0 and not pr.newer(seq, self.cmd_seq):
+            if self.cmd_seq >= 0 and not pr.newer(c.seq, self.cmd_seq):
                 self.counts["cmd_old"] += 1
                 continue
-            self.cmd_seq, self.mode, self.last_cmd = seq, mode, now
-            self.cmd[:] = surf
+            self.cmd_seq, self.mode, self.last_cmd = c.seq, c.mode, now
+            self.cmd[:] = c.surfaces
 
     def _emit(self, k: int, rig_time: float, now: float) -> None:
         f, rng = self.faults, self.rng
@@ -237,7 +265,7 @@ class SimRig:
                     self._stuck_value = ang[ji]
                 ang[ji] = self._stuck_value
                 self.counts["stuck"] += 1
-        pr.pack_sensor_into(self.txbuf, k, rig_time, ang, flaps, air, pr.STATUS_SIMULATED)
+        pr.pack_sensor_into(self.txbuf, k, rig_time, ang, flaps, air, pr.STATUS_SIMULATED, self.applied, self.session, self.key)
         self.counts["frames"] += 1
         if f.loss and rng.random() < f.loss:
             self.counts["dropped"] += 1
