@@ -58,6 +58,13 @@ rig, a rig_roll reading frozen during velocity_vector_roll's spin lets the demon
 until the model pitch passes its stop 37 frames later (40 frames was too late).  The rule and why it
 needs the command's movement: :mod:`controllers.deploy.stuck`.
 
+Log failure (``F_LOG``, ``log_write``): the log's writer thread records a failed write
+(:attr:`controllers.deploy.framelog.FrameLog.error`); the loop checks it after every tick, latches FAULT
+and ends the run (``LoopConfig.allow_unlogged``: an event ``log_lost`` instead, and the flight goes on).
+End of run: :meth:`RigLoop._wind_down` sends neutral targets through the output limits once per period
+(mode SAFE) until every command is 0, then three DISARMED neutral commands; the summary's
+``final_state`` is the last tick's state, ``end`` the state after the wind-down (DISARMED).
+
 Output limits: ``command = prev + clip(clip(target, -pos, pos) - prev, -rate dt, rate dt)`` with the
 artefact's ``limits`` (default +-40 deg and the servos' 350 deg/s): the safe target is commanded at
 once and the surfaces reach neutral at the servos' own slew rate.
