@@ -470,3 +470,16 @@ def test_log_tool_refuses_damaged_logs_naming_them(tmp_path, capsys):
         warnings.simplefilter("error")  # the tool reports it in the summary, it does not warn
         assert cli.main(["log", "show", str(tmp_path / "torn.log")]) == 0
     assert json.loads(capsys.readouterr().out)["torn_bytes"] == fl.RECORD.itemsize - 3
+
+
+def test_a_log_header_that_cannot_be_written_exits_5_before_flying(tmp_path, law_file, monkeypatch, capsys):
+    real_open = open
+
+    def failing_open(p, m="r", *a, **k):
+        return FullDisk(real_open(p, m, *a, **k), ok=0) if m == "xb" else real_open(p, m, *a, **k)
+
+    monkeypatch.setattr(fl, "open", failing_open, raising=False)  # the module's open: only FrameLog's file fails
+    log = tmp_path / "h.log"
+    rc = cli.main(["run", "--law", str(law_file), "--rig", "udp://127.0.0.1:9", "--arm", "--duration", "1", "--log", str(log)])
+    err = capsys.readouterr().err
+    assert rc == cli.EXIT_LOG and str(log) in err and "log header" in err and "Traceback" not in err, err

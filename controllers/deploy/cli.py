@@ -49,6 +49,7 @@ from pathlib import Path
 from typing import Any, Sequence
 from urllib.parse import urlparse
 
+from controllers.deploy.framelog import LogWriteError
 from controllers.laws.artefact import ArtefactError
 
 EXIT_OK, EXIT_REFUSED, EXIT_FAULT, EXIT_NO_FRAMES, EXIT_LOG, EXIT_CMD_LOST = 0, 2, 3, 4, 5, 6
@@ -343,7 +344,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as e:  # a raised FileNotFoundError(message) has no strerror: print the message
         where = e.filename or getattr(a, "log", None) or getattr(a, "out", None) or getattr(a, "law", None) or "(no path)"
         print(f"rig-deploy: {where}: {e.strerror}" if e.strerror else f"rig-deploy: {e}", file=sys.stderr)
-        return EXIT_LOG if a.func is cmd_run else EXIT_REFUSED
+        return EXIT_LOG if isinstance(e, LogWriteError) else EXIT_REFUSED
 
 
 if __name__ == "__main__":

@@ -28,11 +28,15 @@ import numpy as np
 
 from rig_env.framelog_format import RECORD, header_line, read_log
 
-__all__ = ["RECORD", "FrameLog", "LogPathError", "read_log"]
+__all__ = ["RECORD", "FrameLog", "LogPathError", "LogWriteError", "read_log"]
 
 
 class LogPathError(ValueError):
     """The log path is refused before the run (it exists, or its folder does not); the message names the path."""
+
+
+class LogWriteError(OSError):
+    """The log's header could not be written (``rig-deploy run`` exits 5); errno, message and the path as an OSError."""
 
 
 class FrameLog:
@@ -71,7 +75,7 @@ class FrameLog:
             except OSError as e:
                 self.f.close()
                 self.f = None
-                raise OSError(e.errno, f"cannot write the log header ({e.strerror})", self.path) from None
+                raise LogWriteError(e.errno, f"cannot write the log header ({e.strerror})", self.path) from None
             self._writer = threading.Thread(target=self._write, name="rig-loop-log", daemon=True)
             self._writer.start()
 
