@@ -21,13 +21,18 @@ from typing import Any
 import numpy as np
 
 from rig_env.framelog_format import TornLogWarning, read_log
+from rig_env.params import JOINTS, SURFACES
+
+
+def _codes() -> tuple[tuple[str, ...], dict[int, str]]:
+    """The loop's state names and fault bits (imported when used: building the parser must not load the loop)."""
+    from controllers.deploy.loop import FAULTS, STATES
+
+    return STATES, FAULTS
 
 __all__ = ["add_parser", "export_csv", "plot", "summarise"]
 
-STATES = ("DISARMED", "ACTIVE", "FAULT")  # controllers.deploy.loop.STATES (the record's ``state`` codes)
-FAULT_BITS = {1: "stale", 2: "sensor_range", 4: "rig_status", 8: "controller", 16: "overrun", 32: "stuck_sensor", 64: "log_write"}
-JOINT_NAMES = ("rig_roll", "rig_pitch", "rig_yaw", "model_pitch", "model_yaw")  # rig_env.JOINTS, the record's ``angles`` order
-SURFACE_NAMES = ("comp_aileron", "comp_elevator", "comp_rudder", "hawk_elevator", "hawk_aileron", "hawk_rudder")
+JOINT_NAMES, SURFACE_NAMES = JOINTS, SURFACES  # the record's ``angles`` and ``action`` / ``command`` orders
 PLOTS = ("commands.png", "joints.png", "states.png", "timing.png")
 
 
@@ -45,6 +50,7 @@ def _pct(x: np.ndarray) -> dict[str, float | None]:
 
 def summarise(path: str) -> dict[str, Any]:
     """The summary of the log at ``path`` (see the module docstring); times in s, timing in ms."""
+    state_names, fault_bits = _codes()
     header, r = _read(path)
     rate = float(header.get("rate_hz", 0.0)) or None
     period = 1.0 / rate if rate else 0.0
@@ -54,10 +60,10 @@ def summarise(path: str) -> dict[str, Any]:
     if n == 0:
         return out
     ticks = int(r["tick"][-1]) + 1
-    states = {s: {"ticks": int(np.sum(r["state"] == i)), "s": float(np.sum(r["state"] == i) * period)} for i, s in enumerate(STATES)}
+    states = {s: {"ticks": int(np.sum(r["state"] == i)), "s": float(np.sum(r["state"] == i) * period)} for i, s in enumerate(state_names)}
     faults = []
     prev = np.concatenate([[0], r["fault"][:-1]])
-    for bit, name in FAULT_BITS.items():
+    for bit, name in fault_bits.items():
         for i in np.flatnonzero((r["fault"] & bit) & ~(prev & bit)):
             faults.append({"fault": name, "tick": int(r["tick"][i]), "t_s": float(r["deadline"][i]), "rig_time_s": float(r["rig_time"][i])})
     faults.sort(key=lambda f: f["tick"])
@@ -94,8 +100,7 @@ def export_csv(path: str, out: str) -> int:
     try:
         with open(tmp, "x", encoding="ascii") as f:
             f.write(",".join(c for c, _ in cols) + "\n")
-            for i in range(r.size):
-                f.write(",".join(repr(float(v[i])) if v.dtype.kind == "f" else str(int(v[i])) for _, v in cols) + "\n")
+            f.writelines(",".join(repr(float(v[i])) if v.dtype.kind == "f" else str(int(v[i])) for _, v in cols) + "\n" for i in range(r.size))
         os.link(tmp, o)  # fails if ``out`` appeared meanwhile: never overwrites
     finally:
         tmp.unlink(missing_ok=True)
@@ -109,6 +114,7 @@ def plot(path: str, out_dir: str) -> list[str]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    state_names, fault_bits = _codes()
     header, r = _read(path)
     d = Path(out_dir)
     targets = [d / name for name in PLOTS]
@@ -134,8 +140,8 @@ def plot(path: str, out_dir: str) -> list[str]:
     figs.append((targets[1], fig))
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
     a1.step(t, r["state"], where="post")
-    a1.set(ylabel="state (code)", yticks=range(len(STATES)), yticklabels=STATES)
-    for bit, name in FAULT_BITS.items():
+    a1.set(ylabel="state (code)", yticks=range(len(state_names)), yticklabels=state_names)
+    for bit, name in fault_bits.items():
         on = (r["fault"] & bit) != 0
         if on.any():
             a2.step(t, on * 1, where="post", label=name)
