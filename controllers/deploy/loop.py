@@ -270,7 +270,8 @@ class RigLoop:
         self.sock: socket.socket | None = None
         self.port = 0
         self.log_error: str | None = None
-        self.flight_state, self.wind_down_ticks = DISARMED, 0
+        self.flight_state: int | None = None  # the state on the last tick flown, set when run() ends
+        self.wind_down_ticks = 0
 
     # ------------------------------------------------------------------ operator
     def arm(self) -> None:
@@ -581,7 +582,7 @@ class RigLoop:
 
         ticks = self.n + self.counts["skipped"]
         return {
-            "ticks": ticks, "rate_hz": self.cfg.rate_hz, "final_state": STATES[self.flight_state],
+            "ticks": ticks, "rate_hz": self.cfg.rate_hz, "final_state": STATES[self.state if self.flight_state is None else self.flight_state],
             "end": {"state": STATES[self.state], "wind_down_ticks": self.wind_down_ticks, "command_rad": self.limits.cmd.tolist()},
             "log": {"path": self.cfg.log_path, "error": self.log_error},
             "faults": [FAULTS[b] for b in FAULTS if self.fault & b],
