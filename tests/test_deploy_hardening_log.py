@@ -483,3 +483,45 @@ def test_a_log_header_that_cannot_be_written_exits_5_before_flying(tmp_path, law
     rc = cli.main(["run", "--law", str(law_file), "--rig", "udp://127.0.0.1:9", "--arm", "--duration", "1", "--log", str(log)])
     err = capsys.readouterr().err
     assert rc == cli.EXIT_LOG and str(log) in err and "log header" in err and "Traceback" not in err, err
+
+
+# ---------------------------------------------------------------------- property-based fuzzing (hypothesis)
+hypothesis = pytest.importorskip("hypothesis")
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_json = st.recursive(st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False, allow_infinity=False) | st.text(max_size=8),
+                     lambda kids: st.lists(kids, max_size=4) | st.dictionaries(st.text(max_size=6), kids, max_size=4), max_leaves=12)
+_FIELDS = ("task", "free_dofs", "obs_labels", "action_names", "dt", "airspeed_range", "action_scale_deg", "task_options")
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(field=st.sampled_from(_FIELDS + ("format_version", "sha256", "limits", "sensors", "arrays")), value=_json)
+def test_any_json_in_any_field_is_accepted_or_refused_never_a_traceback(law_file, tmp_path, field, value):
+    """Re-checksummed files with an arbitrary JSON value in a field: load_deployable returns or raises ArtefactError, nothing else."""
+    def edit(d):
+        if field in _FIELDS:
+            d["spec"][field] = value
+        else:
+            d[field] = value
+    p = _rewrite(law_file, tmp_path, "prop", edit, rechecksum=field != "sha256")
+    try:
+        load_deployable(p)
+    except A.ArtefactError as e:
+        assert str(p) in str(e)
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(body=st.binary(max_size=3 * 255 + 40))
+def test_read_log_of_any_body_returns_whole_records_or_says_why(tmp_path, body):
+    path = tmp_path / "p.log"
+    path.write_bytes(fl.header_line({"rate_hz": 80.0}) + body)
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        try:
+            header, recs = read_log(path)
+        except ValueError as e:
+            assert str(path) in str(e) and b"rig-loop-log" in body  # only a second header refuses a body
+            return
+    assert recs.size == len(body) // fl.RECORD.itemsize and header["torn_bytes"] == len(body) % fl.RECORD.itemsize
+    assert bool(w) == bool(header["torn_bytes"])
