@@ -128,7 +128,7 @@ def check_initial_state(X: np.ndarray, P: np.ndarray, stops: bool = True) -> Non
     """Refuse physically impossible initial states (ValueError naming the joint, the environment and the bound).
 
     X: (n, N_STATE) initial states (all five joints, locked ones included: rad, rad/s); P: (n, N_PARAMS)
-    parameter rows; stops: the stops are modelled (``simulate(stops=...)``; without them the stop bound is
+    parameter rows (SI: the stops in rad); stops: the stops are modelled (``simulate(stops=...)``; without them the stop bound is
     not applied).  A limited joint (``LIMITED_JOINTS``) must lie within its stops (``P``'s
     ``stops.<joint>``, deg) widened by :data:`STOP_MARGIN_DEG`; an unlimited one within
     +-:data:`UNLIMITED_MAX_RAD`; every rate below the runaway bound ``layout.RUNAWAY_RATE`` (rad/s), where
@@ -137,11 +137,11 @@ def check_initial_state(X: np.ndarray, P: np.ndarray, stops: bool = True) -> Non
     for j, (lo_col, hi_col) in _STOP_COLUMNS.items() if stops else ():
         k = JOINTS.index(j)
         q = np.degrees(X[:, L.X_Q + k])
-        lo, hi = P[:, lo_col] - STOP_MARGIN_DEG, P[:, hi_col] + STOP_MARGIN_DEG
-        bad = np.flatnonzero((q < lo) | (q > hi))
+        stop_lo, stop_hi = np.degrees(P[:, lo_col]), np.degrees(P[:, hi_col])  # the kernels' rows hold SI units (rad)
+        bad = np.flatnonzero((q < stop_lo - STOP_MARGIN_DEG) | (q > stop_hi + STOP_MARGIN_DEG))
         if bad.size:
             i = int(bad[0])
-            raise ValueError(f"q0: {j} = {q[i]:.4g} deg (env {i}) is past its stops [{P[i, lo_col]:g}, {P[i, hi_col]:g}] deg "
+            raise ValueError(f"q0: {j} = {q[i]:.4g} deg (env {i}) is past its stops [{stop_lo[i]:.4g}, {stop_hi[i]:.4g}] deg "
                              f"by more than {STOP_MARGIN_DEG:g} deg: not a physical state")
     for j in ("rig_roll", "model_yaw"):
         q = X[:, L.X_Q + JOINTS.index(j)]

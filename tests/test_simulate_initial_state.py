@@ -32,7 +32,8 @@ def test_simulate_refuses_a_runaway_initial_rate():
 
 def test_the_stop_margin_is_measured_from_the_parameters_own_stops():
     P = param_batch(RigParams.default(), 1)
-    hi = P[0, L.P_STOPS_MODEL_PITCH_UPPER_DEG]
+    hi = math.degrees(P[0, L.P_STOPS_MODEL_PITCH_UPPER_DEG])  # the row holds rad
+    assert hi == pytest.approx(RigParams.default().stops.model_pitch.upper_deg)
     X = np.zeros((1, L.N_STATE))
     X[0, L.X_Q + 3] = math.radians(hi + STOP_MARGIN_DEG - 0.01)  # inside the margin: a stop's spring compressed, accepted
     check_initial_state(X, P)
