@@ -6,7 +6,11 @@ them (:mod:`rig_env.sysid.readers`) share one copy without ``rig_env`` importing
 
 File layout: one line of JSON terminated by ``\\n`` (the header: ``{"format": "rig-loop-log", "version": 1,
 "dtype": [...], ...run information}``), then records of :data:`RECORD` (numpy structured dtype,
-little-endian).  A crash can leave a torn last record; :func:`read_log` drops it.
+little-endian).  The writer creates the file exclusively (never appends), so one file holds one header.
+:func:`read_log` refuses a file with a cut header (no newline, or a line that is not a JSON header) or a
+second header (a log appended to an older file: the records after it would be misaligned), and drops a
+torn last record (a crash mid-write) with a :class:`TornLogWarning`, reporting it in the returned
+header as ``torn_bytes`` (the bytes dropped; 0 when the file ends on a record boundary).
 
 Header keys written by the loop: ``format``, ``version``, ``dtype`` (this module), and the run's
 ``artefact_sha256``, ``kind``, ``task``, ``rate_hz`` (Hz), ``free_dofs`` (the law's free joints, JOINTS
@@ -35,6 +39,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -50,6 +55,13 @@ RECORD = np.dtype([
     ("obs_t", "<f8"), ("action", "<f8", (6,)), ("command", "<f8", (6,)),
     ("n_foreign", "<u4"), ("n_corrupt", "<u4"), ("n_old", "<u4"),
 ])
+
+
+class TornLogWarning(UserWarning):
+    """The log's last record is incomplete (a crash mid-write); :func:`read_log` dropped it."""
+
+
+_HEADER_MARK = json.dumps({"format": FORMAT})[1:-1].encode()  # '"format": "rig-loop-log"', as json.dumps writes it
 
 
 def header_line(run: dict[str, Any]) -> bytes:
@@ -74,18 +86,34 @@ def is_log(path: str | os.PathLike) -> bool:
 
 
 def read_log(path: str | os.PathLike) -> tuple[dict[str, Any], np.ndarray]:
-    """(header, records) of a log file; a torn last record (crash mid-write) is dropped.
+    """(header, records) of a log file.
 
-    Raises ValueError for a file that is not a frame log (no header line, or another ``format``).
+    A torn last record (crash mid-write) is dropped with a :class:`TornLogWarning`; the returned header
+    then carries ``torn_bytes`` (the bytes dropped; 0 otherwise).  Raises ValueError naming the path for
+    a file that is not a frame log (no header line, or another ``format``), a cut or damaged header, and
+    a second header anywhere in the records (a log appended to another).
     """
     raw = Path(path).read_bytes()
     nl = raw.find(b"\n")
-    try:
-        header = json.loads(raw[:nl]) if nl >= 0 else None
-    except ValueError:
-        header = None
+    if raw.startswith(b"{") and _HEADER_MARK in raw[: nl if nl >= 0 else len(raw)]:
+        try:
+            header = json.loads(raw[:nl]) if nl >= 0 else None
+        except ValueError:
+            header = None
+        if not isinstance(header, dict):
+            raise ValueError(f"{path}: the frame log's header is cut or damaged ({'no newline after it' if nl < 0 else 'not valid JSON'}); "
+                             f"{len(raw)} bytes")
+    else:
+        try:
+            header = json.loads(raw[:nl]) if nl >= 0 else None
+        except ValueError:
+            header = None
     if not isinstance(header, dict) or header.get("format") != FORMAT or "dtype" not in header:
         raise ValueError(f"{path}: not a frame log (the first line must be a JSON header with format {FORMAT!r} and dtype)")
+    second = raw.find(_HEADER_MARK, nl + 1)  # 24 bytes of text: by chance in binary records with probability ~1e-58 per offset
+    if second >= 0:
+        raise ValueError(f"{path}: a second log header near byte {second} (a log appended to an earlier one?): the records after it "
+                         f"would be misaligned; split the file at that byte")
     try:
         dt = np.dtype([tuple(d) if len(d) == 2 else (d[0], d[1], tuple(d[2])) for d in header["dtype"]])
     except (TypeError, ValueError, IndexError) as e:
@@ -93,5 +121,8 @@ def read_log(path: str | os.PathLike) -> tuple[dict[str, Any], np.ndarray]:
     if dt.itemsize == 0:
         raise ValueError(f"{path}: the header's dtype has no fields")
     body = raw[nl + 1 :]
-    n = len(body) // dt.itemsize
+    n, torn = divmod(len(body), dt.itemsize)
+    header["torn_bytes"] = torn
+    if torn:
+        warnings.warn(f"{path}: the last record is torn ({torn} of {dt.itemsize} bytes; a crash mid-write?): dropped", TornLogWarning, stacklevel=2)
     return header, np.frombuffer(body[: n * dt.itemsize], dtype=dt)

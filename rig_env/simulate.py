@@ -113,6 +113,48 @@ def initial_state(q0, qd0, free: tuple[str, ...]) -> tuple[np.ndarray, bool]:
     return X, batched
 
 
+STOP_MARGIN_DEG = 10.0
+"""How far past a gimbal stop an initial angle may lie, deg: the stops are stiff spring-dampers, so a small
+penetration is a physical state; 10 deg past one is not (the default stops' springs would push back with
+kN m)."""
+UNLIMITED_MAX_RAD = 1.0e4
+"""Largest initial angle of an unlimited joint (rig_roll, model_yaw), rad: about 1600 turns, the loop's sensor bound."""
+_STOP_COLUMNS = {"rig_pitch": (L.P_STOPS_RIG_PITCH_LOWER_DEG, L.P_STOPS_RIG_PITCH_UPPER_DEG),
+                 "rig_yaw": (L.P_STOPS_RIG_YAW_LOWER_DEG, L.P_STOPS_RIG_YAW_UPPER_DEG),
+                 "model_pitch": (L.P_STOPS_MODEL_PITCH_LOWER_DEG, L.P_STOPS_MODEL_PITCH_UPPER_DEG)}
+
+
+def check_initial_state(X: np.ndarray, P: np.ndarray, stops: bool = True) -> None:
+    """Refuse physically impossible initial states (ValueError naming the joint, the environment and the bound).
+
+    X: (n, N_STATE) initial states (all five joints, locked ones included: rad, rad/s); P: (n, N_PARAMS)
+    parameter rows (SI: the stops in rad); stops: the stops are modelled (``simulate(stops=...)``; without them the stop bound is
+    not applied).  A limited joint (``LIMITED_JOINTS``) must lie within its stops (``P``'s
+    ``stops.<joint>``, deg) widened by :data:`STOP_MARGIN_DEG`; an unlimited one within
+    +-:data:`UNLIMITED_MAX_RAD`; every rate below the runaway bound ``layout.RUNAWAY_RATE`` (rad/s), where
+    the kernels would freeze the environment at its first step.
+    """
+    for j, (lo_col, hi_col) in _STOP_COLUMNS.items() if stops else ():
+        k = JOINTS.index(j)
+        q = np.degrees(X[:, L.X_Q + k])
+        stop_lo, stop_hi = np.degrees(P[:, lo_col]), np.degrees(P[:, hi_col])  # the kernels' rows hold SI units (rad)
+        bad = np.flatnonzero((q < stop_lo - STOP_MARGIN_DEG) | (q > stop_hi + STOP_MARGIN_DEG))
+        if bad.size:
+            i = int(bad[0])
+            raise ValueError(f"q0: {j} = {q[i]:.4g} deg (env {i}) is past its stops [{stop_lo[i]:.4g}, {stop_hi[i]:.4g}] deg "
+                             f"by more than {STOP_MARGIN_DEG:g} deg: not a physical state")
+    for j in ("rig_roll", "model_yaw"):
+        q = X[:, L.X_Q + JOINTS.index(j)]
+        bad = np.flatnonzero(np.abs(q) > UNLIMITED_MAX_RAD)
+        if bad.size:
+            raise ValueError(f"q0: {j} = {q[bad[0]]:.4g} rad (env {int(bad[0])}): allowed range +-{UNLIMITED_MAX_RAD:g} rad")
+    qd = X[:, L.X_QD : L.X_QD + 5]
+    bad = np.argwhere(np.abs(qd) >= L.RUNAWAY_RATE)
+    if bad.size:
+        i, k = (int(v) for v in bad[0])
+        raise ValueError(f"qd0: {JOINTS[k]} = {qd[i, k]:.4g} rad/s (env {i}): at or above the runaway bound {L.RUNAWAY_RATE:g} rad/s")
+
+
 def _schedule_value(name: str, s: Schedule, t: float, n: int, width: int | None = None) -> np.ndarray:
     v = s(t) if callable(s) else s
     arr = np.asarray(v, dtype=np.float64)
@@ -171,6 +213,8 @@ def simulate(
 
     q0, qd0: angles (rad) and rates (rad/s) of the free joints, shape (n_free,) or (n_envs, n_free);
     a last axis of 5 gives all joints (JOINTS order), from which locked joints take their angle.
+    Physically impossible states are refused (:func:`check_initial_state`: a limited joint more than
+    10 deg past its stops, locked or free; an unlimited one beyond 1e4 rad; a rate at the runaway bound).
     controls: surface name -> degrees (constant, (n_envs,) array, or function of time returning
     either), held over each control step.  airspeed: m/s (same forms).  gust: world-frame air
     velocity added to the tunnel flow, m/s, shape (3,) or (n_envs, 3) or a function of time.
@@ -197,6 +241,7 @@ def simulate(
     if not isinstance(params, RigParams) and not (isinstance(params, Sequence) and all(isinstance(p, RigParams) for p in params)):
         raise ParameterError("params must be a RigParams or a sequence of RigParams (one per environment)")
     P = param_batch(params, n, overrides)
+    check_initial_state(X, P, stops)
     first = params if isinstance(params, RigParams) else params[0]
     tabs = first.tables()
     flags = flags_of(aero, friction, stops, servo, nonlinear_aero)

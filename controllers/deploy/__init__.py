@@ -6,7 +6,9 @@
 | :mod:`~controllers.deploy.convert` | ``rig-deploy convert-policy``: an old-format policy file (``rig_env.rl_policy``) to an artefact |
 | :mod:`~controllers.deploy.protocol` | the binary UDP frames (sensor, command), CRC-32 |
 | :mod:`~controllers.deploy.loop` | ``RigLoop``: fixed-rate loop, lifecycle, watchdogs, output limits |
-| :mod:`~controllers.deploy.framelog` | the loop's append-only binary log |
+| :mod:`~controllers.deploy.framelog` | the loop's binary log, always a new file; a write failure is reported, never raised |
+| :mod:`~controllers.deploy.validate` | the one validator of ``verify`` and ``run``: the artefact's checks and its spec against the loop |
+| :mod:`~controllers.deploy.logtool` | ``rig-deploy log show|plot|export``: a flight's log as a summary, PNGs or CSV |
 | :mod:`~controllers.deploy.simrig` | ``SimRig``: the numba model in real time behind the protocol, fault injection |
 | :mod:`~controllers.deploy.cli` | ``rig-deploy`` / ``scripts/deploy.py``: export, verify, run, sim-rig, convert-policy |
 

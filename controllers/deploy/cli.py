@@ -5,6 +5,7 @@
     rig-deploy sim-rig --port PORT [--task NAME] [--task-option KEY=VALUE ...] [--rate 80] [--duration S] [--loss P] [--blackout T0 DUR] ...
     rig-deploy verify --law FILE [--key-file F]
     rig-deploy convert-policy OLD NEW [--key-file F]
+    rig-deploy log show|plot|export FILE [--out DIR|FILE.csv]
 
 ``convert-policy`` rewrites a policy file of the earlier separate format (``rig_env.rl_policy``) as the
 rig-law artefact every law now uses (:mod:`controllers.deploy.convert`); loading an old file names
@@ -18,23 +19,69 @@ their functions.
 ``run --test-input FILE.json`` adds a test input (:class:`rig_env.signals.InputSchedule`, as written by
 its ``save``) to the law's command from each arming (:mod:`controllers.deploy.loop`).
 
-Exit status: 0 success; 2 bad arguments or a refused artefact (the message names what failed);
-3 the run ended in FAULT.  ``run`` arms on SIGUSR1, disarms on SIGUSR2, stops on SIGINT / SIGTERM.
+``verify`` and ``run`` share one validator (:mod:`controllers.deploy.validate`): what ``verify``
+accepts, ``run`` flies.  ``log`` reads a flight's log (:mod:`controllers.deploy.logtool`).
+
+Exit status (:data:`EXIT_CODES`; ``run --help`` lists them):
+
+| code | meaning |
+|---|---|
+| 0 | success (``run``: frames received, flown, not in FAULT at the end, log complete) |
+| 2 | refused input: arguments, artefact, log path (exists), test input; nothing was flown |
+| 3 | the run ended in FAULT (a latched watchdog) |
+| 4 | no sensor frame was ever received (the rig did not answer) |
+| 5 | the log could not be written (FAULT ``log_write``; the summary names the path) |
+| 6 | the command path was lost: ``fault_frames`` (8) or more command sends failed |
+
+When several apply, the first of 5, 4, 6, 3 wins.
+``run`` arms on SIGUSR1, disarms on SIGUSR2, stops on SIGINT / SIGTERM.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import signal
 import sys
 from pathlib import Path
 from typing import Any, Sequence
 from urllib.parse import urlparse
 
-from controllers.laws.artefact import ArtefactError, load
+from controllers.deploy.framelog import LogWriteError
+from controllers.laws.artefact import ArtefactError
 
-EXIT_REFUSED, EXIT_FAULT = 2, 3
+EXIT_OK, EXIT_REFUSED, EXIT_FAULT, EXIT_NO_FRAMES, EXIT_LOG, EXIT_CMD_LOST = 0, 2, 3, 4, 5, 6
+EXIT_CODES = {EXIT_OK: "success", EXIT_REFUSED: "refused input (arguments, artefact, log path); nothing flown",
+              EXIT_FAULT: "the run ended in FAULT", EXIT_NO_FRAMES: "no sensor frame received",
+              EXIT_LOG: "the log could not be written", EXIT_CMD_LOST: "command sends failed (fault_frames or more)"}
+MAX_PORT = 65535
+MAX_DURATION_S = 1.0e6  # controllers.deploy.loop.MAX_DURATION_S (a test checks the copy; importing the loop here would load it for every command)
+
+
+def _port(text: str) -> int:
+    """argparse type: a UDP port, 0-65535 (0: any free port)."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: not an integer port") from None
+    if not 0 <= v <= MAX_PORT:
+        raise argparse.ArgumentTypeError(f"{v}: allowed range 0-{MAX_PORT}")
+    return v
+
+
+def _bounded(lo: float, hi: float, unit: str, integer: bool = False, lo_open: bool = False):
+    """argparse type: a finite number in [lo, hi] (``(lo, hi]`` with lo_open), in ``unit``."""
+    def parse(text: str) -> float | int:
+        try:
+            v = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r}: not {'an integer' if integer else 'a number'}") from None
+        if not (math.isfinite(v) and (lo < v if lo_open else lo <= v) and v <= hi):
+            raise argparse.ArgumentTypeError(f"{text}: allowed range {'(' if lo_open else '['}{lo:g}, {hi:g}] {unit}")
+        return v
+    return parse
 
 
 def _key(path: str | None) -> bytes | None:
@@ -54,9 +101,13 @@ def _link_key(path: str | None) -> bytes | None:
 
 def _rig_address(url: str) -> tuple[str, int]:
     u = urlparse(url)
-    if u.scheme != "udp" or not u.hostname or not u.port:
-        raise ValueError(f"--rig {url!r}: expected udp://HOST:PORT")
-    return u.hostname, u.port
+    try:
+        port = u.port
+    except ValueError:  # urllib: "Port out of range 0-65535" or not a number
+        port = None
+    if u.scheme != "udp" or not u.hostname or not port:
+        raise ValueError(f"--rig {url!r}: expected udp://HOST:PORT with PORT in 1-{MAX_PORT}")
+    return u.hostname, port
 
 
 def task_options(pairs: Sequence[str] | None) -> dict[str, Any]:
@@ -107,7 +158,9 @@ def cmd_export(a: argparse.Namespace) -> int:
 
 
 def cmd_verify(a: argparse.Namespace) -> int:
-    art = load(a.law, _key(a.key_file), require_signature=a.key_file is not None)
+    from controllers.deploy.validate import load_deployable
+
+    art = load_deployable(a.law, _key(a.key_file), require_signature=a.key_file is not None, rate_hz=a.rate)
     print(json.dumps({"ok": True, "kind": art.kind, "task": art.spec.task, "rate_hz": 1 / art.spec.dt, "sha256": art.sha256, "provenance": art.provenance}, indent=1))
     return 0
 
@@ -130,11 +183,16 @@ def cmd_run(a: argparse.Namespace) -> int:
 
 def _run(a: argparse.Namespace) -> int:
     from controllers.deploy.loop import LoopConfig, RigLoop
+    from controllers.deploy.validate import load_deployable
 
     from rig_env.signals import InputSchedule, ScheduleError
 
-    art = load(a.law, _key(a.key_file), require_signature=a.key_file is not None)
+    art = load_deployable(a.law, _key(a.key_file), require_signature=a.key_file is not None, rate_hz=a.rate)
     rate = a.rate if a.rate is not None else 1.0 / art.spec.dt
+    if a.log is not None:  # refused before flying: never append to, nor overwrite, a file (the loop creates it exclusively)
+        for p in (a.log, a.log + ".summary.json"):
+            if os.path.lexists(p):
+                raise ValueError(f"--log {a.log}: {p} already exists; a log is never appended to nor overwrites a file: give a new path")
     test_input = None
     if a.test_input is not None:
         try:
@@ -144,7 +202,7 @@ def _run(a: argparse.Namespace) -> int:
     cfg = LoopConfig(rig=_rig_address(a.rig), rate_hz=rate, bind=(a.bind, a.bind_port), duration=a.duration, arm=a.arm, log_path=a.log,
                      seed=a.seed, stale_frames=a.stale_frames, fault_frames=a.fault_frames, realtime=a.realtime,
                      link_delay_steps=a.link_delay_steps, stuck_frames=a.stuck_frames, stuck_cmd_deg=a.stuck_cmd_deg, test_input=test_input,
-                     link_key=_link_key(a.link_key_file), ack_frames=a.ack_frames)
+                     link_key=_link_key(a.link_key_file), ack_frames=a.ack_frames, allow_unlogged=a.allow_unlogged)
     loop = RigLoop(art, cfg)
     signal.signal(signal.SIGINT, lambda *_: loop.stop())
     signal.signal(signal.SIGTERM, lambda *_: loop.stop())
@@ -152,11 +210,34 @@ def _run(a: argparse.Namespace) -> int:
         signal.signal(signal.SIGUSR1, lambda *_: loop.arm())
         signal.signal(signal.SIGUSR2, lambda *_: loop.disarm())
     summary = loop.run()
+    code = run_exit_code(summary, cfg.fault_frames)
+    summary["exit"] = {"code": code, "meaning": EXIT_CODES[code]}
     text = json.dumps(summary, indent=1)
-    print(text)
+    print(text, flush=True)
     if a.log:
-        Path(a.log + ".summary.json").write_text(text + "\n")
-    return EXIT_FAULT if summary["final_state"] == "FAULT" else 0
+        where = a.log + ".summary.json"
+        try:
+            with open(where, "x") as f:  # written wherever it can be: a failed log does not stop it
+                f.write(text + "\n")
+        except OSError as e:
+            print(f"rig-deploy: {where}: summary not written ({e.strerror or e})", file=sys.stderr)
+    if summary["log"]["error"]:
+        print(f"rig-deploy: log failed: {summary['log']['error']}", file=sys.stderr)
+    if code != EXIT_OK:
+        print(f"rig-deploy: run: exit {code}: {EXIT_CODES[code]}", file=sys.stderr)
+    return code
+
+
+def run_exit_code(summary: dict[str, Any], fault_frames: int = 8) -> int:
+    """The exit status of a run from its summary (module docstring): 5 log, 4 no frames, 6 commands lost, 3 FAULT, else 0."""
+    counts = summary["counts"]
+    if summary["log"]["error"]:
+        return EXIT_LOG
+    if counts["fresh"] == 0:
+        return EXIT_NO_FRAMES
+    if counts["tx_error"] >= fault_frames:
+        return EXIT_CMD_LOST
+    return EXIT_FAULT if summary["final_state"] == "FAULT" else EXIT_OK
 
 
 def cmd_sim_rig(a: argparse.Namespace) -> int:
@@ -189,7 +270,7 @@ def parser() -> argparse.ArgumentParser:
     e.add_argument("--task", required=True)
     e.add_argument("--task-option", action="append", metavar="KEY=VALUE", help="a task option (repeatable), e.g. axis=sway_yaw for forced_oscillation")
     e.add_argument("--out", required=True)
-    e.add_argument("--rate", type=float, default=80.0, help="control rate, Hz")
+    e.add_argument("--rate", type=_bounded(1.0, 2000.0, "Hz"), default=80.0, help="control rate, Hz")
     e.add_argument("--policy", help="ppo, sac: a policy artefact from rig train (default: the shipped controllers/policies/<task>_<kind>.json)")
     e.add_argument("--gains", type=float, nargs=3, default=(2.0, 1.0, 1.0), metavar=("KP", "KD", "KFF"), help="linear: roll-tracking gains")
     e.add_argument("--key-file", help="sign with the HMAC key in this file")
@@ -198,24 +279,28 @@ def parser() -> argparse.ArgumentParser:
     v = sub.add_parser("verify", help="validate an artefact file")
     v.add_argument("--law", required=True)
     v.add_argument("--key-file")
+    v.add_argument("--rate", type=_bounded(1.0, 2000.0, "Hz"), help="also check the law against this loop rate, Hz")
     v.set_defaults(func=cmd_verify)
     c = sub.add_parser("convert-policy", help="convert an old-format policy file (rig_env.rl_policy) to a rig-law artefact")
     c.add_argument("old")
     c.add_argument("new")
     c.add_argument("--key-file", help="sign with the HMAC key in this file")
     c.set_defaults(func=cmd_convert_policy)
-    r = sub.add_parser("run", help="fly a law on a rig")
+    r = sub.add_parser("run", help="fly a law on a rig", formatter_class=argparse.RawDescriptionHelpFormatter,
+                       epilog="exit status:\n" + "\n".join(f"  {c}  {m}" for c, m in EXIT_CODES.items())
+                       + "\n  (several: 5, then 4, 6, 3)")
     r.add_argument("--law", required=True)
     r.add_argument("--rig", required=True, help="udp://HOST:PORT")
-    r.add_argument("--rate", type=float, help="Hz (default: the law's)")
+    r.add_argument("--rate", type=_bounded(1.0, 2000.0, "Hz"), help="Hz (default: the law's)")
     r.add_argument("--arm", action="store_true", help="arm at the first frame")
-    r.add_argument("--duration", type=float)
-    r.add_argument("--log")
+    r.add_argument("--duration", type=_bounded(0.0, MAX_DURATION_S, "s", lo_open=True), help=f"s, up to {MAX_DURATION_S:g} (default: until SIGINT)")
+    r.add_argument("--log", help="a new file (an existing path is refused, exit 2)")
+    r.add_argument("--allow-unlogged", action="store_true", help="keep flying when the log cannot be written (default: FAULT, stop, exit 5)")
     r.add_argument("--seed", type=int, default=0, help="task reference draw (as RigVectorEnv.reset(seed))")
     r.add_argument("--bind", default="0.0.0.0")
-    r.add_argument("--bind-port", type=int, default=0)
-    r.add_argument("--stale-frames", type=int, default=3)
-    r.add_argument("--fault-frames", type=int, default=8)
+    r.add_argument("--bind-port", type=_port, default=0)
+    r.add_argument("--stale-frames", type=_bounded(1, 1000, "frames", integer=True), default=3)
+    r.add_argument("--fault-frames", type=_bounded(1, 1000, "frames", integer=True), default=8)
     r.add_argument("--stuck-frames", type=int, default=32,
                    help="FAULT when a free joint's reading repeats for this many frames while the command moves (0: off)")
     r.add_argument("--stuck-cmd-deg", type=float, default=2.0, help="command movement, deg at 18 m/s (x (18/U)^2 at U), that shows the rig is driven (stuck-sensor watchdog)")
@@ -223,16 +308,16 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--link-key-file", metavar="FILE", help="shared link key (hex or raw, >= 16 bytes, mode 600): MAC on every frame; the rig needs the same key")
     r.add_argument("--ack-frames", type=int, default=8, help="FAULT command_ack when the rig acknowledges none of this many commands sent")
     r.add_argument("--realtime", action="store_true", help="SCHED_FIFO scheduling (Linux, privileged)")
-    r.add_argument("--link-delay-steps", type=int, default=0, help="age of a sensor frame on arrival, control steps (reference lead)")
+    r.add_argument("--link-delay-steps", type=_bounded(0, 50, "steps", integer=True), default=0, help="age of a sensor frame on arrival, control steps (reference lead)")
     r.add_argument("--test-input", metavar="FILE.json", help="a test input schedule (rig_env.signals.InputSchedule.save) added to the law's command from arming")
     r.set_defaults(func=cmd_run)
     s = sub.add_parser("sim-rig", help="serve the simulated rig")
-    s.add_argument("--port", type=int, required=True)
+    s.add_argument("--port", type=_port, required=True)
     s.add_argument("--host", default="127.0.0.1")
     s.add_argument("--task", default="velocity_vector_roll")
     s.add_argument("--task-option", action="append", metavar="KEY=VALUE", help="a task option (repeatable), as for export")
-    s.add_argument("--rate", type=float, default=80.0)
-    s.add_argument("--duration", type=float, default=20.0)
+    s.add_argument("--rate", type=_bounded(1.0, 2000.0, "Hz"), default=80.0)
+    s.add_argument("--duration", type=_bounded(0.0, 3600.0, "s", lo_open=True), default=20.0)
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--loss", type=float, default=0.0)
     s.add_argument("--cmd-loss", type=float, default=0.0)
@@ -250,6 +335,9 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--record")
     s.add_argument("--summary")
     s.set_defaults(func=cmd_sim_rig)
+    from controllers.deploy.logtool import add_parser as add_log_parser
+
+    add_log_parser(sub)
     return p
 
 
@@ -264,8 +352,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"rig-deploy: {e}", file=sys.stderr)
         return EXIT_REFUSED
     except OSError as e:  # a raised FileNotFoundError(message) has no strerror: print the message
-        print(f"rig-deploy: {e.filename or ''}: {e.strerror}" if e.strerror else f"rig-deploy: {e}", file=sys.stderr)
-        return EXIT_REFUSED
+        where = e.filename or getattr(a, "log", None) or getattr(a, "out", None) or getattr(a, "law", None) or "(no path)"
+        print(f"rig-deploy: {where}: {e.strerror}" if e.strerror else f"rig-deploy: {e}", file=sys.stderr)
+        return EXIT_LOG if isinstance(e, LogWriteError) else EXIT_REFUSED
 
 
 if __name__ == "__main__":

@@ -62,6 +62,13 @@ rig, a rig_roll reading frozen during velocity_vector_roll's spin lets the demon
 until the model pitch passes its stop 37 frames later (40 frames was too late).  The rule and why it
 needs the command's movement: :mod:`controllers.deploy.stuck`.
 
+Log failure (``F_LOG``, ``log_write``): the log's writer thread records a failed write
+(:attr:`controllers.deploy.framelog.FrameLog.error`); the loop checks it after every tick, latches FAULT
+and ends the run (``LoopConfig.allow_unlogged``: an event ``log_lost`` instead, and the flight goes on).
+End of run: :meth:`RigLoop._wind_down` sends neutral targets through the output limits once per period
+(mode SAFE) until every command is 0, then three DISARMED neutral commands; the summary's
+``final_state`` is the last tick's state, ``end`` the state after the wind-down (DISARMED).
+
 Output limits: ``command = prev + clip(clip(target, -pos, pos) - prev, -rate dt, rate dt)`` with the
 artefact's ``limits`` (default +-40 deg and the servos' 350 deg/s): the safe target is commanded at
 once and the surfaces reach neutral at the servos' own slew rate.
@@ -106,9 +113,16 @@ from rig_env.signals import InputSchedule
 
 DISARMED, ACTIVE, FAULT = 0, 1, 2
 STATES = ("DISARMED", "ACTIVE", "FAULT")
-F_STALE, F_SENSOR, F_RIG, F_CONTROLLER, F_OVERRUN, F_STUCK, F_LINK, F_IMPLAUSIBLE = 1, 2, 4, 8, 16, 32, 64, 128
+F_STALE, F_SENSOR, F_RIG, F_CONTROLLER, F_OVERRUN, F_STUCK, F_LINK, F_IMPLAUSIBLE, F_LOG = 1, 2, 4, 8, 16, 32, 64, 128, 256
 FAULTS = {F_STALE: "stale", F_SENSOR: "sensor_range", F_RIG: "rig_status", F_CONTROLLER: "controller", F_OVERRUN: "overrun",
-          F_STUCK: "stuck_sensor", F_LINK: "command_ack", F_IMPLAUSIBLE: "implausible"}
+          F_STUCK: "stuck_sensor", F_LINK: "command_ack", F_IMPLAUSIBLE: "implausible", F_LOG: "log_write"}
+MAX_DURATION_S = 1.0e6
+"""Longest ``duration`` accepted, s (11.6 days): a bound on the tick counter, not on memory (below)."""
+STATS_CAP = 1 << 18
+"""Per-tick timing statistics (latency, wake jitter, law time) keep the last ``STATS_CAP`` ticks (a ring of
+3 x 2 MiB; 55 min at 80 Hz): memory stays bounded whatever the duration."""
+WIND_DOWN_MAX_S = 1.0
+"""Longest wind-down at the end of a run, s: neutral targets through the output limits until the commands are 0."""
 LIMITED_MAX = math.radians(90.0)
 UNLIMITED_MAX = 1.0e4
 FLAP_MAX = math.radians(60.0)
@@ -142,6 +156,8 @@ class LoopConfig:
     of the last ``ack_frames`` commands sent, [1, 1000].  implausible_frames: consecutive implausible frames
     that latch FAULT ``implausible`` (:mod:`controllers.deploy.plausibility`), [1, 1000].  overrun_ticks:
     consecutive overruns of ``overrun_s`` that latch FAULT ``overrun`` (:mod:`controllers.deploy.overrun`), [1, 100].
+    allow_unlogged: keep flying when the log cannot be written (event ``log_lost``); by default a log
+    write failure latches FAULT ``log_write`` and ends the run (neutral commands, wind-down).
     """
 
     rig: tuple[str, int]
@@ -169,12 +185,13 @@ class LoopConfig:
     ack_frames: int = 8
     implausible_frames: int = 3
     overrun_ticks: int = 3
+    allow_unlogged: bool = False
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.rate_hz) and 1.0 <= self.rate_hz <= 2000.0):
             raise ValueError(f"rate_hz = {self.rate_hz}: allowed range [1, 2000] Hz")
-        if self.duration is not None and not (math.isfinite(self.duration) and self.duration > 0):
-            raise ValueError(f"duration = {self.duration}: must be a positive number of seconds")
+        if self.duration is not None and not (isinstance(self.duration, (int, float)) and math.isfinite(self.duration) and 0 < self.duration <= MAX_DURATION_S):
+            raise ValueError(f"duration = {self.duration}: allowed range (0, {MAX_DURATION_S:g}] s")
         if not (isinstance(self.stale_frames, int) and 1 <= self.stale_frames <= self.fault_frames <= 1000):
             raise ValueError(f"stale_frames = {self.stale_frames}, fault_frames = {self.fault_frames}: need 1 <= stale_frames <= fault_frames <= 1000")
         if not 0.0 <= self.phase <= 0.9:
@@ -281,6 +298,9 @@ class RigLoop:
         self.events: list[dict[str, Any]] = []
         self.sock: socket.socket | None = None
         self.port = 0
+        self.log_error: str | None = None
+        self.flight_state: int | None = None  # the state on the last tick flown, set when run() ends
+        self.wind_down_ticks = 0
 
     # ------------------------------------------------------------------ operator
     def arm(self) -> None:
@@ -304,8 +324,11 @@ class RigLoop:
 
     # ------------------------------------------------------------------ run
     def run(self) -> dict[str, Any]:
+        """Fly until ``duration`` or :meth:`stop`, then wind down to neutral and disarm; returns :meth:`summary`.
+
+        Raises :class:`controllers.deploy.framelog.LogPathError` (an existing log path) or OSError (the
+        log cannot be created) before any frame is sent."""
         cfg = self.cfg
-        self.open()
         if cfg.realtime:
             try:
                 os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(50))
@@ -316,8 +339,9 @@ class RigLoop:
                   "rig": list(self.rig), "seed": cfg.seed, "stale_frames": cfg.stale_frames, "fault_frames": cfg.fault_frames,
                   "stuck_frames": cfg.stuck_frames, "stuck_cmd_deg": cfg.stuck_cmd_deg}
         self.log = FrameLog(cfg.log_path, cfg.rate_hz, header)
+        self.open()
         n_ticks = None if cfg.duration is None else int(round(cfg.duration * cfg.rate_hz))
-        self.lat = np.zeros(n_ticks if n_ticks else 1 << 20)  # unbounded runs: statistics of the last 2**20 ticks
+        self.lat = np.zeros(min(n_ticks or STATS_CAP, STATS_CAP))  # a ring: statistics of the last STATS_CAP ticks
         self.jit = np.zeros_like(self.lat)
         self.comp = np.zeros_like(self.lat)
         self.n = 0
@@ -341,14 +365,28 @@ class RigLoop:
                 self._tick(k, deadline, wake)
                 if self.log.due(wake - self.t0):
                     self.log.flush(wake - self.t0)
+                if self.log.error is not None and self.log_error is None:
+                    self._log_failed(k)
                 k += 1
         finally:
-            self._send_neutral()
+            self.flight_state = self.state
+            self._wind_down()
             gc.unfreeze()
             self.log.close()
+            if self.log.error is not None and self.log_error is None:
+                self.log_error = self.log.error
             self.sock.close()
             self.sock = None
         return self.summary()
+
+    def _log_failed(self, k: int) -> None:
+        """The log writer failed: FAULT ``log_write`` and stop (neutral from this tick on), unless ``allow_unlogged``."""
+        self.log_error = self.log.error
+        if self.cfg.allow_unlogged:
+            self.events.append({"tick": k, "t": time.perf_counter() - self.t0, "event": "log_lost", "detail": self.log_error})
+            return
+        self._latch(F_LOG, k, self.log_error)
+        self._stop = True
 
     def _connect(self) -> float | None:
         """Send hellos (neutral DISARMED commands) until the rig's first frame arrives; its arrival time or None."""
@@ -572,14 +610,32 @@ class RigLoop:
         except OSError:
             self.counts["tx_error"] += 1
 
-    def _send_neutral(self) -> None:
-        if self.sock is not None:
-            for _ in range(3):
-                self._send(np.zeros(pr.N_SURFACES), pr.MODE_SAFE, pr.NO_ECHO)
+    def _wind_down(self) -> None:
+        """End of run: neutral targets through the output limits, one per period (mode SAFE), until every
+        command is 0 (at most ``WIND_DOWN_MAX_S``), then three DISARMED neutral commands; state DISARMED.
+
+        The surfaces thus return to neutral at the artefact's rate limit (350 deg/s by default: 40 deg in
+        0.11 s), the slew the servos would apply anyway, and the rig's last command is neutral and disarmed."""
+        self.state = DISARMED
+        if self.sock is None:
+            return
+        zero = np.zeros(pr.N_SURFACES)
+        n, t = 0, time.perf_counter()
+        while np.any(self.limits.cmd != 0.0) and n < WIND_DOWN_MAX_S * self.cfg.rate_hz:
+            t += self.period
+            self._sleep_until(t)
+            self._send(self.limits.apply(zero), pr.MODE_SAFE, pr.NO_ECHO)
+            n += 1
+        for _ in range(3):
+            self._send(zero, pr.MODE_DISARMED, pr.NO_ECHO)
+        self.wind_down_ticks = n
 
     # ------------------------------------------------------------------ summary
     def summary(self) -> dict[str, Any]:
-        """Counts, deadline misses, latency (command sent - deadline) and jitter (wake - deadline) statistics, faults."""
+        """Counts, deadline misses, latency (command sent - deadline) and jitter (wake - deadline) statistics, faults.
+
+        ``final_state``: the state on the last tick flown; ``end``: after the wind-down (DISARMED, the last
+        command sent, rad); ``log``: its path and the write failure, if any (None)."""
         n = min(self.n, self.lat.size)
         lat, jit, comp = self.lat[:n], self.jit[:n], self.comp[:n]
         called = comp[comp > 0]
@@ -591,7 +647,9 @@ class RigLoop:
 
         ticks = self.n + self.counts["skipped"]
         return {
-            "ticks": ticks, "rate_hz": self.cfg.rate_hz, "final_state": STATES[self.state],
+            "ticks": ticks, "rate_hz": self.cfg.rate_hz, "final_state": STATES[self.state if self.flight_state is None else self.flight_state],
+            "end": {"state": STATES[self.state], "wind_down_ticks": self.wind_down_ticks, "command_rad": self.limits.cmd.tolist()},
+            "log": {"path": self.cfg.log_path, "error": self.log_error},
             "faults": [FAULTS[b] for b in FAULTS if self.fault & b],
             "deadline_misses": self.counts["deadline_miss"], "deadline_miss_fraction": self.counts["deadline_miss"] / max(ticks, 1),
             "latency": stats(lat), "wake_jitter": dict(stats(np.abs(jit)), std_ms=float(np.std(jit) * 1e3) if n else float("nan")),

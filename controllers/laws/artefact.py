@@ -64,7 +64,9 @@ import json
 import math
 import os
 import platform
+import re
 import socket
+import stat
 import subprocess
 from dataclasses import asdict, dataclass
 from datetime import datetime, timezone
@@ -83,6 +85,11 @@ FORMAT_VERSION = 1
 OLD_POLICY_FORMAT = "rig_env.rl_policy"
 """The format of the earlier separate policy files, refused by :func:`load` with the conversion command."""
 MAX_BYTES = 64 * 2**20  # refuse files above 64 MiB before parsing
+MAX_DEPTH = 32
+"""Deepest nesting of JSON objects / arrays accepted (a law's file nests 5-8 deep), checked before parsing."""
+MAX_INT_DIGITS = 18
+"""Longest JSON integer accepted, digits (|n| < 10**18 fits an int64); a longer one is refused while parsing."""
+_HEX64 = re.compile(r"[0-9a-f]{64}")
 _DTYPES = {"<f8": np.dtype("<f8"), "<i8": np.dtype("<i8")}
 _BODY_KEYS = ("format", "format_version", "kind", "spec", "sensors", "limits", "params", "arrays", "provenance")
 _SENSOR_KEYS = {"rate_filter_hz": float, "link_delay_steps": int, "quantise": bool, "pot_bits": int, "encoder_bits": int}
@@ -224,8 +231,11 @@ def save(art: Artefact, path: str | os.PathLike, key: bytes | None = None) -> st
         doc["signature"] = {"alg": "HMAC-SHA256", "value": hmac.new(_key(key), raw, hashlib.sha256).hexdigest()}
     p = Path(path)
     tmp = p.with_name(p.name + ".tmp")
-    tmp.write_text(json.dumps(doc, indent=1, sort_keys=True, allow_nan=False) + "\n", encoding="ascii")
-    os.replace(tmp, p)
+    try:
+        tmp.write_text(json.dumps(doc, indent=1, sort_keys=True, allow_nan=False) + "\n", encoding="ascii")
+        os.replace(tmp, p)
+    finally:  # a failed write or rename leaves no temporary file behind
+        tmp.unlink(missing_ok=True)
     return doc["sha256"]
 
 
@@ -240,21 +250,86 @@ def _key(key: bytes | str) -> bytes:
 def load(path: str | os.PathLike, key: bytes | str | None = None, require_signature: bool = False) -> Artefact:
     """Read and validate an artefact; any failure is an :class:`ArtefactError` naming what failed.
 
-    Checks, in order: size, JSON syntax, schema (keys and types), format and version, checksum,
-    signature (when ``key`` is given, or required), array dtypes / shapes / finiteness, the spec's
-    consistency, and the kind's own ``from_data`` (shapes against the spec).
+    Checks, in order: a regular file (a FIFO, device or directory is refused without blocking on it),
+    size, JSON syntax (ASCII; no duplicate keys, no NaN / Infinity, integers of at most
+    :data:`MAX_INT_DIGITS` digits, nesting at most :data:`MAX_DEPTH` deep), schema (keys and types),
+    format and version (an int, not a bool), checksum (64 lowercase hex digits), signature (when ``key``
+    is given, or required), array dtypes / shapes / finiteness, the spec's consistency (finite, ordered
+    airspeed range, distinct names), and the kind's own ``from_data`` (shapes against the spec).  Any
+    other failure inside the checks is still an ArtefactError naming the file, never a traceback.
     """
-    p = Path(path)
-    where = str(p)
+    where = str(Path(path))
+    raw_bytes = _read_regular(where)
     try:
-        size = p.stat().st_size
+        return _load(where, raw_bytes, key, require_signature)
+    except ArtefactError:
+        raise
+    except (TypeError, KeyError, IndexError, ValueError, OverflowError, RecursionError, AttributeError) as e:  # a check that did not foresee a type
+        raise ArtefactError(f"{where}: malformed artefact ({type(e).__name__}: {e})") from None
+
+
+def _read_regular(where: str) -> bytes:
+    """The bytes of ``where`` if it is a regular file of at most MAX_BYTES (opened non-blocking: a FIFO never hangs)."""
+    try:
+        fd = os.open(where, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
     except OSError as e:
         raise ArtefactError(f"{where}: cannot read ({e.strerror})") from None
-    if size > MAX_BYTES:
-        raise ArtefactError(f"{where}: {size} bytes; larger than the {MAX_BYTES}-byte limit")
     try:
-        doc = json.loads(p.read_bytes().decode("ascii"), parse_constant=_no_constant)
-    except (UnicodeDecodeError, json.JSONDecodeError, ArtefactError) as e:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise ArtefactError(f"{where}: not a regular file (a directory, FIFO, socket or device); an artefact is a file")
+        if st.st_size > MAX_BYTES:
+            raise ArtefactError(f"{where}: {st.st_size} bytes; larger than the {MAX_BYTES}-byte limit")
+        chunks, n = [], 0
+        while n <= MAX_BYTES and (chunk := os.read(fd, 1 << 20)):
+            chunks.append(chunk)
+            n += len(chunk)
+    except OSError as e:
+        raise ArtefactError(f"{where}: cannot read ({e.strerror})") from None
+    finally:
+        os.close(fd)
+    if n > MAX_BYTES:
+        raise ArtefactError(f"{where}: larger than the {MAX_BYTES}-byte limit")
+    return b"".join(chunks)
+
+
+def _depth(raw: bytes) -> int:
+    """Deepest nesting of ``[`` / ``{`` in JSON text ``raw``, outside strings (numpy: no recursion)."""
+    text = re.sub(rb'"(?:[^"\\]|\\.)*"', b'""', raw)
+    c = np.frombuffer(text, dtype=np.uint8)
+    step = np.isin(c, (ord("["), ord("{"))).astype(np.int64) - np.isin(c, (ord("]"), ord("}")))
+    return int(np.cumsum(step).max()) if step.size else 0
+
+
+def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in pairs:
+        if k in out:
+            raise ArtefactError(f"duplicate key {k!r} in a JSON object (which value counts would be ambiguous)")
+        out[k] = v
+    return out
+
+
+def _parse_int(s: str) -> int:
+    if len(s.lstrip("-")) > MAX_INT_DIGITS:
+        raise ArtefactError(f"integer of {len(s.lstrip('-'))} digits (at most {MAX_INT_DIGITS})")
+    return int(s)
+
+
+def _parse_float(s: str) -> float:
+    v = float(s)
+    if not math.isfinite(v):
+        raise ArtefactError(f"number {s[:40]} overflows a float64")
+    return v
+
+
+def _load(where: str, raw_bytes: bytes, key: bytes | str | None, require_signature: bool) -> Artefact:
+    if _depth(raw_bytes) > MAX_DEPTH:
+        raise ArtefactError(f"{where}: JSON nested deeper than {MAX_DEPTH} levels")
+    try:
+        doc = json.loads(raw_bytes.decode("ascii"), parse_constant=_no_constant, object_pairs_hook=_no_duplicates,
+                         parse_int=_parse_int, parse_float=_parse_float)
+    except (UnicodeDecodeError, json.JSONDecodeError, ArtefactError, RecursionError) as e:
         raise ArtefactError(f"{where}: not a valid JSON artefact (truncated or corrupted?): {e}") from None
     if not isinstance(doc, dict):
         raise ArtefactError(f"{where}: top level must be a JSON object")
@@ -269,18 +344,20 @@ def load(path: str | os.PathLike, key: bytes | str | None = None, require_signat
         raise ArtefactError(f"{where}: unknown key(s) {extra}")
     if doc["format"] != FORMAT:
         raise ArtefactError(f"{where}: format {doc['format']!r}, expected {FORMAT!r}")
-    if doc["format_version"] != FORMAT_VERSION:
+    if type(doc["format_version"]) is not int or doc["format_version"] != FORMAT_VERSION:
         raise ArtefactError(f"{where}: format_version {doc['format_version']!r}; this runtime reads version {FORMAT_VERSION} only")
     body = {k: doc[k] for k in _BODY_KEYS}
     raw = canonical(body)
     digest = hashlib.sha256(raw).hexdigest()
-    if not isinstance(doc["sha256"], str) or not hmac.compare_digest(digest, doc["sha256"]):
+    if not isinstance(doc["sha256"], str) or not _HEX64.fullmatch(doc["sha256"]):
+        raise ArtefactError(f"{where}: sha256 must be 64 lowercase hex digits, got {str(doc['sha256'])[:70]!r}")
+    if not hmac.compare_digest(digest, doc["sha256"]):
         raise ArtefactError(f"{where}: checksum mismatch (sha256 of the content is {digest[:16]}..., file says {str(doc['sha256'])[:16]}...): the file was modified or damaged")
     sig = doc.get("signature")
     if key is not None or require_signature:
         if key is None:
             raise ArtefactError(f"{where}: a signature is required but no key was given")
-        if not isinstance(sig, dict) or sig.get("alg") != "HMAC-SHA256" or not isinstance(sig.get("value"), str):
+        if not isinstance(sig, dict) or sig.get("alg") != "HMAC-SHA256" or not isinstance(sig.get("value"), str) or not _HEX64.fullmatch(sig["value"]):
             raise ArtefactError(f"{where}: signature missing or malformed (expected HMAC-SHA256)")
         want = hmac.new(_key(key), raw, hashlib.sha256).hexdigest()
         if not hmac.compare_digest(want, sig["value"]):
@@ -319,6 +396,10 @@ def _check_body(body: Mapping[str, Any], where: str) -> tuple[LoopSpec, dict[str
          "spec.task_options must be an object of scalar values")
     for k in ("free_dofs", "obs_labels", "action_names"):
         need(len(s[k]) > 0 and all(isinstance(x, str) for x in s[k]), f"spec.{k} must be a non-empty list of strings")
+        need(len(set(s[k])) == len(s[k]), f"spec.{k} = {s[k]}: names repeat")
+    ar = s["airspeed_range"]
+    need(len(ar) == 2 and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in ar) and 0.0 <= ar[0] <= ar[1],
+         f"spec.airspeed_range = {ar!r}: two finite speeds lo <= hi, m/s, lo >= 0")
     need(0.0 < s["dt"] <= 1.0, f"spec.dt = {s['dt']} s: allowed range (0, 1]")
     need(0.0 < s["action_scale_deg"] <= 90.0, f"spec.action_scale_deg = {s['action_scale_deg']}: allowed range (0, 90]")
     spec = LoopSpec(s["task"], tuple(s["free_dofs"]), tuple(s["obs_labels"]), tuple(s["action_names"]), float(s["dt"]),
@@ -343,7 +424,7 @@ def _check_body(body: Mapping[str, Any], where: str) -> tuple[LoopSpec, dict[str
     data: dict[str, Any] = dict(body["params"])
     for name, a in arrs.items():
         need(isinstance(a, dict) and set(a) == {"dtype", "shape", "data"}, f"arrays.{name}: needs exactly dtype, shape, data")
-        need(a["dtype"] in _DTYPES, f"arrays.{name}.dtype = {a['dtype']!r}: allowed {sorted(_DTYPES)}")
+        need(isinstance(a["dtype"], str) and a["dtype"] in _DTYPES, f"arrays.{name}.dtype = {a['dtype']!r}: allowed {sorted(_DTYPES)}")
         shp = a["shape"]
         need(isinstance(shp, list) and len(shp) <= 4 and all(isinstance(d, int) and not isinstance(d, bool) and 0 <= d <= 2**24 for d in shp), f"arrays.{name}.shape = {shp!r}: up to 4 non-negative integers")
         try:
