@@ -216,6 +216,8 @@ def test_exit_code_precedence_from_the_summary():
     assert cli.run_exit_code(base) == cli.EXIT_OK
     assert cli.run_exit_code(dict(base, final_state="FAULT")) == cli.EXIT_FAULT
     assert cli.run_exit_code(dict(base, final_state="FAULT", counts={"fresh": 10, "tx_error": 8})) == cli.EXIT_CMD_LOST
+    assert cli.run_exit_code(dict(base, final_state="FAULT", faults=["command_ack"])) == cli.EXIT_CMD_LOST
+    assert cli.run_exit_code(dict(base, final_state="FAULT", faults=["stale"])) == cli.EXIT_FAULT
     assert cli.run_exit_code(dict(base, counts={"fresh": 0, "tx_error": 8})) == cli.EXIT_NO_FRAMES
     assert cli.run_exit_code(dict(base, counts={"fresh": 0, "tx_error": 0}, log={"error": "x: full"})) == cli.EXIT_LOG
     assert len(set(cli.EXIT_CODES)) == 6
@@ -443,6 +445,8 @@ def test_log_show_plot_export_of_a_flight(tmp_path, law_file, capsys):
     assert shown["frames"]["fresh"] == summary["counts"]["fresh"] and shown["frames"]["missed"] == summary["counts"]["missed"]
     assert sum(s["ticks"] for s in shown["states"].values()) == shown["records"] and shown["states"]["ACTIVE"]["ticks"] > 0
     assert shown["header"]["task"] == TASK and shown["faults"] == [] and shown["latency"]["p50_ms"] > 0
+    link = shown["header"]["link"]  # the log says how the link was flown
+    assert link["keyed"] is False and link["protocol_version"] == 2 and link["session"] > 0 and link["ack_frames"] == 8
     out = tmp_path / "plots"
     assert cli.main(["log", "plot", str(log), "--out", str(out)]) == 0
     pngs = sorted(p.name for p in out.iterdir())

@@ -284,6 +284,7 @@ def _synthetic_log(path: Path, header: dict, ticks: list[tuple[int, int, float]]
     return recs
 
 
+@pytest.mark.filterwarnings("ignore:.*the last record is torn:rig_env.framelog_format.TornLogWarning")  # the synthetic logs end torn on purpose
 def test_frame_log_fresh_frames_once_and_free_dofs_from_header_or_keyword(tmp_path):
     ticks = [(0, -1, 0.0), (1, 0, 0.0), (0, 0, 0.0), (1, 1, 0.0125), (1, 1, 0.0125), (1, 2, 0.025), (1, 3, 0.0375)]
     _synthetic_log(tmp_path / "old.log", {"task": "t", "rate_hz": 80.0}, ticks)

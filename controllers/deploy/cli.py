@@ -55,7 +55,7 @@ from controllers.laws.artefact import ArtefactError
 EXIT_OK, EXIT_REFUSED, EXIT_FAULT, EXIT_NO_FRAMES, EXIT_LOG, EXIT_CMD_LOST = 0, 2, 3, 4, 5, 6
 EXIT_CODES = {EXIT_OK: "success", EXIT_REFUSED: "refused input (arguments, artefact, log path); nothing flown",
               EXIT_FAULT: "the run ended in FAULT", EXIT_NO_FRAMES: "no sensor frame received",
-              EXIT_LOG: "the log could not be written", EXIT_CMD_LOST: "command sends failed (fault_frames or more)"}
+              EXIT_LOG: "the log could not be written", EXIT_CMD_LOST: "command path lost: sends failed (fault_frames or more) or the rig stopped acknowledging (command_ack)"}
 MAX_PORT = 65535
 MAX_DURATION_S = 1.0e6  # controllers.deploy.loop.MAX_DURATION_S (a test checks the copy; importing the loop here would load it for every command)
 
@@ -229,13 +229,15 @@ def _run(a: argparse.Namespace) -> int:
 
 
 def run_exit_code(summary: dict[str, Any], fault_frames: int = 8) -> int:
-    """The exit status of a run from its summary (module docstring): 5 log, 4 no frames, 6 commands lost, 3 FAULT, else 0."""
+    """The exit status of a run from its summary (module docstring): 5 log, 4 no frames, 6 command path lost
+    (``fault_frames`` or more sends failed, or the rig stopped acknowledging the commands: FAULT ``command_ack``),
+    3 FAULT, else 0."""
     counts = summary["counts"]
     if summary["log"]["error"]:
         return EXIT_LOG
     if counts["fresh"] == 0:
         return EXIT_NO_FRAMES
-    if counts["tx_error"] >= fault_frames:
+    if counts["tx_error"] >= fault_frames or "command_ack" in summary.get("faults", ()):
         return EXIT_CMD_LOST
     return EXIT_FAULT if summary["final_state"] == "FAULT" else EXIT_OK
 

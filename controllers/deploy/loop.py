@@ -337,7 +337,9 @@ class RigLoop:
         header = {"artefact_sha256": self.art.sha256, "kind": self.art.kind, "task": self.spec.task, "rate_hz": cfg.rate_hz,
                   "free_dofs": list(self.spec.free_dofs),
                   "rig": list(self.rig), "seed": cfg.seed, "stale_frames": cfg.stale_frames, "fault_frames": cfg.fault_frames,
-                  "stuck_frames": cfg.stuck_frames, "stuck_cmd_deg": cfg.stuck_cmd_deg}
+                  "stuck_frames": cfg.stuck_frames, "stuck_cmd_deg": cfg.stuck_cmd_deg,
+                  "link": {"keyed": self.key is not None, "session": self.session, "ack_frames": cfg.ack_frames,
+                           "protocol_version": pr.VERSION}}
         self.log = FrameLog(cfg.log_path, cfg.rate_hz, header)
         self.open()
         n_ticks = None if cfg.duration is None else int(round(cfg.duration * cfg.rate_hz))
