@@ -61,6 +61,19 @@ class EvalResult:
 LawFactory = Callable[[LoopSpec, int], Controller]
 
 
+_ANNOUNCED = [False]
+
+
+def _announce_kernels(stream: TextIO | None) -> None:
+    """Say once per process, before the first batch is built, why the first progress line may take minutes."""
+    if stream is None or _ANNOUNCED[0]:
+        return
+    _ANNOUNCED[0] = True
+    stream.write("  loading the numba kernels (the first run of a fresh installation compiles them once, a few minutes on "
+                 "2 cores; later runs load them from the disk cache in seconds)\n")
+    stream.flush()
+
+
 def _progress(stream: TextIO | None, label: str, k: int, total: int, last: list[int]) -> None:
     if stream is None:
         return
@@ -102,6 +115,7 @@ def evaluate(
     names = list(laws)
     n, C = n_episodes, len(names)
     fields = {**conditions.env_fields(), **dict(env_overrides or {})}
+    _announce_kernels(progress)
     env = RigVectorEnv(n * C, task=task, **fields)
     spec = LoopSpec.from_env(env)
     built: dict[str, Controller] = {}
