@@ -29,6 +29,7 @@ from controllers.deploy import cli
 from controllers.deploy import framelog as fl
 from controllers.deploy import loop as lp
 from controllers.deploy import protocol as pr
+from fake_rig import FakeRig
 from controllers.deploy.validate import load_deployable
 from controllers.laws import artefact as A
 from rig_env.framelog_format import TornLogWarning, read_log
@@ -57,53 +58,6 @@ def trim_law(law_file, tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("trim") / "trim.json"
     A.save(dataclasses.replace(art, data=data, sha256=""), out)
     return out
-
-
-class FakeRig:
-    """80 Hz sensor frames (a still rig at 20 m/s with a little motion) to the first sender; records (mode, surfaces) of each command."""
-
-    def __init__(self, rate: float = 80.0) -> None:
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.bind(("127.0.0.1", 0))
-        self.sock.settimeout(0.002)
-        self.port = self.sock.getsockname()[1]
-        self.period = 1.0 / rate
-        self.commands: list[tuple[int, tuple[float, ...]]] = []
-        self.stop = threading.Event()
-        self.thread = threading.Thread(target=self._run, daemon=True)
-        self.thread.start()
-
-    def _run(self) -> None:
-        buf = bytearray(pr.SENSOR_SIZE)
-        peer, seq, t0, nxt = None, 0, None, 0.0
-        ack, session = pr.NO_ECHO, 0  # the last command applied (acknowledged in every frame) and its session
-        end = time.monotonic() + 60.0
-        while not self.stop.is_set() and time.monotonic() < end:
-            try:
-                data, addr = self.sock.recvfrom(256)
-                peer = addr
-                try:
-                    c = pr.unpack_command(data)
-                    self.commands.append((c.mode, c.surfaces))
-                    ack, session = c.seq, c.session
-                except pr.FrameError:
-                    pass
-            except (TimeoutError, BlockingIOError):
-                pass
-            now = time.monotonic()
-            if peer is not None and now >= nxt:
-                t0 = now if t0 is None else t0
-                w = math.sin(3.0 * (now - t0))
-                pr.pack_sensor_into(buf, seq, now - t0, (0.01 * w, 0.002 * w, 0.003 * w, 0.02 + 0.004 * w, 0.005 * w), (0.0,) * 4, 20.0,
-                                    pr.STATUS_SIMULATED, ack=ack, session=session)
-                self.sock.sendto(buf, peer)
-                seq += 1
-                nxt = now + self.period
-
-    def close(self) -> None:
-        self.stop.set()
-        self.thread.join(timeout=5)
-        self.sock.close()
 
 
 def _fly(law: Path, log: Path | None, duration: float = 1.0, port: int | None = None, **kw) -> tuple[dict, list]:

@@ -9,18 +9,15 @@ alone, in a fresh interpreter.
 from __future__ import annotations
 
 import json
-import math
 import os
-import socket
 import subprocess
 import sys
-import threading
-import time
 from pathlib import Path
 
 import pytest
 
 from controllers.deploy import protocol as pr
+from fake_rig import FakeRig
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
@@ -44,52 +41,6 @@ def test_import_rig_env_and_the_observation_builder_is_light():
                           "import rig_env.envs.tasks; import rig_env.physics.layout; import rig_env.physics.vmath")
     assert _heavy(mods) == []
     assert "rig_env.simulate" not in mods and "rig_env.envs.vector_env" not in mods
-
-
-class FakeRig:
-    """80 Hz sensor frames of a slowly rocking rig to whoever sent the first datagram (its session, its commands acknowledged); counts the commands by mode."""
-
-    def __init__(self, rate: float = 80.0) -> None:
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.bind(("127.0.0.1", 0))
-        self.sock.settimeout(0.005)
-        self.port = self.sock.getsockname()[1]
-        self.period = 1.0 / rate
-        self.modes: dict[int, int] = {}
-        self.stop = threading.Event()
-        self.thread = threading.Thread(target=self._run, daemon=True)
-        self.thread.start()
-
-    def _run(self) -> None:
-        buf = bytearray(pr.SENSOR_SIZE)
-        peer, seq, t0, nxt, ack, session = None, 0, None, 0.0, pr.NO_ECHO, 0
-        deadline = time.monotonic() + 90.0  # never outlives the test
-        while not self.stop.is_set() and time.monotonic() < deadline:
-            try:
-                data, addr = self.sock.recvfrom(256)
-                peer = addr
-                try:
-                    c = pr.unpack_command(data)
-                    self.modes[c.mode] = self.modes.get(c.mode, 0) + 1
-                    ack, session = c.seq, c.session  # serve its session, acknowledge its commands
-                except pr.FrameError:
-                    pass
-            except (TimeoutError, BlockingIOError):
-                pass
-            now = time.monotonic()
-            if peer is not None and now >= nxt:
-                t0 = now if t0 is None else t0
-                w = math.sin(3.0 * (now - t0))  # every joint moves a little: the stuck-sensor watchdog stays quiet
-                angles = (0.01 * w, 0.002 * w, 0.003 * w, 0.02 + 0.004 * w, 0.005 * w)
-                pr.pack_sensor_into(buf, seq, now - t0, angles, (0.0,) * 4, 20.0, pr.STATUS_SIMULATED, ack, session)
-                self.sock.sendto(buf, peer)
-                seq += 1
-                nxt = now + self.period
-
-    def close(self) -> None:
-        self.stop.set()
-        self.thread.join(timeout=5)
-        self.sock.close()
 
 
 @pytest.fixture(scope="module")

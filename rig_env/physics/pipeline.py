@@ -199,7 +199,8 @@ class PhysicsBatch:
     aerodynamic tables (``RigParams.tables()``); free_idx: indices of the free joints (JOINTS order);
     flags: :func:`flags_of`; physics_dt: s; n_sub: physics steps per control step; kind: the kernel
     (:func:`choose_kernel`); delay_rows: further (k, N_PARAMS) rows whose servo delays the delay lines
-    must also hold (e.g. the corners of a randomisation range, for rows :meth:`set_params` writes later).
+    must also hold (e.g. the corners of a randomisation range, for rows :meth:`set_params` writes later);
+    parallel: the kernel's ``prange`` version (:func:`choose_kernel`; None: from the batch size).
 
     Every environment starts at rest at zero angles with zero inputs; :meth:`reset` sets initial states
     (servos in equilibrium with the commands in U, see the module docstring).
@@ -216,6 +217,7 @@ class PhysicsBatch:
         *,
         kind: str = "lanes",
         delay_rows: np.ndarray | None = None,
+        parallel: bool | None = None,
     ) -> None:
         self.P = np.ascontiguousarray(P, dtype=np.float64)
         n = self.P.shape[0]
@@ -237,7 +239,7 @@ class PhysicsBatch:
         self.k0 = 0
         """Physics steps taken (the delay lines' write position)."""
         self._energy_work: tuple[np.ndarray, np.ndarray] | None = None
-        self.select_kernel(kind)
+        self.select_kernel(kind, parallel)
 
     # ------------------------------------------------------------------ kernel
     def select_kernel(self, kind: str, parallel: bool | None = None) -> None:

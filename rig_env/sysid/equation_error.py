@@ -25,9 +25,9 @@ import numpy as np
 from rig_env.params import JOINTS, RigParams
 from rig_env.physics import layout as L
 from rig_env.physics.derivatives import joint_accelerations
-from rig_env.sysid.covariance import coloured_middle, covariances
+from rig_env.sysid.covariance import coloured_middle, covariances, fisher_information
 from rig_env.sysid.model import RecordModel
-from rig_env.sysid.output_error import Solution
+from rig_env.sysid.output_error import STEP_TOL, Solution, noise_of
 from rig_env.sysid.parameters import ParameterSet
 from rig_env.sysid.problem import Evaluation
 
@@ -72,6 +72,19 @@ class _Regression:
         self.y = qdd[keep]
         self.flags = model.flags & ~L.F_FRICTION if not friction else model.flags
 
+    def linearise(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(model accelerations (n, n_free), residuals (n, n_free), their sensitivities (n, n_free, k)) at theta,
+        rad/s^2; sensitivities by central differences."""
+        a0 = self.accelerations(theta)
+        steps = self.pset.steps(theta)
+        cols = []
+        for i in range(self.pset.k):
+            tp, tm = theta.copy(), theta.copy()
+            tp[i] += steps[i]
+            tm[i] -= steps[i]
+            cols.append((self.accelerations(tp) - self.accelerations(tm)) / (2 * steps[i]))
+        return a0, self.y - a0, np.stack(cols, axis=-1)
+
     def accelerations(self, theta: np.ndarray) -> np.ndarray:
         row = self.pset.rows(self.model.base_row, theta[None, :])[0]
         row = self.model.row_with(row[None, :])[0]
@@ -91,52 +104,27 @@ def equation_error(records, params: RigParams, pset: ParameterSet, *, aero: bool
     history: list[float] = []
     converged, message, it = False, "maximum number of iterations reached", 0
     for it in range(1, max_iter + 1):
-        steps = pset.steps(theta)
-        A_all, e_all, W_all = [], [], []
-        for rg in regs:
-            a0 = rg.accelerations(theta)
-            e = rg.y - a0
-            w = 1.0 / np.maximum(np.var(e, axis=0), 1e-18)
-            cols = []
-            for i in range(pset.k):
-                tp, tm = theta.copy(), theta.copy()
-                tp[i] += steps[i]
-                tm[i] -= steps[i]
-                cols.append((rg.accelerations(tp) - rg.accelerations(tm)) / (2 * steps[i]))
-            A_all.append(np.stack(cols, axis=-1))  # (n, n_free, k)
-            e_all.append(e)
-            W_all.append(w)
-        F = sum(np.einsum("kip,i,kiq->pq", A, w, A) for A, w in zip(A_all, W_all))
-        g = sum(np.einsum("kip,i,ki->p", A, w, e) for A, w, e in zip(A_all, W_all, e_all))
+        lin = [rg.linearise(theta) for rg in regs]
+        R = noise_of([e for _, e, _ in lin])  # per joint: the residual mean square (its inverse weighs the joint)
+        F = sum(fisher_information(S, r) for (_, _, S), r in zip(lin, R))
+        g = sum(np.einsum("kip,i,ki->p", S, 1.0 / np.diag(r), e) for (_, e, S), r in zip(lin, R))
         dtheta = np.linalg.lstsq(F, g, rcond=None)[0]
         new = pset.clip(theta + dtheta)
-        J = float(sum(0.5 * np.sum(e * e * w[None, :]) for e, w in zip(e_all, W_all)))
+        J = float(sum(0.5 * np.sum(e * e / np.diag(r)[None, :]) for (_, e, _), r in zip(lin, R)))
         history.append(J)
         sd = np.sqrt(np.clip(np.diag(np.linalg.pinv(F, hermitian=True)), 1e-300, None))
         step = np.max(np.abs(new - theta) / sd)
         theta = new
         say(f"equation error: iteration {it}: weighted cost {J:.6g}, largest step {step:.3g} standard errors")
-        if step < 0.02:
+        if step < STEP_TOL:
             converged, message = True, f"converged: largest step {step:.2g} standard errors"
             break
     # statistics at the estimate
-    preds, resid, S_list, R_list = [], [], [], []
-    for rg in regs:
-        a0 = rg.accelerations(theta)
-        e = rg.y - a0
-        steps = pset.steps(theta)
-        cols = []
-        for i in range(pset.k):
-            tp, tm = theta.copy(), theta.copy()
-            tp[i] += steps[i]
-            tm[i] -= steps[i]
-            cols.append((rg.accelerations(tp) - rg.accelerations(tm)) / (2 * steps[i]))
-        S_list.append(np.stack(cols, axis=-1))
-        R_list.append(np.diag(np.maximum(np.mean(e * e, axis=0), 1e-18)))
-        preds.append(a0)
-        resid.append(e)
-    from rig_env.sysid.covariance import fisher_information
-
+    lin = [rg.linearise(theta) for rg in regs]
+    preds = [a0 for a0, _, _ in lin]
+    resid = [e for _, e, _ in lin]
+    S_list = [S for _, _, S in lin]
+    R_list = noise_of(resid)
     F = sum(fisher_information(S, R) for S, R in zip(S_list, R_list))
     cw, cc = covariances(F, [coloured_middle(S, v, R) for S, v, R in zip(S_list, resid, R_list)])
     sol = Solution(theta, cw, cc, Evaluation(preds, S_list, True), resid, R_list, history, it, converged, message, {})

@@ -13,7 +13,6 @@ only), :mod:`rig_env.sysid.filter_error` (process noise too: turbulence; the pap
 
 from __future__ import annotations
 
-import dataclasses
 from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
 import numpy as np
@@ -25,7 +24,7 @@ from rig_env.sysid.records import FlightRecord, RecordError
 from rig_env.sysid.result import Fit
 
 if TYPE_CHECKING:
-    from rig_env.sysid.problem import Problem
+    from rig_env.sysid.output_error import Solution
 
 METHODS = ("output_error", "filter_error", "equation_error")
 
@@ -79,8 +78,6 @@ def fit(
     from rig_env.sysid.problem import Problem  # the model and its kernels: imported when a fit runs
 
     if method == "equation_error":
-        from types import SimpleNamespace
-
         from rig_env.sysid.equation_error import equation_error
 
         if biases or initial_state != "estimate" or process_noise:
@@ -88,8 +85,8 @@ def fit(
         sol, models, regs = equation_error(recs, params, pset, aero=aero, friction=friction, stops=stops, nonlinear_aero=nonlinear_aero,
                                         max_iter=max_iter, progress=progress)
         outs = tuple(tuple(f"{j}_accel" for j in m.record.free_dofs) for m in models)
-        fit_ = _result(method, SimpleNamespace(records=recs, outputs=outs, names=pset.names), pset, params, sol)  # type: ignore[arg-type]
-        return dataclasses.replace(fit_, times=tuple(r.record.t[rg.keep] for r, rg in zip(models, regs)))
+        times = tuple(m.record.t[rg.keep] for m, rg in zip(models, regs))
+        return _result(method, recs, outs, (), pset, params, sol, times)
     if method == "output_error":
         from rig_env.sysid.output_error import output_error
 
@@ -104,10 +101,13 @@ def fit(
         problem = Problem(recs, params, pset, initial_state="measured", biases=False, aero=aero, friction=friction, stops=stops,
                           nonlinear_aero=nonlinear_aero)
         sol = filter_error(problem, problem.p0, process_noise=process_noise, max_iter=max_iter, tol=tol, progress=progress)
-    return _result(method, problem, pset, params, sol)
+    return _result(method, problem.records, problem.outputs, problem.names[pset.k :], pset, params, sol)
 
 
-def _result(method: str, problem: "Problem", pset: ParameterSet, params: RigParams, sol) -> Fit:
+def _result(method: str, records: Sequence[FlightRecord], outputs: Sequence[tuple[str, ...]], nuisance: Sequence[str],
+            pset: ParameterSet, params: RigParams, sol: "Solution", times: tuple[np.ndarray, ...] = ()) -> Fit:
+    """The :class:`Fit` of a solver's solution: the first k entries of ``sol.p`` are the estimates, then the
+    ``nuisance`` parameters (initial states, biases) by name."""
     k = pset.k
     theta = sol.p[:k]
     names = pset.names
@@ -124,15 +124,16 @@ def _result(method: str, problem: "Problem", pset: ParameterSet, params: RigPara
         covariance=cov,
         correlation=correlation(cov),
         params=fitted,
-        records=tuple(problem.records),
-        outputs=tuple(problem.outputs),
+        records=tuple(records),
+        outputs=tuple(outputs),
         predicted=tuple(sol.evaluation.Y),
         residuals=tuple(sol.residuals),
         noise_cov=sol.noise[0],
-        nuisance={n: float(v) for n, v in zip(problem.names[k:], sol.p[k:])},
+        nuisance={n: float(v) for n, v in zip(nuisance, sol.p[k:])},
         process_noise=dict(sol.extra.get("process_noise", {})),
         cost_history=tuple(sol.cost_history),
         iterations=sol.iterations,
         converged=sol.converged,
         message=sol.message,
+        times=times,
     )

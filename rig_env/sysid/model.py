@@ -24,10 +24,6 @@ from rig_env.physics import layout as L
 from rig_env.physics.pipeline import DELAY_COLUMNS, PhysicsBatch, flags_of, rates
 from rig_env.sysid.records import FlightRecord, RecordError
 
-SERIAL = True
-"""A record's batch runs the serial lane kernel whatever its size: a fit steps it thousands of times, and the
-parallel kernel's threads wait for each other at every step (1.7x faster at 29 environments on 2 idle cores,
-but 30x slower when the cores are shared with other processes: a 4 s fit took 120-190 s)."""
 UNIFORM_TOL = 1e-6  # relative spread of the sample interval a record may have
 
 
@@ -120,8 +116,11 @@ class RecordModel:
     def batch(self, rows: np.ndarray, x0: np.ndarray, flags: int | None = None) -> PhysicsBatch:
         """A :class:`PhysicsBatch` of len(rows) environments at the record's first sample (inputs of sample 0 set)."""
         rows = self.row_with(rows)
-        b = PhysicsBatch(rows, self.tabs, self.free_idx, self.flags if flags is None else flags, self.h, self.n_sub, kind="lanes")
-        b.select_kernel("lanes", parallel=False)  # see SERIAL
+        # the serial lane kernel whatever the batch size: a fit steps it thousands of times, and the parallel
+        # kernel's threads wait for each other at every step (1.7x faster at 29 environments on 2 idle cores,
+        # 30x slower when the cores are shared with other processes: a 4 s fit took 120-190 s)
+        b = PhysicsBatch(rows, self.tabs, self.free_idx, self.flags if flags is None else flags, self.h, self.n_sub, kind="lanes",
+                         parallel=False)
         b.U[:] = self.U[0]
         q5, qd5 = self.initial_state(np.broadcast_to(x0, (rows.shape[0], 2 * self.n_free)))
         b.reset(np.arange(rows.shape[0]), q5, qd5)
