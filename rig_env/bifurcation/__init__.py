@@ -1,0 +1,1 @@
+"""Continuation and bifurcation analysis (placeholder docstring, replaced below)."""

@@ -1,0 +1,209 @@
+"""Periodic orbits born at a Hopf point: single shooting on a given flow, continued by pseudo-arclength, with Floquet multipliers.
+
+Unknowns y = (x0, T, p): a point of the orbit, its period and the parameter.  Residual (n + 1 rows):
+
+    phi(x0, T, p) - x0 = 0                      the orbit closes after T
+    (x0 - x_ref) . f(x_ref, p_ref) = 0          phase: x0 on the plane through the last orbit's point
+                                                x_ref normal to the flow there
+
+with phi the flow map (the caller's integrator: for the rig, its own kernels).  Jacobian: dphi/dx0 (the
+monodromy matrix at a converged orbit) and dphi/dp by central differences, all perturbed initial states
+integrated as one batch; dphi/dT = f(phi(x0, T), p) exactly.  The branch starts from the Hopf point's
+linear orbit x_H + a Re(v e^(i omega t)) (v the critical eigenvector): two orbits at amplitudes a and
+2a along Re(v), with p free, give the first secant, then the curve solver of
+:mod:`rig_env.bifurcation.core` continues it, the phase reference moving with every accepted orbit.
+Floquet multipliers: the monodromy matrix's eigenvalues; stable when all but the trivial one (the one
+nearest 1) lie inside the unit circle.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from rig_env.bifurcation.core import Point, Settings, null_vector, trace
+from rig_env.bifurcation.result import OrbitBranch, SpecialPoint
+
+Flow = Callable[[np.ndarray, float, np.ndarray, int], np.ndarray]
+"""``flow(X0 (m, n), T, P (m,), samples) -> (m, samples + 1, n)``: each row's state at t = k T / samples,
+k = 0..samples, under parameter P[i] (non-finite rows where the integration failed)."""
+BatchField = Callable[[np.ndarray, np.ndarray], np.ndarray]
+"""``f(X (m, n), P (m,)) -> (m, n)``: a vector field evaluated row by row."""
+
+
+def rk4_flow(f: BatchField, steps_per_period: int = 400) -> Flow:
+    """A :data:`Flow` by classical RK4 with ``steps_per_period`` equal steps over whatever T is asked for."""
+
+    def flow(X0: np.ndarray, T: float, P: np.ndarray, samples: int) -> np.ndarray:
+        n_steps = max(samples, steps_per_period) // samples * samples
+        h = T / n_steps
+        x = np.array(X0, dtype=np.float64)
+        out = np.empty((x.shape[0], samples + 1, x.shape[1]))
+        out[:, 0] = x
+        for k in range(1, n_steps + 1):
+            k1 = f(x, P)
+            k2 = f(x + 0.5 * h * k1, P)
+            k3 = f(x + 0.5 * h * k2, P)
+            k4 = f(x + h * k3, P)
+            x = x + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+            if k % (n_steps // samples) == 0:
+                out[:, k // (n_steps // samples)] = x
+        return out
+
+    return flow
+
+
+class Shooting:
+    """The shooting residual and Jacobian in scaled unknowns z = (x0, T, p) / scale (the curve solver's ``fj``)."""
+
+    def __init__(self, f: BatchField, flow: Flow, scale: np.ndarray, eps: float = 1e-6) -> None:
+        self.f, self.flow, self.scale, self.eps = f, flow, scale, eps
+        self.n = scale.size - 2
+        self.x_ref = np.zeros(self.n)
+        self.g_ref = np.zeros(self.n)
+        self.extra: list[tuple[np.ndarray, float]] = []  # further rows (a . y = c), for the first orbits
+
+    def unpack(self, z: np.ndarray) -> tuple[np.ndarray, float, float]:
+        y = z * self.scale
+        return y[: self.n], float(y[self.n]), float(y[self.n + 1])
+
+    def set_reference(self, x: np.ndarray, p: float) -> None:
+        self.x_ref = x.copy()
+        self.g_ref = self.f(x[None, :], np.array([p]))[0]
+
+    def jacobian_parts(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """phi(x0, T, p), dphi/dx0, dphi/dT, dphi/dp at z (one batched flow of 2n + 3 rows)."""
+        x, T, p = self.unpack(z)
+        n = self.n
+        hx = self.eps * (1.0 + np.abs(x))
+        hp = self.eps * (1.0 + abs(p))
+        X = np.repeat(x[None, :], 2 * n + 3, axis=0)
+        P = np.full(2 * n + 3, p)
+        for j in range(n):
+            X[1 + 2 * j, j] += hx[j]
+            X[2 + 2 * j, j] -= hx[j]
+        P[-2] += hp
+        P[-1] -= hp
+        end = self.flow(X, T, P, 1)[:, -1]
+        phi = end[0]
+        M = np.empty((n, n))
+        for j in range(n):
+            M[:, j] = (end[1 + 2 * j] - end[2 + 2 * j]) / (2 * hx[j])
+        dp = (end[-2] - end[-1]) / (2 * hp)
+        dT = self.f(phi[None, :], np.array([p]))[0]
+        return phi, M, dT, dp
+
+    def __call__(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        x, _, _ = self.unpack(z)
+        phi, M, dT, dp = self.jacobian_parts(z)
+        n = self.n
+        F = np.concatenate([phi - x, [(x - self.x_ref) @ self.g_ref]])
+        J = np.zeros((n + 1, n + 2))
+        J[:n, :n] = M - np.eye(n)
+        J[:n, n] = dT
+        J[:n, n + 1] = dp
+        J[n, :n] = self.g_ref
+        for a, c in self.extra:
+            F = np.concatenate([F, [a @ (z * self.scale) - c]])
+            J = np.vstack([J, a])
+        return F, J * self.scale[None, :]
+
+
+def _solve_square(fj: Shooting, z: np.ndarray, s: Settings) -> np.ndarray | None:
+    """Newton on a square system (the shooting rows plus fj.extra), from z."""
+    for _ in range(s.max_iter * 2):
+        F, J = fj(z)
+        if not (np.all(np.isfinite(F)) and np.all(np.isfinite(J))):
+            return None
+        try:
+            dz = np.linalg.solve(J, -F)
+        except np.linalg.LinAlgError:
+            return None
+        z = z + dz
+        if np.max(np.abs(dz)) < s.tol:
+            return z
+    return None
+
+
+def floquet(M: np.ndarray) -> tuple[np.ndarray, bool]:
+    """Multipliers (sorted by decreasing modulus) and stability (all but the one nearest 1 inside the unit circle)."""
+    mu = np.linalg.eigvals(M)
+    mu = mu[np.argsort(-np.abs(mu))]
+    rest = np.delete(mu, int(np.argmin(np.abs(mu - 1.0))))
+    return mu, bool(np.all(np.abs(rest) < 1.0))
+
+
+def orbits(
+    f: BatchField,
+    flow: Flow,
+    hopf: SpecialPoint,
+    p_range: tuple[float, float],
+    *,
+    amplitude: float = 1e-2,
+    x_scale: float | np.ndarray = 1.0,
+    max_period: float | None = None,
+    max_orbits: int = 60,
+    samples: int = 200,
+    settings: Settings | None = None,
+) -> OrbitBranch:
+    """The branch of periodic orbits from ``hopf`` (a :class:`SpecialPoint` of kind "hopf"), continued while
+    the parameter stays in ``p_range`` and the period below ``max_period`` (default 20 Hopf periods).
+
+    f, flow: the vector field row by row and its flow map (:data:`BatchField`, :data:`Flow`);
+    amplitude: the first orbit's amplitude along Re(v) (state units), the second's twice that;
+    max_orbits: computed orbits at most; samples: points per orbit for its extremes.
+    """
+    if hopf.kind != "hopf" or hopf.omega <= 0:
+        raise ValueError("orbits: start from a Hopf point (kind 'hopf', omega > 0)")
+    s = settings or Settings(ds=0.02, ds_max=0.1, tol=1e-9, max_points=max_orbits)
+    n = hopf.state.size
+    lo, hi = float(min(p_range)), float(max(p_range))
+    T0 = hopf.period
+    max_period = 20.0 * T0 if max_period is None else max_period
+    scale = np.concatenate([np.broadcast_to(np.asarray(x_scale, dtype=np.float64), (n,)), [T0, hi - lo]])
+    sh = Shooting(f, flow, scale)
+    re, im = hopf.eigenvector.real, hopf.eigenvector.imag
+    re_n = re / (re @ re)
+    sh.x_ref, sh.g_ref = hopf.state.copy(), -im  # phase: (x0 - x_H) . Im(v) = 0 (the flow's direction at t = 0)
+    found: list[np.ndarray] = []
+    for a in (amplitude, 2 * amplitude):
+        z = np.concatenate([hopf.state + a * re, [T0, hopf.value]]) / scale if not found else found[-1].copy()
+        sh.extra = [(np.concatenate([re_n, [0.0, 0.0]]), re_n @ hopf.state + a)]
+        z = _solve_square(sh, z, s)
+        if z is None:
+            raise RuntimeError(f"orbits: no periodic orbit of amplitude {a:g} found near the Hopf point at {hopf.value:g}")
+        found.append(z)
+    sh.extra = []
+    t = found[1] - found[0]
+    t /= np.linalg.norm(t)
+    x1, _, p1 = sh.unpack(found[1])
+    sh.set_reference(x1, p1)
+    J1 = sh(found[1])[1]
+    margin = 1e-12 * (hi - lo)
+
+    def inside(z: np.ndarray) -> bool:
+        _, T, p = sh.unpack(z)
+        return lo - margin <= p <= hi + margin and 0 < T < max_period
+
+    first = Point(found[0], t, J1, 0.0, 0.0)
+    pts, why = trace(sh, Point(found[1], null_vector(J1, t), J1, 0.0, 0.0), inside, s,
+                     accepted=lambda b: sh.set_reference(*sh.unpack(b.y)[::2]))  # fmt: skip
+    pts = [first, *pts]
+    pts = [p for p in pts if inside(p.y)]
+    if why == "left the parameter range":
+        why = "left the parameter range or reached the largest period"
+    rows = []
+    for pt in pts:
+        x, T, p = sh.unpack(pt.y)
+        _, M, _, _ = sh.jacobian_parts(pt.y)
+        mu, stable = floquet(M)
+        traj = flow(x[None, :], T, np.array([p]), samples)[0]
+        rows.append((p, T, x, traj.min(axis=0), traj.max(axis=0), mu, stable))
+    cols = list(zip(*rows)) if rows else [()] * 7
+    return OrbitBranch(
+        values=np.array(cols[0], dtype=float), periods=np.array(cols[1], dtype=float),
+        initial_states=np.array(cols[2], dtype=float).reshape(-1, n), lower=np.array(cols[3], dtype=float).reshape(-1, n),
+        upper=np.array(cols[4], dtype=float).reshape(-1, n), multipliers=np.array(cols[5], dtype=complex).reshape(-1, n),
+        stable=np.array(cols[6], dtype=bool), hopf=hopf, end=why,
+    )  # fmt: skip
