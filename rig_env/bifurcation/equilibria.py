@@ -10,14 +10,15 @@ towards the last (:mod:`rig_env.bifurcation.core`), then between consecutive poi
   crossing pair (matched between the two points by proximity, opposite signs of the real part) is
   tracked and its real part located to zero,
 
-each located to the curve solver's ``tol_s``; and samples the branch where it crosses each requested
+and the sign changes of any user test functions (``events``), each located to the curve solver's
+``tol_s``; and samples the branch where it crosses each requested
 value (the state re-solved at exactly that value).  Stability: every eigenvalue of f_x with a negative
 real part.  Jacobians by central differences unless ``jac`` is given.
 """
 
 from __future__ import annotations
 
-from typing import Callable, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -96,6 +97,7 @@ def equilibria(
     x_scale: float | Sequence[float] = 1.0,
     start: float | None = None,
     domain: Callable[[np.ndarray], bool] | None = None,
+    events: Mapping[str, Callable[[np.ndarray], float]] | None = None,
     settings: Settings | None = None,
 ) -> Branch:
     """The equilibrium branch of x' = f(x, p) through the equilibrium near x0 at p = ``start``, over the range of ``values``.
@@ -107,7 +109,9 @@ def equilibria(
     sampled wherever it crosses one of them); jac: ``jac(x, p) -> (n, n+1)`` [f_x | f_p] (default:
     central differences); x_scale: the states' scale in the arclength (the parameter's is its range);
     domain: ``domain(x) -> bool``, the states the branch may visit (the trace ends at the first point
-    outside, with a note).
+    outside, with a note); events: named test functions ``g(x) -> float`` of the state, each sign change
+    along the branch located like a bifurcation and listed in ``special_points`` with the event's name
+    as its kind (e.g. a joint reaching a stop).
     Returns a :class:`~rig_env.bifurcation.result.Branch` (no orbits; :func:`rig_env.bifurcation.periodic.orbits`
     continues them from its Hopf points).  ValueError when Newton finds no equilibrium near x0.
     """
@@ -166,6 +170,11 @@ def equilibria(
         elif np.sign(np.linalg.det(prob.fx(a))) != np.sign(np.linalg.det(prob.fx(b))):
             c = locate(prob, a, b, lambda q: np.linalg.det(prob.fx(q)), s)
             special.append((c, _special(prob, c, "branch_point", im_tol)))
+        for name, g in (events or {}).items():
+            ga, gb = g(prob.xp(a.y)[0]), g(prob.xp(b.y)[0])
+            if np.sign(ga) != np.sign(gb):
+                c = locate(prob, a, b, lambda q, g=g: g(prob.xp(q.y)[0]), s, ga, gb)
+                special.append((c, _special(prob, c, name, im_tol)))
         if _hopf_count(eig[i], im_tol) != _hopf_count(eig[i + 1], im_tol):
             lam = _crossing_pair(eig[i], eig[i + 1], im_tol)
             if lam is None:

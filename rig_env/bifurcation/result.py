@@ -23,8 +23,9 @@ class SpecialPoint:
     """A located bifurcation of an equilibrium branch.
 
     kind: ``"fold"`` (a real eigenvalue through zero at a turning point of the branch), ``"hopf"``
-    (a complex pair through the imaginary axis) or ``"branch_point"`` (a real eigenvalue through zero
-    where the branch does not turn: another branch crosses it).  value: the parameter; state: (n,)
+    (a complex pair through the imaginary axis), ``"branch_point"`` (a real eigenvalue through zero
+    where the branch does not turn: another branch crosses it) or the name of a user event (the rig's
+    ``"stop:<joint>:lower"`` / ``"stop:<joint>:upper"``: a free joint reaching a gimbal stop).  value: the parameter; state: (n,)
     the equilibrium; eigenvalues: (n,) there; omega: the crossing pair's imaginary part (rad/s; Hopf
     only, else 0); eigenvector: (n,) complex, the crossing eigenvalue's (normalised, largest entry
     real); arclength: its position along the traced curve (scaled units of the continuation).
@@ -129,6 +130,10 @@ sampled points where a free joint lies past a gimbal stop (empty for a generic v
     def branch_points(self) -> np.ndarray:
         """Parameter values where a real eigenvalue crosses zero without the branch turning."""
         return self._of("branch_point")
+
+    def points(self, kind: str) -> tuple[SpecialPoint, ...]:
+        """The special points of one kind ("fold", "hopf", "branch_point" or an event's name), in the order of the curve."""
+        return tuple(s for s in self.special_points if s.kind == kind)
 
     def hopf_points(self) -> tuple[SpecialPoint, ...]:
         """The Hopf points with their states, eigenvalues and frequencies."""

@@ -259,9 +259,15 @@ def continuation(
         raise ValueError(f"physics_dt = {physics_dt}: must be > 0 s")
     rig = RigField(params, free, par, q0, controls, airspeed, aero, friction, bool(stops))
     x0, start = _first_equilibrium(rig, v)
+    events = {}
+    for a, j in enumerate(free):
+        if j in _STOPS:
+            lo, hi = (rig.p0[c] for c in _STOPS[j])
+            events[f"stop:{j}:lower"] = lambda x, a=a, lo=lo: float(x[a] - lo)
+            events[f"stop:{j}:upper"] = lambda x, a=a, hi=hi: float(x[a] - hi)
     branch = equilibria(rig.rates, x0, v, state_names=rig.state_names, state_units=rig.state_units,
                         parameter=parameter, parameter_unit=par.unit, start=start, settings=settings,
-                        domain=lambda x: bool(np.all(np.abs(x[: rig.nf]) <= math.radians(MAX_ANGLE_DEG))))
+                        domain=lambda x: bool(np.all(np.abs(x[: rig.nf]) <= math.radians(MAX_ANGLE_DEG))), events=events)
     notes = list(branch.notes)
     if start != v[0]:
         notes.insert(0, f"no equilibrium near q_guess at {parameter} = {v[0]:g} {par.unit}: started at {start:g} {par.unit}, traced both ways")
@@ -319,19 +325,17 @@ def _first_equilibrium(rig: RigField, values: np.ndarray) -> tuple[np.ndarray, f
 
 
 def _stop_notes(rig: RigField, branch: Branch, stops: bool) -> list[str]:
-    """Where the traced curve passes a stop of a free joint (parameter interpolated between curve points)."""
+    """Where the branch reaches a stop of a free joint (the located ``stop:<joint>:<side>`` events)."""
     notes = []
-    for j, side, mask in rig.stop_contacts(branch.curve_states):
-        lo, hi = (rig.p0[c] for c in _STOPS[j])
-        lim = hi if side == "upper" else lo
-        a = rig.free.index(j)
-        for i in np.flatnonzero(mask[1:] != mask[:-1]):
-            q1, q2 = branch.curve_states[i, a], branch.curve_states[i + 1, a]
-            p1, p2 = branch.curve_values[i], branch.curve_values[i + 1]
-            at = p1 + (lim - q1) / (q2 - q1) * (p2 - p1) if q2 != q1 else p1
-            what = "on the stop spring beyond" if stops else "stops=False: the stop is not modelled, the equilibria beyond lie past it"
-            notes.append(f"{j} reaches its {side} stop ({math.degrees(lim):g} deg) at {branch.parameter} = {at:.6g} "
+    what = "on the stop spring beyond" if stops else "stops=False: the stop is not modelled, the equilibria beyond lie past it"
+    for sp in branch.special_points:
+        if sp.kind.startswith("stop:"):
+            _, j, side = sp.kind.split(":")
+            lim = rig.p0[_STOPS[j][0 if side == "lower" else 1]]
+            notes.append(f"{j} reaches its {side} stop ({math.degrees(lim):g} deg) at {branch.parameter} = {sp.value:.6g} "
                          f"{branch.parameter_unit} ({what})")
+    for j, side, mask in rig.stop_contacts(branch.curve_states[:1]):
         if mask[0]:
-            notes.append(f"{j} is past its {side} stop at the start of the branch")
+            notes.append(f"{j} is past its {side} stop at the start of the branch ({branch.parameter} = {branch.curve_values[0]:.6g} "
+                         f"{branch.parameter_unit})")
     return notes

@@ -1,0 +1,74 @@
+"""The bifurcation diagram of a :class:`~rig_env.bifurcation.result.Branch` (matplotlib, Agg canvas: no display needed).
+
+One state against the parameter: stable equilibria solid, unstable dashed, folds as triangles, Hopf
+points as circles, branch points as diamonds, and each Hopf point's periodic orbits as the envelope of
+the state's minimum and maximum over the orbit (stable orbits filled dots, unstable open).  Angles and
+rates are drawn in deg and deg/s.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from rig_env.bifurcation.result import Branch
+
+_MARKERS = {"fold": ("v", "tab:red", "fold"), "hopf": ("o", "tab:purple", "Hopf"), "branch_point": ("D", "tab:brown", "branch point")}
+
+
+def _display(unit: str) -> tuple[float, str]:
+    """Factor and unit in which a state of ``unit`` is drawn (rad -> deg)."""
+    return {"rad": (180.0 / math.pi, "deg"), "rad/s": (180.0 / math.pi, "deg/s")}.get(unit, (1.0, unit))
+
+
+def _runs(mask: np.ndarray) -> list[slice]:
+    """Slices of equal consecutive values of mask, each extended by one point to join the next."""
+    cuts = np.flatnonzero(mask[1:] != mask[:-1]) + 1
+    bounds = [0, *cuts.tolist(), mask.size]
+    return [slice(a, min(b + 1, mask.size)) for a, b in zip(bounds, bounds[1:])]
+
+
+def plot_branch(branch: Branch, path: str | Path | None = None, *, state: str | None = None, title: str = "") -> Figure:
+    """Draw ``state`` (a name of ``branch.state_names``; default the first) against the parameter; write a
+    PNG to ``path`` (None: only return the figure)."""
+    name = branch.state_names[0] if state is None else state
+    if name not in branch.state_names:
+        raise ValueError(f"state = {name!r}: not a state of this branch; states: {list(branch.state_names)}")
+    k = branch.state_names.index(name)
+    factor, unit = _display(branch.state_units[k])
+    fig = Figure(figsize=(7.5, 4.8))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    x, y = branch.curve_values, branch.curve_states[:, k] * factor if branch.curve_states.size else np.zeros(0)
+    for sl in _runs(branch.curve_stable) if x.size else ():
+        stable = bool(branch.curve_stable[sl.start])
+        ax.plot(x[sl], y[sl], "-" if stable else "--", color="tab:blue", lw=1.6 if stable else 1.2)
+    ax.plot([], [], "-", color="tab:blue", label="stable equilibria")
+    ax.plot([], [], "--", color="tab:blue", label="unstable equilibria")
+    for kind, (marker, colour, label) in _MARKERS.items():
+        pts = [sp for sp in branch.special_points if sp.kind == kind]
+        if pts:
+            ax.plot([sp.value for sp in pts], [sp.state[k] * factor for sp in pts], marker, color=colour, ms=8, ls="none", label=label)
+    for i, ob in enumerate(branch.orbits):
+        if not ob.values.size:
+            continue
+        for env in (ob.lower[:, k], ob.upper[:, k]):
+            ax.plot(ob.values, env * factor, "-", color="tab:green", lw=0.8, alpha=0.7)
+            ax.plot(ob.values[ob.stable], env[ob.stable] * factor, "o", color="tab:green", ms=3.5,
+                    label="stable orbits (min, max)" if i == 0 and env is ob.lower[:, k] else None)
+            ax.plot(ob.values[~ob.stable], env[~ob.stable] * factor, "o", mfc="none", color="tab:green", ms=3.5,
+                    label="unstable orbits (min, max)" if i == 0 and env is ob.lower[:, k] else None)
+    ax.set_xlabel(f"{branch.parameter} ({branch.parameter_unit})" if branch.parameter_unit else branch.parameter)
+    ax.set_ylabel(f"{name} ({unit})" if unit else name)
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    if title:
+        ax.set_title(title)
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(path, dpi=110)
+    return fig

@@ -1,0 +1,222 @@
+"""Continuation (rig_env.bifurcation) against closed forms, and the rig's continuation against trim, linearize and simulate.
+
+Closed forms: the fold of x' = p - x^2 (branches x = -+sqrt(p), eigenvalue -2x); the Brusselator's Hopf
+point (b = 1 + a^2, omega = a) and its equilibria's eigenvalues; the Hopf normal form's periodic orbits
+(radius sqrt(mu), period 2 pi / omega, non-trivial Floquet multiplier exp(-+2 mu T)).  The rig: its
+equilibria are rig_env.trim's, its eigenvalues rig_env.linearize's, a Hopf point's eigenvalues from
+linearize sit on the imaginary axis at the Hopf frequency, and a limit cycle found by shooting is the
+one a long rig_env.simulate run settles on.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+
+import numpy as np
+import pytest
+
+import rig_env
+from rig_env.bifurcation import equilibria, orbits, rk4_flow
+
+
+# ---------------------------------------------------------------------------- closed forms
+def test_fold_of_p_minus_x_squared_is_passed_by_pseudo_arclength():
+    """x' = p - x^2 from the unstable branch x = -sqrt(p) at p = 1 down through the fold at p = 0 and back up
+    the stable branch x = +sqrt(p): the fold is located at (0, 0) and every sample is on its branch."""
+    values = np.linspace(1.0, -1.0, 9)
+    br = equilibria(lambda x, p: np.array([p - x[0] ** 2]), [-0.9], values)
+    assert br.folds == pytest.approx([0.0], abs=1e-8)
+    fold = br.points("fold")[0]
+    assert abs(fold.state[0]) < 1e-4
+    # the branch crosses 1, 0.75, 0.5, 0.25 twice each (0 only at the fold itself), in the order of the curve
+    assert br.values == pytest.approx([1.0, 0.75, 0.5, 0.25, 0.25, 0.5, 0.75, 1.0], abs=1e-12)
+    x = br.states[:, 0]
+    expected = np.sqrt(br.values) * np.array([-1, -1, -1, -1, 1, 1, 1, 1])
+    assert x == pytest.approx(expected, abs=1e-9)
+    assert br.eigenvalues[:, 0].real == pytest.approx(-2 * expected, abs=1e-6)
+    assert list(br.stable) == [False] * 4 + [True] * 4
+
+
+def test_hopf_point_of_the_brusselator_is_at_b_equals_1_plus_a_squared():
+    """Brusselator x' = a - (b + 1) x + x^2 y, y' = b x - x^2 y: equilibrium (a, b/a), Jacobian trace b - 1 - a^2
+    and determinant a^2, so a Hopf point at b = 1 + a^2 with frequency omega = a."""
+    a = 1.5
+
+    def f(z, b):
+        x, y = z
+        return np.array([a - (b + 1) * x + x * x * y, b * x - x * x * y])
+
+    values = np.linspace(2.0, 4.0, 21)
+    br = equilibria(f, [1.4, 1.4], values)
+    assert br.hopf == pytest.approx([1 + a * a], abs=1e-7)
+    h = br.hopf_points()[0]
+    assert h.omega == pytest.approx(a, rel=1e-6)
+    assert h.state == pytest.approx([a, (1 + a * a) / a], abs=1e-7)
+    assert br.states[:, 0] == pytest.approx(np.full(values.size, a), abs=1e-9)
+    assert br.states[:, 1] == pytest.approx(values / a, abs=1e-9)
+    lam = br.eigenvalues
+    assert lam.sum(axis=1).real == pytest.approx(values - 1 - a * a, abs=1e-6)  # trace
+    assert np.prod(lam, axis=1).real == pytest.approx(np.full(values.size, a * a), rel=1e-6)  # determinant
+    assert list(br.stable) == list(values < 1 + a * a)
+    assert br.folds.size == 0 and br.branch_points.size == 0
+
+
+@pytest.mark.parametrize("sign", [-1.0, 1.0], ids=["supercritical", "subcritical"])
+def test_periodic_orbits_of_the_hopf_normal_form(sign):
+    """r' = mu r + sign r^3, theta' = omega (in x, y): orbits of radius sqrt(-sign mu) with period 2 pi / omega and
+    non-trivial Floquet multiplier exp(-2 |mu| T) (stable, supercritical) or exp(+2 |mu| T) (unstable)."""
+    w = 2.0
+
+    def field(X, P):
+        r2 = (X**2).sum(axis=1)
+        return np.stack([P * X[:, 0] - w * X[:, 1] + sign * X[:, 0] * r2, w * X[:, 0] + P * X[:, 1] + sign * X[:, 1] * r2], axis=1)
+
+    br = equilibria(lambda x, p: field(x[None, :], np.array([p]))[0], [0.0, 0.0], np.linspace(-0.5, 0.5, 11))
+    assert br.hopf == pytest.approx([0.0], abs=1e-8)
+    ob = orbits(field, rk4_flow(field, 200), br.hopf_points()[0], (-0.5, 0.5), amplitude=0.01, max_orbits=30)
+    assert ob.values.size >= 8
+    mu = ob.values
+    assert np.all(-sign * mu > 0)
+    radius = np.sqrt(-sign * mu)
+    assert ob.upper[:, 0] == pytest.approx(radius, rel=2e-4)
+    assert ob.lower[:, 1] == pytest.approx(-radius, rel=2e-4)
+    assert ob.periods == pytest.approx(np.full(mu.size, 2 * np.pi / w), rel=1e-8)
+    nontrivial = np.abs(ob.multipliers).min(axis=1) if sign < 0 else np.abs(ob.multipliers).max(axis=1)
+    assert nontrivial == pytest.approx(np.exp(2 * sign * np.abs(mu) * 2 * np.pi / w), rel=1e-4)
+    assert np.all(ob.stable == (sign < 0))
+
+
+# ---------------------------------------------------------------------------- the rig
+PITCH_HEAVE = ("rig_pitch", "model_pitch")
+
+
+def test_rig_equilibria_are_trims_and_eigenvalues_are_linearize_s(params):
+    """Rig pitch and model pitch free, linear aero, over the Hawk elevator: every sampled equilibrium is the one
+    rig_env.trim finds from zero, and the eigenvalues are those of rig_env.linearize there."""
+    values = np.linspace(-3.0, 3.0, 7)
+    br = rig_env.continuation(params, free_dofs=PITCH_HEAVE, parameter="hawk_elevator", values=values, airspeed=20.0)
+    assert br.values == pytest.approx(values, abs=1e-12)
+    assert br.state_names == ("rig_pitch", "model_pitch", "rig_pitch_rate", "model_pitch_rate")
+    for k, v in enumerate(values):
+        op = rig_env.trim(params, PITCH_HEAVE, airspeed=20.0, controls={"hawk_elevator": float(v)})
+        assert br.column("rig_pitch")[k] == pytest.approx(op.q[1], abs=1e-9)
+        assert br.column("model_pitch")[k] == pytest.approx(op.q[3], abs=1e-9)
+        assert br.states[k, 2:] == pytest.approx([0.0, 0.0], abs=1e-12)
+        lam = np.linalg.eigvals(rig_env.linearize(params, op, inputs=[]).A)
+        lam = lam[np.lexsort((-lam.imag, -lam.real))]
+        assert br.eigenvalues[k] == pytest.approx(lam, abs=1e-5 * np.abs(lam).max())
+        assert br.stable[k] == bool(np.all(lam.real < 0))
+
+
+def test_rig_parameter_continuation_agrees_with_trim_of_the_changed_rig(params):
+    """A rig parameter by its dotted name (the Hawk c.g. offset, m): the equilibria are trims of params.replace(...)."""
+    values = np.linspace(-0.02, 0.0, 3)
+    br = rig_env.continuation(params, free_dofs=("model_pitch",), parameter="geometry.hawk_cg_x", values=values, periodic=False)
+    assert br.parameter_unit == "m"
+    for k, v in enumerate(values):
+        op = rig_env.trim(params.replace(**{"geometry.hawk_cg_x": float(v)}), ("model_pitch",))
+        assert br.states[k, 0] == pytest.approx(op.q[3], abs=1e-9)
+
+
+def test_rig_stop_is_reported_where_trim_holds_the_joint_at_it(params):
+    """Model pitch alone, linear aero: the branch reaches the 25 deg upper stop at the elevator that rig_env.trim
+    needs to hold model pitch at 25 deg; the note says so and the samples past it are flagged."""
+    br = rig_env.continuation(params, free_dofs=("model_pitch",), parameter="hawk_elevator", values=np.linspace(0.0, -8.0, 9),
+                              periodic=False)
+    stop = br.points("stop:model_pitch:upper")
+    assert len(stop) == 1
+    op = rig_env.trim(params, ("model_pitch",), [0, 0, 0, math.radians(25.0), 0], hold={"model_pitch": math.radians(25.0)},
+                      unknown_inputs=["hawk_elevator"])
+    assert stop[0].value == pytest.approx(op.controls_deg["hawk_elevator"], abs=1e-6)
+    assert any("upper stop (25 deg)" in n for n in br.notes)
+    assert list(br.at_stop) == list(np.degrees(br.states[:, 0]) > 25.0)
+    assert br.at_stop.sum() >= 2
+
+
+def test_rig_hopf_point_of_the_heave_mode_is_on_the_imaginary_axis_of_linearize(params):
+    """Rig pitch and model pitch free, linear aero: lowering the compensator's CLq (the paper's 75.34 is suspect; it
+    supplies half the heave damping) loses the heave mode's damping at a Hopf point, where linearize of the trim
+    of that rig has a pair on the imaginary axis at the Hopf frequency."""
+    br = rig_env.continuation(params, free_dofs=PITCH_HEAVE, parameter="comp_aero.CLq", values=np.linspace(40.0, 10.0, 7),
+                              periodic=False)
+    assert br.hopf.size == 1
+    h = br.hopf_points()[0]
+    assert 15.0 < h.value < 35.0
+    rig = params.replace(**{"comp_aero.CLq": float(h.value)})
+    lam = np.linalg.eigvals(rig_env.linearize(rig, rig_env.trim(rig, PITCH_HEAVE), inputs=[]).A)
+    crossing = lam[np.argmin(np.abs(lam.real))]
+    assert abs(crossing.real) < 1e-5 * abs(crossing)
+    assert abs(crossing.imag) == pytest.approx(h.omega, rel=1e-6)
+    assert list(br.stable) == list(br.values > h.value)
+
+
+def test_rig_limit_cycle_by_shooting_is_the_one_a_long_simulation_settles_on(params):
+    """Rig pitch and model pitch free, stall tables, compensator CLq lowered past its Hopf point: the stable
+    orbit found by shooting (its extremes and period) is the limit cycle that rig_env.simulate reaches from a
+    small disturbance of the equilibrium (friction, servos and stops off: the model continuation analyses)."""
+    br = rig_env.continuation(params, free_dofs=PITCH_HEAVE, parameter="comp_aero.CLq", values=np.linspace(30.0, 10.0, 5),
+                              aero_model="tables", max_orbits=10)
+    assert br.hopf.size == 1 and len(br.orbits) == 1
+    ob = br.orbits[0]
+    # the largest multiplier after the trivial one (nearest 1): how fast a disturbed orbit settles, per period
+    settle = np.array([np.abs(np.delete(mu, np.argmin(np.abs(mu - 1)))).max() for mu in ob.multipliers])
+    k = int(np.flatnonzero(ob.stable & (settle < 0.85))[0])
+    value, period = float(ob.values[k]), float(ob.periods[k])
+    assert value < 20.0
+    rig = params.replace(**{"comp_aero.CLq": value})
+    eq = rig_env.trim(rig, PITCH_HEAVE)
+    q0 = eq.q[[1, 3]] + np.radians([3.0, 0.0])
+    r = rig_env.simulate(rig, q0, [0.0, 0.0], 60.0, free_dofs=PITCH_HEAVE, nonlinear_aero=True, friction=False, servo=False,
+                         stops=False, control_rate=200.0)
+    tail = r.t > 60.0 - 4 * period
+    for a in range(2):
+        q = r.q[tail, a]
+        assert np.degrees(q.max()) == pytest.approx(np.degrees(ob.upper[k, a]), abs=0.03)
+        assert np.degrees(q.min()) == pytest.approx(np.degrees(ob.lower[k, a]), abs=0.03)
+    q = r.q[tail, 0] - 0.5 * (ob.upper[k, 0] + ob.lower[k, 0])
+    ups = np.flatnonzero((q[:-1] < 0) & (q[1:] >= 0))
+    t_up = r.t[tail][ups] - q[ups] / (q[ups + 1] - q[ups]) * (r.t[1] - r.t[0])
+    assert np.mean(np.diff(t_up)) == pytest.approx(period, rel=2e-3)
+    amp = np.degrees(ob.amplitudes[k, 0])
+    assert amp > 2.0  # a real limit cycle of several degrees, not the equilibrium
+
+
+def test_rig_pitch_only_over_the_elevator_has_no_hopf_point(params):
+    """Model pitch alone at 20 m/s: no Hopf point with either aerodynamic model (its damping is CMq's and the
+    lift's, neither of which the elevator changes sign); the linear model's branch turns at two folds."""
+    for model in ("linear", "tables"):
+        br = rig_env.continuation(params, free_dofs=("model_pitch",), parameter="hawk_elevator",
+                                  values=np.linspace(-15.0, 15.0, 31), aero_model=model)
+        assert br.hopf.size == 0 and not br.orbits
+        assert np.all(br.stable[np.abs(br.states[:, 0]) < math.radians(25.0)])
+
+
+def test_continuation_refuses_bad_input_by_name(params):
+    kw = dict(free_dofs=("model_pitch",), parameter="hawk_elevator", values=[0.0, 1.0])
+    with pytest.raises(ValueError, match=r"aero_model = 'unsteady': not available yet.*\['linear', 'tables'\]"):
+        rig_env.continuation(params, **{**kw, "aero_model": "unsteady"})
+    with pytest.raises(ValueError, match=r"aero_model = 'stall'.*\['linear', 'tables'\]"):
+        rig_env.continuation(params, **{**kw, "aero_model": "stall"})
+    with pytest.raises(ValueError, match=r"parameter = 'hawk_flap': unknown; valid names.*hawk_elevator.*airspeed.*geometry.hawk_cg_x"):
+        rig_env.continuation(params, **{**kw, "parameter": "hawk_flap"})
+    with pytest.raises(ValueError, match=r"friction = 'lugre'"):
+        rig_env.continuation(params, **{**kw, "friction": "lugre"})
+    with pytest.raises(ValueError, match=r"controls: 'hawk_elevator' is the continuation parameter"):
+        rig_env.continuation(params, **{**kw, "controls": {"hawk_elevator": 1.0}})
+    with pytest.raises(rig_env.ParameterError, match=r"geometry.hawk_cg_x = 0.5 m is outside the allowed range"):
+        rig_env.continuation(params, **{**kw, "parameter": "geometry.hawk_cg_x", "values": [0.0, 0.5]})
+    with pytest.raises(ValueError, match=r"values: expected at least two"):
+        rig_env.continuation(params, **{**kw, "values": [1.0]})
+
+
+def test_continuation_is_public_with_a_real_signature_and_plots(params, tmp_path):
+    sig = inspect.signature(rig_env.continuation)
+    assert {"params", "free_dofs", "parameter", "values", "airspeed", "aero_model", "friction", "stops"} <= set(sig.parameters)
+    assert "continuation" in rig_env.__all__
+    br = rig_env.continuation(params, free_dofs=("model_pitch",), parameter="airspeed", values=np.linspace(10.0, 30.0, 5))
+    assert br.parameter_unit == "m/s" and br.values == pytest.approx(np.linspace(10.0, 30.0, 5))
+    fig = br.plot(tmp_path / "diagram.png")
+    assert (tmp_path / "diagram.png").stat().st_size > 1000
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "airspeed (m/s)" and ax.get_ylabel() == "model_pitch (deg)"
