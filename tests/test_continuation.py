@@ -18,6 +18,7 @@ import pytest
 
 import rig_env
 from rig_env.bifurcation import equilibria, orbits, rk4_flow
+from rig_env.bifurcation.plot import plot_branch
 
 
 # ---------------------------------------------------------------------------- closed forms
@@ -216,7 +217,7 @@ def test_continuation_is_public_with_a_real_signature_and_plots(params, tmp_path
     assert "continuation" in rig_env.__all__
     br = rig_env.continuation(params, free_dofs=("model_pitch",), parameter="airspeed", values=np.linspace(10.0, 30.0, 5))
     assert br.parameter_unit == "m/s" and br.values == pytest.approx(np.linspace(10.0, 30.0, 5))
-    fig = br.plot(tmp_path / "diagram.png")
+    fig = plot_branch(br, tmp_path / "diagram.png")
     assert (tmp_path / "diagram.png").stat().st_size > 1000
     ax = fig.axes[0]
     assert ax.get_xlabel() == "airspeed (m/s)" and ax.get_ylabel() == "model_pitch (deg)"

@@ -9,7 +9,7 @@ Manual.  :func:`continuation` (also ``rig_env.continuation``) runs it on the rig
     br.hopf, br.folds                    # parameter values of the Hopf and fold points
     br.hopf_points()[0].frequency_hz     # the Hopf frequency
     br.orbits[0].amplitudes              # the periodic orbits of the first Hopf point: (k, n) half peak-to-peak
-    br.plot("diagram.png", state="rig_pitch")
+    plot_branch(br, "diagram.png", state="rig_pitch")   # from rig_env.bifurcation.plot (matplotlib)
 
 How.  Equilibria: pseudo-arclength continuation (the curve is followed through its folds) with a Newton
 corrector on f(x, p) = 0, Jacobians by central differences (:mod:`.core`, :mod:`.equilibria`);

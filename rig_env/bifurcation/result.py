@@ -2,20 +2,15 @@
 
 Plain frozen dataclasses of numpy arrays (no solver state), shared by the generic core
 (:mod:`rig_env.bifurcation.core`, :mod:`rig_env.bifurcation.periodic`) and the rig's continuation
-(:mod:`rig_env.bifurcation.rig`).  Arrays lead with the point axis; states are columns named by
+(:mod:`rig_env.bifurcation.rig`); drawn by :func:`rig_env.bifurcation.plot.plot_branch`.  Arrays lead with the point axis; states are columns named by
 ``state_names`` (units ``state_units``).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
-
-if TYPE_CHECKING:
-    from matplotlib.figure import Figure
 
 
 @dataclass(frozen=True)
@@ -144,9 +139,3 @@ sampled points where a free joint lies past a gimbal stop (empty for a generic v
         if name not in self.state_names:
             raise KeyError(f"{name!r}: not a state of this branch; states: {list(self.state_names)}")
         return self.states[:, self.state_names.index(name)]
-
-    def plot(self, path: str | Path | None = None, *, state: str | None = None, title: str = "") -> "Figure":
-        """The bifurcation diagram of one state (default the first): see :func:`rig_env.bifurcation.plot.plot_branch`."""
-        from rig_env.bifurcation.plot import plot_branch
-
-        return plot_branch(self, path, state=state, title=title)
