@@ -9,8 +9,11 @@ y_i + ds t_i and corrects by Newton's method on
 
 (Keller's pseudo-arclength condition), so the curve is followed through its turning points.  The
 step ds adapts: halved after a failed corrector (or one whose correction exceeds the step: a jump to
-another part of the curve), grown by 1.5 after a corrector that needed at most three iterations,
-within [ds_min, ds_max].  All of it happens in scaled unknowns y / scale, so that
+another part of the curve; or a step whose parameter moved against the tangents at both its ends: a
+pair of folds inside one step), grown by 1.5 after a corrector that needed at most three iterations,
+within [ds_min, ds_max].  Where the corrector fails at every step down to 1000 ds_min (a corner of a
+piecewise-smooth F, such as the linearly interpolated aerodynamic tables), the step is retried along the
+null vector of the Jacobian a little ahead, the next piece's direction.  All of it happens in scaled unknowns y / scale, so that
 angles in rad and a parameter in deg or m/s weigh alike in the arclength.
 
 :func:`equilibria` applies it to F = f(x, p): stability from the eigenvalues of f_x at every point,
@@ -109,18 +112,32 @@ def trace(fj: Residual, start: Point, inside: Callable[[np.ndarray], bool], s: S
     while len(pts) < s.max_points:
         a = pts[-1]
         out = correct(fj, a.y + ds * a.t, a.t, s)
+        if out is None and ds < 1e3 * s.ds_min:
+            b = _across_corner(fj, a, s)
+            if b is not None:
+                pts.append(b)
+                if accepted is not None:
+                    accepted(b)
+                if not inside(b.y):
+                    return pts, "left the parameter range"
+                ds = b.ds
+                continue
         if out is None:
             ds *= 0.5
             if ds < s.ds_min:
                 return pts, f"the corrector failed at the smallest step ({s.ds_min:g}) after {len(pts)} points"
             continue
         y, J, it = out
-        if np.linalg.norm(y - (a.y + ds * a.t)) > max(ds, 1e3 * s.tol):  # jumped: a corrector that wanders off is refused
+        t = null_vector(J, a.t)
+        jumped = np.linalg.norm(y - (a.y + ds * a.t)) > max(ds, 1e3 * s.tol)  # a corrector that wandered off
+        # the parameter moved against both tangents: two folds (a Z) inside one step, skipped unseen
+        skipped = (y[-1] - a.y[-1]) * a.t[-1] < 0 and a.t[-1] * t[-1] > 0 and abs(y[-1] - a.y[-1]) > 1e3 * s.tol
+        if jumped or skipped:
             ds *= 0.5
             if ds < s.ds_min:
                 return pts, f"the corrector failed at the smallest step ({s.ds_min:g}) after {len(pts)} points"
             continue
-        b = Point(y, null_vector(J, a.t), J, ds, a.arclength + ds)
+        b = Point(y, t, J, ds, a.arclength + ds)
         pts.append(b)
         if accepted is not None:
             accepted(b)
@@ -129,6 +146,23 @@ def trace(fj: Residual, start: Point, inside: Callable[[np.ndarray], bool], s: S
         if it <= 3:
             ds = min(1.5 * ds, s.ds_max)
     return pts, f"stopped after max_points = {s.max_points} points"
+
+
+def _across_corner(fj: Residual, a: Point, s: Settings) -> Point | None:
+    """A step over a corner of the curve (F only piecewise smooth, e.g. linearly interpolated tables), where the
+    corrector fails however small the step: the direction beyond is the null vector of the Jacobian a little
+    ahead (the next piece's), oriented to carry the state on as before; tried at a few step lengths."""
+    for d in (1e-3, 3e-3, 1e-2, 3e-2):
+        Jc = fj(a.y + d * a.t)[1]
+        if not np.all(np.isfinite(Jc)):
+            continue
+        t2 = null_vector(Jc)
+        if t2[:-1] @ a.t[:-1] < 0:
+            t2 = -t2
+        out = correct(fj, a.y + d * t2, t2, s)
+        if out is not None and np.linalg.norm(out[0] - (a.y + d * t2)) <= d:
+            return Point(out[0], null_vector(out[1], t2), out[1], d, a.arclength + d)
+    return None
 
 
 def locate(fj: Residual, a: Point, b: Point, test: Callable[[Point], float], s: Settings,
