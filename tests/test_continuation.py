@@ -221,3 +221,38 @@ def test_continuation_is_public_with_a_real_signature_and_plots(params, tmp_path
     assert (tmp_path / "diagram.png").stat().st_size > 1000
     ax = fig.axes[0]
     assert ax.get_xlabel() == "airspeed (m/s)" and ax.get_ylabel() == "model_pitch (deg)"
+
+
+def test_rig_pitch_only_with_the_stall_tables_folds_at_the_table_nodes(params):
+    """Model pitch alone, stall tables, over the elevator: the pitch-up break of the CM table (its slope turns
+    positive between the 13 and 16 deg nodes) makes a hysteresis window: the branch folds where the equilibrium
+    reaches those nodes, at the elevator that zeroes the model's pitch acceleration at 13 and 16 deg
+    (brentq on the kernel's accelerations directly)."""
+    from scipy.optimize import brentq
+
+    from rig_env.linear import joint_accelerations
+    from rig_env.physics import layout as L
+
+    br = rig_env.continuation(params, free_dofs=("model_pitch",), parameter="hawk_elevator", values=np.linspace(-15.0, 15.0, 61),
+                              aero_model="tables")
+    assert br.folds.size == 2
+    pv, tabs, idx = params.to_vector(), params.tables(), np.array([3])
+
+    def qdd(de: float, theta_deg: float) -> float:
+        u = np.zeros(L.N_INPUTS)
+        u[3], u[L.U_AIRSPEED] = math.radians(de), 20.0
+        q = np.array([0.0, 0.0, 0.0, math.radians(theta_deg), 0.0])
+        return float(joint_accelerations(q, np.zeros(5), u, pv, L.F_AERO | L.F_NONLINEAR, idx, tabs)[3])
+
+    for fold in br.points("fold"):
+        node = round(math.degrees(fold.state[0]))
+        assert node in (13, 16) and math.degrees(fold.state[0]) == pytest.approx(node, abs=1e-3)
+        assert fold.value == pytest.approx(brentq(qdd, -5.0, 5.0, args=(float(node),), xtol=1e-12), abs=1e-3)
+    # inside the window (-1.36..-1.16 deg) three equilibria: stable below 13 deg, a saddle, stable above 16 deg
+    inside = rig_env.continuation(params, free_dofs=("model_pitch",), parameter="hawk_elevator", values=np.linspace(-15.0, 15.0, 151),
+                                  aero_model="tables", periodic=False)
+    at = np.isclose(inside.values, -1.2)
+    assert at.sum() == 3
+    pitch = np.degrees(inside.states[at, 0])
+    assert list(inside.stable[at][np.argsort(pitch)]) == [True, False, True]
+    assert sorted(pitch)[0] < 13.0 < sorted(pitch)[1] < 16.0 < sorted(pitch)[2]

@@ -190,7 +190,8 @@ def equilibria(
             c = locate(prob, a, b, test, s)
             special.append((c, _special(prob, c, "hopf", im_tol, ref[0])))
     special = [(c, sp) for c, sp in special if inside(c.y)]
-    samples = _samples(prob, pts, v, s, inside)
+    # the located points split their brackets, so that a bracket holding a fold is sampled on both sides of it
+    samples = _samples(prob, sorted(pts + [c for c, _ in special], key=lambda p: p.arclength), v, s, inside)
     pts = [p for p in pts if inside(p.y)]
     curve = sorted(pts + [c for c, _ in special], key=lambda p: p.arclength)
     xs = np.array([prob.xp(p.y)[0] for p in samples]).reshape(-1, n)

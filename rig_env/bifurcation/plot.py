@@ -56,12 +56,13 @@ def plot_branch(branch: Branch, path: str | Path | None = None, *, state: str | 
     for i, ob in enumerate(branch.orbits):
         if not ob.values.size:
             continue
-        for env in (ob.lower[:, k], ob.upper[:, k]):
+        for e, env in enumerate((ob.lower[:, k], ob.upper[:, k])):
+            first = i == 0 and e == 0
             ax.plot(ob.values, env * factor, "-", color="tab:green", lw=0.8, alpha=0.7)
             ax.plot(ob.values[ob.stable], env[ob.stable] * factor, "o", color="tab:green", ms=3.5,
-                    label="stable orbits (min, max)" if i == 0 and env is ob.lower[:, k] else None)
+                    label="stable orbits (min, max)" if first and ob.stable.any() else None)
             ax.plot(ob.values[~ob.stable], env[~ob.stable] * factor, "o", mfc="none", color="tab:green", ms=3.5,
-                    label="unstable orbits (min, max)" if i == 0 and env is ob.lower[:, k] else None)
+                    label="unstable orbits (min, max)" if first and (~ob.stable).any() else None)
     ax.set_xlabel(f"{branch.parameter} ({branch.parameter_unit})" if branch.parameter_unit else branch.parameter)
     ax.set_ylabel(f"{name} ({unit})" if unit else name)
     ax.grid(True, alpha=0.3)
