@@ -42,6 +42,7 @@ class EvalResult:
     metrics[kind][name]: (n,) arrays (``rig_env.envs.metrics.METRIC_NAMES``, ``success``, ``status``,
     ``stop_exceeded``, the task's own; :data:`controllers.evaluation.traces.TRACE_NAMES` from every step's
     command and error; ``stop_time`` s, the constraint violations' steps times the control period;
+    ``cmd_rms`` deg, the control effort times the surfaces' deflection per unit action;
     ``airspeed`` m/s, each episode's).  history[kind]: ``t`` (T,) s, ``q`` (k, T, 5) deg, ``qd`` (k, T, 5) deg/s,
     ``ref`` (k, T, m) task reference (angles deg, rates deg/s), ``action`` (k, T, n_a) normalised, ``y``,
     ``y_ref`` (k, T) the task's tracked quantity and its reference, deg (``Task.display``).  display: the
@@ -195,7 +196,8 @@ def evaluate(
     t = (np.arange(T) + 1) * env.dt
     traced = trace_metrics(act_all[: step + 1], err_all[: step + 1], seg_all[: step + 1], live_all[: step + 1], env.dt,
                            float(env.action_scale_deg))
-    final.update(traced, airspeed=airspeed, stop_time=np.asarray(final["constraint_violations"], dtype=float) * env.dt)
+    final.update(traced, airspeed=airspeed, stop_time=np.asarray(final["constraint_violations"], dtype=float) * env.dt,
+                 cmd_rms=np.asarray(final["control_effort"], dtype=float) * float(env.action_scale_deg))
     metrics = {name: {k: v[b].copy() for k, v in final.items()} for name, b in blocks.items()}
     history = {name: {"t": t, "q": q_h[c], "qd": qd_h[c], "ref": ref_h[c], "action": act_h[c], "y": y_h[c], "y_ref": yr_h[c]}
                for c, name in enumerate(names)}
