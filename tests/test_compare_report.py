@@ -134,9 +134,12 @@ def test_overlapping_score_intervals_are_a_tie():
 def test_a_stop_and_an_oscillation_are_caveats():
     one = np.ones(12)
     rec, _ = _rec({"osc": {"success": one, "cmd_freq": np.full(12, 2.5), "cmd_osc_amp": np.full(12, 30.0),
-                           "stop_time": np.r_[0.39, np.zeros(11)]}})
+                           "stop_time": np.r_[0.39, np.zeros(11)], "saturation": np.full(12, 0.3)}})
     text = " ".join(rec["caveats"])
     assert rec["law"] == "osc" and "2.5 Hz" in text and "+-30 deg" in text and "stop in 1 of 12 episodes" in text
+    assert "saturated (within 2 % of +-40 deg) 30 % of the time" in text
+    calm, _ = _rec({"calm": {"success": one, "saturation": np.full(12, 0.01)}})  # 1 %: no caveat
+    assert not any("saturated" in c for c in calm["caveats"])
 
 
 # ---------------------------------------------------------------------- the command
@@ -229,3 +232,14 @@ def test_out_folder_with_a_users_files_is_not_overwritten(tmp_path, capsys):
     rc, out = _run(["--tasks", "velocity_vector_roll", "--controllers", "pid", "--episodes", "1", "--out", str(tmp_path)], capsys)
     assert rc == 2 and "report.md" in out.err and "--overwrite" in out.err
     assert (tmp_path / "report.md").read_text() == "my notes\n"
+
+
+def test_the_steps_caveat_only_where_the_reference_steps():
+    """Bank-to-bank (four step segments): a 30 deg RMS error beside a 1.2 deg hold error is the steps, and says so;
+    a one-segment task (departure recovery) gets no such caveat."""
+    one = np.ones(12)
+    common = {"success": one, "rms_error": np.full(12, 30.0), "hold_error": np.full(12, 1.2)}
+    steps, _ = _rec({"pid": {**common, "segments": np.full(12, 4.0)}})
+    assert any("counts the reference's steps" in c and "1.2 deg" in c for c in steps["caveats"])
+    single, _ = _rec({"pid": {**common, "segments": np.full(12, 1.0)}})
+    assert not any("steps" in c for c in single["caveats"])

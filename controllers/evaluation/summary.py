@@ -45,7 +45,7 @@ METRICS = (
     Metric("cmd_rms", "RMS cmd", "deg", "{:.1f}", "cmd_rms", 1.0, "RMS surface command over the episode and the law's surfaces"),
     Metric("cmd_rate_rms", "cmd rate", "deg/s", "{:.0f}", "cmd_rate_rms", 1.0, "RMS rate of the command of the busiest surface"),
     Metric("saturation", "saturated", "%", "{:.1f}", "saturation", 100.0, "share of the episode's control steps with a command within 2 % of its +-40 deg limit"),
-    Metric("cmd_freq", "cmd freq", "Hz", "{:.2f}", "cmd_freq", 1.0, "dominant frequency of the command of the surface that moves most"),
+    Metric("cmd_freq", "cmd freq", "Hz", "{:.2f}", "cmd_freq", 1.0, "dominant frequency of the command of the surface that moves most (about 1 / episode length, 0.1 Hz, when the command follows the manoeuvre's slow steps rather than oscillating)"),
     Metric("cmd_osc_amp", "osc amp", "deg", "{:.1f}", "cmd_osc_amp", 1.0, "amplitude of that dominant command component"),
     Metric("stop_time", "on stop", "s", "{:.2f}", "stop_time", 1.0, "time some joint spent on a stop"),
 )
@@ -100,7 +100,7 @@ def rows_of(res: EvalResult, rule: ScoreRule = DEFAULT_RULE) -> list[dict[str, A
         rows.append({"mode": res.conditions, "task": res.task, "law": name, "episodes": n, "success": k / n,
                      "success_ci95": list(wilson(k, n)), "metrics": metrics, "score": score, "score_ci95": list(score_ci),
                      "stop_episodes": int(np.sum(stop > 0)), "stop_time_max": float(np.max(stop, initial=0.0)),
-                     "failures": int(np.sum(failed))})
+                     "failures": int(np.sum(failed)), "segments": float(np.median(m["segments"])) if "segments" in m else 0.0})
     return rows
 
 
