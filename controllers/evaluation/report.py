@@ -98,7 +98,7 @@ def write(cmp: Comparison, out: Path) -> list[Path]:
          "noise, quantisation and telemetry delay, Hawk mass +-10 %, servo delay 10-20 ms and bandwidth 5-8 Hz; robust mode adds "
          "+-20 % on every aerodynamic derivative and on friction; gusty mode 5 % gusts (the settings per mode: summary.json).  "
          "Success: the task's own criterion.  Numbers are medians over the episodes with their 95 % bootstrap interval "
-         "[low, high]; success rates carry Wilson 95 % intervals.  With n episodes one episode moves a success rate by "
+         f"[low, high]; success rates carry Wilson 95 % intervals.  With {s['episodes']} episodes one episode moves a success rate by "
          f"{100 / s['episodes']:.0f} points."),
         "",
     ]
