@@ -1,9 +1,12 @@
 """The ``rig`` command: the controller comparison, demonstrations and pictures of the rig model.
 
-    rig compare [--quick] [--out DIR] [--episodes N] [--seed S] [--tasks T ...] [--controllers K ...] [--params FILE]
+    rig compare [--quick] [--out DIR] [--episodes N] [--seed S] [--tasks T ...] [--controllers K ...] [--modes M ...]
+                [--params FILE] [--policy FILE ...] [--config FILE.toml] [--overwrite]
         every control law on every task, nominal and robust (controllers.evaluation.compare): prints the
-        tables, writes summary.json, summary.csv, plots and report.md into DIR (default out/compare);
-        --params: a parameter file (an identified one) for the laws' design and the environments
+        tables and the recommendation per task, writes summary.json, summary.csv, plots and report.md into
+        DIR (default out/compare); --params: a parameter file (an identified one) for the laws' design and
+        the environments; --policy: law artefacts as further contenders; --config: all of it as a file
+        (controllers.evaluation.config; options given on the command line win)
     rig demo [--out DIR] [--t-final S] [--airspeed M/S] [--aileron DEG] [--no-plot] [--quiet]
         velocity-vector roll (paper Sec. VI, Fig. 7): rig roll and model pitch free, compensator
         aileron ramped to +20 deg over 1 s and held; prints a summary, writes DIR/demo_roll.png
@@ -237,25 +240,38 @@ def version() -> str:
 
 def _parser() -> argparse.ArgumentParser:
     from controllers import LAWS
+    from controllers.design.conditions import MODES
+    from controllers.evaluation.compare import default_kinds
     from rig_env.envs.tasks import TASKS
 
-    tasks, kinds = sorted(TASKS), sorted(LAWS)
+    tasks, kinds, default = sorted(TASKS), sorted(LAWS), default_kinds()
     ap = argparse.ArgumentParser(prog="rig", description="Bristol 5-DOF manoeuvre rig model (AIAA 2009-5727).")
     ap.add_argument("--version", action="version", version=f"rig {version()}", help="print the version and exit")
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    c = sub.add_parser("compare", help="every control law on every task, nominal and robust; tables, plots, report")
-    c.add_argument("--quick", action="store_true", help="12 episodes per law, task and mode (default 64)")
+    c = sub.add_parser("compare", help="every control law on every task, nominal and robust; tables, plots, report",
+                       description="Fly every law on every task over the same seeded episodes; print the tables and the "
+                                   "recommendation per task; write summary.json (schema: README, 'The comparison'), summary.csv, "
+                                   "plots and report.md.")
+    c.add_argument("--quick", action="store_true", default=None, help="12 episodes per law, task and mode (default 64)")
     c.add_argument("--out", default="out/compare", metavar="DIR", help="output folder (default: out/compare)")
     c.add_argument("--episodes", type=int, default=None, metavar="N", help="episodes per law, task and mode (default 64, --quick 12)")
-    c.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the episodes (default 0)")
+    c.add_argument("--seed", type=int, default=None, metavar="S", help="seed of the episodes (default 0)")
     # tasks and kinds are listed, not argparse choices: compare checks them (one-line error) and knows kinds registered later
     c.add_argument("--tasks", nargs="+", default=None, metavar="T", help=f"task names: {', '.join(tasks)} (default: all)")
     c.add_argument("--controllers", nargs="+", default=None, metavar="K",
-                   help=f"controller kinds: {', '.join(kinds)} (default: all registered)")
-    c.add_argument("--modes", nargs="+", default=["nominal", "robust"], choices=["nominal", "robust"], metavar="M",
-                   help="nominal (the default rig) and/or robust (randomised parameters) (default both)")
+                   help=f"law kinds: {', '.join(kinds)} (default: every kind built from the task alone: {', '.join(default)})")
+    c.add_argument("--modes", nargs="+", default=None, choices=list(MODES), metavar="M",
+                   help="conditions: nominal (the rig as modelled), robust (+-20 %% aerodynamic derivatives and friction), "
+                        "gusty (5 %% gusts, a stress case) (default: nominal robust)")
     c.add_argument("--params", default=None, metavar="FILE.toml",
                    help="rig parameter file (e.g. rig identify's identified.toml) the laws are designed on and fly (default: the default rig)")
+    c.add_argument("--policy", nargs="+", default=None, metavar="FILE",
+                   help="law artefact files (a trained policy.json, a rig-deploy export, controllers/policies/*.json): each flies "
+                        "its task as a further contender, named after its file")
+    c.add_argument("--config", default=None, metavar="FILE.toml",
+                   help="the comparison as a file: tasks, laws, policies, episodes, seed, modes, params, [conditions], [score] "
+                        "(controllers.evaluation.config); options on the command line win")
+    c.add_argument("--overwrite", action="store_true", help="replace files in DIR that an earlier rig compare did not write")
     d = sub.add_parser("demo", help="velocity-vector roll at 20 m/s with the compensator ailerons (paper Fig. 7)")
     d.add_argument("--out", default="out", metavar="DIR", help="directory for demo_roll.png (default: out)")
     d.add_argument("--t-final", type=float, default=25.0, metavar="S", help="simulated time, s (default 25)")
@@ -276,6 +292,36 @@ def _parser() -> argparse.ArgumentParser:
     return ap
 
 
+def run_compare(args: argparse.Namespace, argv: Sequence[str]) -> None:
+    """``rig compare``: the options, over the ``--config`` file's values where given (ValueError naming a bad field)."""
+    from controllers import CONTROLLERS
+    from controllers.design.conditions import MODES
+    from controllers.evaluation.compare import compare
+    from controllers.evaluation.config import CompareConfig, parse
+    from rig_env.envs.tasks import TASKS
+
+    cfg = parse(args.config, sorted(TASKS), sorted(CONTROLLERS), list(MODES)) if args.config else CompareConfig()
+    pick = lambda cli, file, default: cli if cli is not None else (file if file is not None else default)  # noqa: E731
+    rule = {"rule": cfg.score} if cfg.score is not None else {}
+    compare(tasks=pick(args.tasks, cfg.tasks, None), kinds=pick(args.controllers, cfg.laws, None), episodes=pick(args.episodes, cfg.episodes, None),
+            seed=pick(args.seed, cfg.seed, 0), quick=bool(pick(args.quick, cfg.quick, False)), modes=pick(args.modes, cfg.modes, ["nominal", "robust"]),
+            out_dir=args.out, params_file=pick(args.params, cfg.params, None), policies=pick(args.policy, cfg.policies or None, ()),
+            conditions=cfg.conditions, overwrite=args.overwrite, command=_recorded(argv), **rule)
+
+
+def _recorded(argv: Sequence[str]) -> str:
+    """The command line as summary.json records it: without --out and --overwrite (where, not what, was compared)."""
+    kept, skip = [], False
+    for a in argv:
+        if skip:
+            skip = False
+        elif a == "--out":
+            skip = True
+        elif not (a.startswith("--out=") or a == "--overwrite"):
+            kept.append(a)
+    return " ".join(["rig", *kept])
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Console entry point ``rig`` (pyproject: rig = "rig_cli.main:main")."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -286,10 +332,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         if args.command == "compare":
-            from controllers.evaluation.compare import compare
-
-            compare(tasks=args.tasks, kinds=args.controllers, episodes=args.episodes, seed=args.seed, quick=args.quick,
-                    modes=args.modes, out_dir=args.out, params_file=args.params)
+            run_compare(args, argv)
         elif args.command == "identify":
             from rig_cli.identify import run
 

@@ -42,7 +42,9 @@ def test_compare_is_reproducible_and_writes_its_files(tmp_path, capsys):
     for name in ("summary.json", "summary.csv", "report.md", "metrics.png", "history_velocity_vector_roll.png"):
         assert (tmp_path / "a" / name).stat().st_size > 0, name
     summary = json.loads((tmp_path / "a" / "summary.json").read_text())
-    assert len(summary["rows"]) == 4 and summary["settings"]["seed"] == 2
+    res = summary["results"]["velocity_vector_roll"]
+    assert set(res) == {"nominal", "robust"} and all(set(res[m]["laws"]) == {"pid", "lqr"} for m in res)
+    assert summary["settings"]["seed"] == 2 and summary["schema_version"] == 1
     assert set(summary["margins"]["velocity_vector_roll"]) == {"pid", "lqr"}
     assert len((tmp_path / "a" / "summary.csv").read_text().strip().splitlines()) == 5
 
@@ -61,7 +63,7 @@ def test_a_law_without_a_policy_is_skipped_with_a_note(capsys):
         cmp = compare(tasks=["velocity_vector_roll"], kinds=["pid", "_no_policy"], episodes=2, modes=["nominal"], out_dir=None, progress=False)
     finally:
         CONTROLLERS.pop("_no_policy")
-    assert [r["controller"] for r in cmp.rows] == ["pid"]
+    assert [r["law"] for r in cmp.rows] == ["pid"]
     assert cmp.skipped and "no shipped policy" in cmp.skipped[0]["reason"]
     assert "_no_policy skipped" in capsys.readouterr().out
 

@@ -1,32 +1,35 @@
 """The comparison: every control law on every task, nominal and robust, summarised in control terms.
 
 :func:`compare` runs :func:`controllers.evaluation.evaluate.evaluate` for each task in each mode (one batch per
-task and mode, all laws in it on paired conditions), aggregates the episode metrics
-(:data:`COLUMNS`), prints the tables, and writes into ``out_dir``: ``summary.json`` (settings,
-rows, loop margins, skipped laws, timings), ``summary.csv`` (the rows), the plots and
-``report.md`` (:mod:`controllers.evaluation.report`).  ``params_file`` (``rig compare --params``): a rig
+task and mode, all laws in it on paired conditions), summarises each law's episodes as medians and
+intervals (:func:`controllers.evaluation.summary.rows_of`), recommends a law per task and mode
+(:func:`controllers.evaluation.score.recommend`), prints the tables and the recommendations, and writes
+into ``out_dir``: ``summary.json`` and ``summary.csv`` (:mod:`controllers.evaluation.schema`, which
+documents them), the plots and ``report.md`` (:mod:`controllers.evaluation.report`).  ``params_file`` (``rig compare --params``): a rig
 parameter file, e.g. an identified one: the model-based laws are designed on it, the environments fly
 it, and the randomised conditions' spreads are centred on its values (:func:`controllers.design.conditions.modes_for`);
 the trained (RL) laws fly it as they were trained.  Laws are the registered kinds
 (``controllers.laws.base.CONTROLLERS``); a kind that cannot be built for a task (an RL kind without a
 shipped policy raises ``FileNotFoundError``; a law that cannot fly the task raises
-``controllers.laws.base.UnsupportedTask``) is skipped with a printed note.
+``controllers.laws.base.UnsupportedTask``) is skipped with a printed note.  Law artefacts join as
+contenders named after their files (``policies``, :mod:`controllers.evaluation.contenders`).
 """
 
 from __future__ import annotations
 
-import csv
 import json
 import platform
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
-from typing import Any, Sequence, TextIO
-
+from typing import Any, Mapping, Sequence, TextIO
 
 from controllers import CONTROLLERS, Controller, LoopSpec, UnsupportedTask, make_controller
-from controllers.evaluation import report
-from controllers.evaluation.summary import COLUMNS, Comparison, aggregate, format_table
+from controllers.evaluation import report, schema
+from controllers.evaluation.contenders import load_contenders
+from controllers.evaluation.score import DEFAULT_RULE, ScoreRule, recommend
+from controllers.evaluation.summary import Comparison, format_table, rows_of
 from controllers.evaluation.evaluate import MODES, evaluate
 from controllers.design import DESIGNS
 from controllers.design.conditions import modes_for
@@ -72,17 +75,27 @@ def compare(
     stream: TextIO | None = None,
     progress: bool | TextIO = True,
     params_file: str | Path | None = None,
+    policies: Sequence[str | Path] = (),
+    conditions: Mapping[str, Any] | None = None,
+    rule: ScoreRule = DEFAULT_RULE,
+    overwrite: bool = False,
+    command: str | None = None,
 ) -> Comparison:
     """Run the comparison and write its files (none when ``out_dir`` is None); returns the numbers.
 
     ``stream``: where the notes and tables go (default stdout); ``progress``: True for a progress
     display on stderr, False for none, or a stream; ``params_file``: the rig's parameter file (None:
-    the default rig; a missing or invalid file is a ValueError naming it), see the module docstring.
+    the default rig; a missing or invalid file is a ValueError naming it), see the module docstring;
+    ``policies``: law artefact files, each a contender on its task named after its file
+    (:mod:`controllers.evaluation.contenders`); ``conditions``: overrides of every mode's
+    conditions (:data:`controllers.evaluation.config.CONDITION_FIELDS`); ``rule``: the score and the
+    criterion; ``overwrite``: replace files in ``out_dir`` that an earlier comparison did not write
+    (see :func:`check_out_dir`); ``command``: the command line to record (default: built from the arguments).
     """
     stream = stream if stream is not None else sys.stdout
     prog: TextIO | None = sys.stderr if progress is True else (None if progress is False else progress)
     tasks = list(tasks) if tasks else list(TASKS)
-    kinds = list(kinds) if kinds else default_kinds()
+    kinds = list(kinds) if kinds is not None else default_kinds()
     bad_t = [t for t in tasks if t not in TASKS]
     if bad_t:
         raise ValueError(f"tasks: unknown {bad_t}; valid names: {sorted(TASKS)}")
@@ -92,26 +105,41 @@ def compare(
     bad_m = [m for m in modes if m not in MODES]
     if bad_m:
         raise ValueError(f"modes: unknown {bad_m}; valid: {sorted(MODES)}")
-    params = None if params_file is None else RigParams.from_toml(params_file)  # ParameterError (a ValueError) names the file
-    conditions = MODES if params is None else modes_for(params)
-    env_params = {} if params_file is None else {"params_file": str(params_file)}
+    if not kinds and not policies:
+        raise ValueError("controllers: give at least one law kind or one --policy file")
     n = episodes if episodes is not None else (QUICK_EPISODES if quick else FULL_EPISODES)
-    if not isinstance(n, int) or n < 1:
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise ValueError(f"episodes = {n!r}: must be a positive integer")
-    settings = {"tasks": tasks, "controllers": kinds, "episodes": n, "seed": seed, "quick": quick, "modes": list(modes),
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ValueError(f"seed = {seed!r}: must be a non-negative integer")
+    if out_dir is not None:
+        check_out_dir(Path(out_dir), overwrite, stream)
+    contenders = load_contenders(policies, kinds)
+    for c in contenders:
+        if c.task not in tasks:
+            stream.write(f"  note: {c.name} ({c.path}) flies {c.task}, which this comparison does not include\n")
+    params = None if params_file is None else RigParams.from_toml(params_file)  # ParameterError (a ValueError) names the file
+    base = MODES if params is None else modes_for(params)
+    conditions = {m: replace(base[m], **dict(conditions or {})) for m in MODES}
+    env_params = {} if params_file is None else {"params_file": str(params_file)}
+    settings = {"tasks": tasks, "laws": kinds, "policies": {c.name: c.describe() for c in contenders}, "episodes": n, "seed": seed,
+                "quick": quick, "modes": list(modes),
                 "conditions": {m: {**conditions[m].env_fields(), "randomise": {k: list(v) for k, v in conditions[m].randomise.items()}} for m in modes},
                 "params_file": None if params_file is None else str(params_file),
                 "machine": f"{platform.machine()} {platform.system()}, python {platform.python_version()}"}
-    cmd = ["rig compare"] + (["--quick"] if quick else []) + [f"--episodes {n}", f"--seed {seed}"]
-    cmd += [f"--tasks {' '.join(tasks)}"] if tasks != list(TASKS) else []
-    cmd += [f"--controllers {' '.join(kinds)}"] if kinds != default_kinds() else []
-    cmd += [f"--modes {' '.join(modes)}"] if list(modes) != ["nominal", "robust"] else []
-    cmd += [f"--params {params_file}"] if params_file is not None else []
-    settings["command"] = " ".join(cmd)
-    cmp = Comparison(settings)
+    settings["command"] = command or _command(quick, n, seed, tasks, kinds, modes, params_file, policies)
+    cmp = Comparison(settings, rule=rule)
     t0 = time.perf_counter()
     for task in tasks:
         laws, skipped = _build(kinds, task, n, {**conditions[modes[0]].env_fields(), **env_params}, stream, params)
+        spec = LoopSpec.from_env(RigVectorEnv(1, task=task, **{**conditions[modes[0]].env_fields(), **env_params}))
+        for c in (c for c in contenders if c.task == task):
+            try:
+                c.check(spec)
+                laws[c.name] = c.build  # a factory: evaluate builds it for each batch
+            except UnsupportedTask as exc:
+                skipped.append({"task": task, "controller": c.name, "reason": str(exc)})
+                stream.write(f"  note: {c.name} skipped on {task}: {exc}\n")
         cmp.skipped += skipped
         if not laws:
             continue
@@ -122,16 +150,56 @@ def compare(
             res = evaluate(laws, task, n_episodes=n, seed=seed, conditions=conditions[mode], record=record, env_overrides=env_params,
                            progress=prog)
             cmp.results.append(res)
-            cmp.rows += aggregate(res)
+            rows = rows_of(res, rule)
+            cmp.rows += rows
+            cmp.recommendations.setdefault(task, {})[mode] = recommend({r["law"]: r for r in rows}, rule)
     cmp.seconds = time.perf_counter() - t0
     for mode in modes:
         rows = [r for r in cmp.rows if r["mode"] == mode]
         stream.write("\n" + format_table(rows, f"{mode}: {n} episodes per law and task, seed {seed} ({_mode_note(mode)})") + "\n")
+    stream.write("\n" + "\n".join(report.verdict(cmp)) + "\n")
     stream.write(f"\ncompared in {cmp.seconds:.0f} s\n")
     if out_dir is not None:
         write_files(cmp, Path(out_dir), stream)
     stream.flush()
     return cmp
+
+
+def _command(quick: bool, n: int, seed: int, tasks: list[str], kinds: list[str], modes: Sequence[str],
+             params_file: str | Path | None, policies: Sequence[str | Path]) -> str:
+    cmd = ["rig compare"] + (["--quick"] if quick else []) + [f"--episodes {n}", f"--seed {seed}"]
+    cmd += [f"--tasks {' '.join(tasks)}"] if tasks != list(TASKS) else []
+    cmd += [f"--controllers {' '.join(kinds)}"] if kinds != default_kinds() else []
+    cmd += [f"--modes {' '.join(modes)}"] if list(modes) != ["nominal", "robust"] else []
+    cmd += [f"--params {params_file}"] if params_file is not None else []
+    cmd += [f"--policy {' '.join(str(p) for p in policies)}"] if policies else []
+    return " ".join(cmd)
+
+
+OUR_FILES = ("summary.json", "summary.csv", "report.md", "metrics.png")
+OUR_PATTERNS = ("history_*.png", "distributions_*.png")
+
+
+def check_out_dir(out: Path, overwrite: bool, stream: TextIO) -> None:
+    """Refuse (ValueError) to write into ``out`` when it holds files of the comparison's names that an earlier
+    comparison did not write (its ``summary.json`` says so), unless ``overwrite``: nothing a user wrote is
+    replaced silently.  An earlier comparison's files are replaced, with a note."""
+    if not out.exists():
+        return
+    if not out.is_dir():
+        raise ValueError(f"--out {out}: exists and is not a folder")
+    found = [out / f for f in OUR_FILES if (out / f).exists()] + [p for pat in OUR_PATTERNS for p in sorted(out.glob(pat))]
+    if not found or overwrite:
+        return
+    try:
+        earlier = json.loads((out / "summary.json").read_text())
+        ours = isinstance(earlier, dict) and str(earlier.get("settings", {}).get("command", "")).startswith("rig compare")
+    except (OSError, ValueError, AttributeError):
+        ours = False
+    if not ours:
+        raise ValueError(f"--out {out}: holds {', '.join(p.name for p in found[:4])}{' ...' if len(found) > 4 else ''}, "
+                         "not written by an earlier rig compare; choose another --out or pass --overwrite")
+    stream.write(f"  note: replacing the earlier comparison in {out}\n")
 
 
 def _mode_note(mode: str) -> str:
@@ -141,17 +209,10 @@ def _mode_note(mode: str) -> str:
 
 
 def write_files(cmp: Comparison, out: Path, stream: TextIO) -> None:
-    """summary.json, summary.csv, plots and report.md into ``out``."""
+    """summary.json, summary.csv (:mod:`controllers.evaluation.schema`), plots and report.md into ``out``."""
     out.mkdir(parents=True, exist_ok=True)
-    summary = {"settings": cmp.settings, "rows": cmp.rows, "margins": cmp.margins, "skipped": cmp.skipped,
-               "seconds": cmp.seconds, "timing": [{"task": r.task, "mode": r.conditions, "seconds": r.seconds, "paired": r.paired,
-                                                    "build_seconds": r.build_seconds} for r in cmp.results]}
-    (out / "summary.json").write_text(json.dumps(plain(summary), indent=1))
-    keys = ["mode", "task", "controller", "episodes"] + [k for k, *_ in COLUMNS]
-    with open(out / "summary.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=keys)
-        w.writeheader()
-        for r in cmp.rows:
-            w.writerow({k: r[k] for k in keys})
+    for stale in (p for pat in OUR_PATTERNS for p in out.glob(pat)):  # an earlier run's figures of tasks not flown now
+        stale.unlink()
+    schema.write(cmp, out)
     files = report.write(cmp, out)
     stream.write(f"wrote {out}/summary.json, summary.csv, report.md and {len(files)} plots\n")

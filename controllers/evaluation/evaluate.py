@@ -28,6 +28,7 @@ from typing import Any, Callable, Mapping, TextIO
 import numpy as np
 
 from controllers import Controller, LoopSpec, make_controller
+from controllers.evaluation.traces import trace_metrics
 from controllers.design.conditions import GUSTY, MODES, NOMINAL, ROBUST, Conditions  # noqa: F401  (re-exported)
 from rig_env.envs import RigVectorEnv
 from rig_env.params import JOINTS
@@ -39,7 +40,10 @@ class EvalResult:
     """Metrics of ``n`` episodes per law and a few time histories.
 
     metrics[kind][name]: (n,) arrays (``rig_env.envs.metrics.METRIC_NAMES``, ``success``, ``status``,
-    ``stop_exceeded``).  history[kind]: ``t`` (T,) s, ``q`` (k, T, 5) deg, ``qd`` (k, T, 5) deg/s,
+    ``stop_exceeded``, the task's own; :data:`controllers.evaluation.traces.TRACE_NAMES` from every step's
+    command and error; ``stop_time`` s, the constraint violations' steps times the control period;
+    ``cmd_rms`` deg, the control effort times the surfaces' deflection per unit action;
+    ``airspeed`` m/s, each episode's).  history[kind]: ``t`` (T,) s, ``q`` (k, T, 5) deg, ``qd`` (k, T, 5) deg/s,
     ``ref`` (k, T, m) task reference (angles deg, rates deg/s), ``action`` (k, T, n_a) normalised, ``y``,
     ``y_ref`` (k, T) the task's tracked quantity and its reference, deg (``Task.display``).  display: the
     task's ``label`` of that quantity, the ``joint`` (index in JOINTS) it is, if any, and ``rate`` (joint
@@ -145,6 +149,11 @@ def evaluate(
     ref_h = np.full((C, k_rec, T, ref0.shape[1]), np.nan)
     act_h = np.full((C, k_rec, T, len(env.action_names)), np.nan)
     y_h, yr_h = np.full((C, k_rec, T), np.nan), np.full((C, k_rec, T), np.nan)
+    # every environment's command, tracking error and segment until its first episode ends (traces.py)
+    act_all = np.zeros((T, n * C, len(env.action_names)), dtype=np.float32)
+    err_all, seg_all = np.zeros((T, n * C), dtype=np.float32), np.full((T, n * C), -1, dtype=np.int32)
+    live_all = np.zeros((T, n * C), dtype=bool)
+    airspeed = np.array(env.airspeed, dtype=float).copy()  # each episode's, drawn at the reset
     done = np.zeros(n * C, dtype=bool)
     rec_live = np.ones(n * C, dtype=bool)
     final: dict[str, np.ndarray] = {}
@@ -159,6 +168,9 @@ def evaluate(
         rec_live &= ~ended  # an ended environment already holds its next episode (same-step autoreset)
         ref_rad = env.reference()
         y_disp, y_ref = env.task.display(env.t, env.joint_angles, env.joint_rates, ref_rad)
+        seg_t, _, _, err_t, _ = env.task.tracked(env.t, env.joint_angles, env.joint_rates, ref_rad)
+        live_all[step] = rec_live  # the ending step's state is already the next episode's (same-step autoreset)
+        act_all[step], err_all[step], seg_all[step] = actions, err_t, seg_t
         q, qd, ref = np.degrees(env.joint_angles), np.degrees(env.joint_rates), np.degrees(ref_rad)
         for c, b in enumerate(blocks.values()):
             rows = np.arange(b.start, b.start + k_rec)
@@ -182,6 +194,10 @@ def evaluate(
             break
     seconds = time.perf_counter() - t_start
     t = (np.arange(T) + 1) * env.dt
+    traced = trace_metrics(act_all[: step + 1], err_all[: step + 1], seg_all[: step + 1], live_all[: step + 1], env.dt,
+                           float(env.action_scale_deg))
+    final.update(traced, airspeed=airspeed, stop_time=np.asarray(final["constraint_violations"], dtype=float) * env.dt,
+                 cmd_rms=np.asarray(final["control_effort"], dtype=float) * float(env.action_scale_deg))
     metrics = {name: {k: v[b].copy() for k, v in final.items()} for name, b in blocks.items()}
     history = {name: {"t": t, "q": q_h[c], "qd": qd_h[c], "ref": ref_h[c], "action": act_h[c], "y": y_h[c], "y_ref": yr_h[c]}
                for c, name in enumerate(names)}
