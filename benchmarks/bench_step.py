@@ -191,18 +191,24 @@ step()
 t3 = time.perf_counter()
 step()
 t4 = time.perf_counter()
-print(json.dumps({"import_s": t1 - t0, "first_call_s": t3 - t2, "second_call_s": t4 - t3}))
+out = {"import_s": t1 - t0, "first_call_s": t3 - t2, "second_call_s": t4 - t3}
+if len(sys.argv) > 2:  # env-steps/s on 1024 environments
+    a = b.setup(RigParams.default(), 1024)
+    out["rate"] = b.rate(getattr(b, sys.argv[1])(a), 1024, 3.0)[0]
+print(json.dumps(out))
 """
 
 
-def compile_times(stepper: str = "lanes_stepper", extra_env: dict[str, str] | None = None) -> dict:
+def compile_times(stepper: str = "lanes_stepper", extra_env: dict[str, str] | None = None, rate: bool = False) -> dict:
     """First-call time of a kernel in fresh interpreters: empty numba cache, then warm cache.
-    extra_env: more environment variables for both interpreters (e.g. ``RIG_ENV_FAST_INLINE``)."""
+    extra_env: more environment variables for both interpreters (e.g. ``RIG_ENV_LLVM_INLINE``); rate: also
+    the kernel's env-steps/s on 1024 environments, measured in the warm interpreter (key ``rate``)."""
     out = {}
     with tempfile.TemporaryDirectory(prefix="rig_bench_numba_") as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""), **(extra_env or {}))
         for label in ("cold", "cached"):
-            r = subprocess.run([sys.executable, "-c", _COMPILE_SNIPPET, stepper], env=env, cwd=ROOT, capture_output=True, text=True, timeout=900)
+            extra = ["rate"] if rate and label == "cached" else []
+            r = subprocess.run([sys.executable, "-c", _COMPILE_SNIPPET, stepper, *extra], env=env, cwd=ROOT, capture_output=True, text=True, timeout=900)
             if r.returncode != 0:
                 raise RuntimeError(f"compile subprocess failed: {r.stderr[-2000:]}")
             out[label] = json.loads(r.stdout.strip().splitlines()[-1])
@@ -210,6 +216,7 @@ def compile_times(stepper: str = "lanes_stepper", extra_env: dict[str, str] | No
         "compile_s": out["cold"]["first_call_s"],
         "cached_load_s": out["cached"]["first_call_s"],
         "import_s": out["cold"]["import_s"],
+        **({"rate": out["cached"]["rate"]} if rate else {}),
     }
 
 

@@ -23,10 +23,10 @@ from numba import njit
 
 from rig_env.physics import layout as L
 from rig_env.physics import vmath
+from rig_env.physics.llvm_inline import inlined
 from rig_env.physics.vec import FASTMATH, mtv, mv, sub
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
-_INLINE = dict(_JIT, inline="always")  # inlined into the right-hand side (see joint_space._INLINE)
 
 MIN_AIRSPEED = 0.5
 """Below this local airspeed (m/s) a body or strip produces no aerodynamic load (wind off)."""
@@ -70,7 +70,7 @@ def mix(da, de, dr, i):
     return da + MIX_ELEVATOR[i] * de + MIX_RUDDER[i] * dr
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl, tab_cm):
     """Hawk force and moment about its c.g., world axes (N, N m).
 
@@ -138,7 +138,7 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
     return mv(A, fb), mv(A, mb)
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def strip(u, wn, vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn):
     """Loads of one strip from its velocity relative to the air in the panel's axes (e_x, n, e_r): u along
     x, -wn along the normal n, a spanwise component of square vs2.  Returns (f_x, f_n, dk, mc): the force's
@@ -175,7 +175,7 @@ def strip(u, wn, vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, 
     return f_x, f_n, dk, mc
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def panel(i, vb0, wb, flap, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn):
     """Force and moment (arm axes, the moment about the reference point) of panel i: its two Gauss strips
     at r = rm -+ dr_g along its span e_r = (0, ce, sg), normal n = x_arm x e_r = (0, -sg, ce).
@@ -224,7 +224,7 @@ def strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_o
     return fx, fy, fz, mx, my, mz
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn, unrolled=False):
     """Compensator force (world, N) and moment about its aerodynamic reference point (world, N m).
 
@@ -236,7 +236,7 @@ def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn, un
     return mv(A, f), mv(A, m)
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def comp_aero_arm(p, vb0, wb, flaps, nonlinear, tab_alpha, tab_cn, unrolled=False):
     """Compensator force (arm axes, N) and moment about its aerodynamic reference point (arm axes, N m).
 

@@ -1,13 +1,14 @@
 """Compile-time fix for numba's IR inliner: no defensive copies of a callee IR made for one call site.
 
-The kernels inline their parts at numba-IR level (``inline="always"``, see ``joint_space._INLINE``), in
-trees several levels deep (vmath inside a strip inside the compensator inside ``forces`` inside the
-right-hand side inside a physics step).  For every call site numba's ``InlineWorker.inline_function``
+The small helpers that are still inlined at numba-IR level (``inline="always"``: :mod:`vmath`, :mod:`vec`,
+the lane kernel's generated loads and stores; the right-hand side's larger parts are inlined by LLVM,
+:mod:`rig_env.physics.llvm_inline`, and with ``RIG_ENV_LLVM_INLINE=0`` by numba, in trees several levels
+deep) go through numba's IR inliner.  For every call site numba's ``InlineWorker.inline_function``
 translates the callee afresh (``run_untyped_passes``, which inlines the callee's own callees) and hands
 that new IR to ``inline_ir``, which deep-copies it twice before use: once to mutate, once to return an
 unmutated original that this caller throws away.  The copies are made block by block, each with its own
 memo, so the callee's whole variable scope is copied again for every block: quadratic in the size of
-the callee.  Profiled on a cold compile of the lane kernel (numba 0.68): 294 s of 386 s in those copies
+the callee.  Profiled on a cold compile of the lane kernel with every part IR-inlined (numba 0.68): 294 s of 386 s in those copies
 (``copy.deepcopy``, 120 million calls), 10 s in LLVM.  numba's own fix of these spurious deep copies removed one of three; the two left
 remain.
 

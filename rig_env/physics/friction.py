@@ -14,10 +14,10 @@ exp and expm1 are :mod:`rig_env.physics.vmath`'s (no library calls: the lane ker
 
 from __future__ import annotations
 
-from numba import njit
 
 from rig_env.physics import layout as L
 from rig_env.physics import vmath
+from rig_env.physics.llvm_inline import inlined
 from rig_env.physics.vmath import FASTMATH
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
@@ -33,7 +33,7 @@ FRICTION_BASE = (
 _FS, _FC, _ALPHA, _VD, _S0, _S1, _S2 = 0, 1, 2, 3, 4, 5, 6
 
 
-@njit(**_JIT)
+@inlined(ir_fallback=False, **_JIT)
 def stribeck(p, j, v):
     """S(v) of eq. (20) for joint j."""
     b = FRICTION_BASE[j]
@@ -41,7 +41,7 @@ def stribeck(p, j, v):
     return fc + (p[b + _FS] - fc) * vmath.exp(-p[b + _ALPHA] * abs(v))
 
 
-@njit(**_JIT)
+@inlined(ir_fallback=False, **_JIT)
 def torque(p, j, v, z):
     """Friction torque tau_f of eq. (21) for joint j at rate v (rad/s) and bristle state z (rad)."""
     b = FRICTION_BASE[j]
@@ -55,7 +55,7 @@ def torque(p, j, v, z):
     return 0.0 if (v == 0.0) & (z == 0.0) else tau  # a locked joint, or a free one at rest and relaxed (selected, not branched)
 
 
-@njit(**_JIT)
+@inlined(ir_fallback=False, **_JIT)
 def bristle_decay(p, j, v, dt):
     """(a, g) of eq. (19) at rate v held over dt: decay rate a = sigma0 |v| / S(v) (1/s) and
     g = (1 - exp(-a dt)) / a (s), the factor of :func:`advance_bristle_decay`; g = dt in the limit a dt <
@@ -66,7 +66,7 @@ def bristle_decay(p, j, v, dt):
     return a, dt if small else g
 
 
-@njit(**_JIT)
+@inlined(ir_fallback=False, **_JIT)
 def advance_bristle_decay(v, z, a, g):
     """Exact solution of eq. (19) over dt with v held constant, from its (a, g) of :func:`bristle_decay`:
     z -> z_ss + (z - z_ss) exp(-a dt), z_ss = v / a, written as z + (v - a z) g, without cancellation and
@@ -75,14 +75,14 @@ def advance_bristle_decay(v, z, a, g):
     return z + (v - a * z) * g
 
 
-@njit(**_JIT)
+@inlined(ir_fallback=False, **_JIT)
 def advance_bristle(p, j, v, z, dt):
     """Exact solution of eq. (19) over dt with v held constant."""
     a, g = bristle_decay(p, j, v, dt)
     return advance_bristle_decay(v, z, a, g)
 
 
-@njit(**_JIT)
+@inlined(ir_fallback=False, **_JIT)
 def steady_sliding(p, j, v):
     """Steady-state sliding friction S(v) sign(v) + sigma2 v (what eq. 21 tends to at constant v)."""
     b = FRICTION_BASE[j]

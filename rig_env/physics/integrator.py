@@ -22,12 +22,12 @@ from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.joint_space import accelerations, kinetic_energy, potential_energy
+from rig_env.physics.llvm_inline import inlined
 from rig_env.physics.vec import FASTMATH
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)  # allocation-free kernels: no NRT refcounting
 # batch drivers keep NRT: numba does not parallelise a prange loop compiled with _nrt=False
 _JIT_BATCH = dict(cache=True, error_model="numpy", fastmath=FASTMATH)
-_INLINE = dict(_JIT, inline="always")  # see joint_space._INLINE
 
 N_Y = 24  # RK state: q (5), qd (5), servo positions (7), servo rates (7)
 # scratch layout of one environment's work row
@@ -51,7 +51,7 @@ def new_work(n_envs: int) -> tuple[np.ndarray, np.ndarray]:
     return np.zeros((n_envs, N_WORK)), np.zeros((n_envs, 5, 5))
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def rhs(y, z, ud, u, p, flags, free_idx, n_free, tabs, M, w, out):
     """Time derivative of the RK state y (24,) into out (24,)."""
     q = y[0:5]

@@ -41,12 +41,12 @@ from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import vmath
 from rig_env.physics.aero import comp_aero_arm, hawk_aero
+from rig_env.physics.llvm_inline import inlined
 from rig_env.physics.vec import FASTMATH, add, col, cross, dot, inertia_world, mm, mtv, mv, rot_zy, rot_zyx, scale, sub
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
-# the right-hand side's parts are inlined into their caller at numba-IR level: as separate LLVM
-# functions they exchange their tuples through memory and are optimised apart (about 1.3x per env-step)
-_INLINE = dict(_JIT, inline="always")
+# the right-hand side's parts are inlined into their callers by LLVM (rig_env.physics.llvm_inline): as separate
+# functions they would exchange their tuples through memory and be optimised apart (about 1.3x per env-step)
 
 STOP_BASE = (-1, L.P_STOPS_RIG_PITCH_LOWER_DEG, L.P_STOPS_RIG_YAW_LOWER_DEG, L.P_STOPS_MODEL_PITCH_LOWER_DEG, -1)
 
@@ -58,7 +58,7 @@ def pitch_axis(psi):
     return (-s, c, 0.0)
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def frames(q, p):
     """Rotations, joint axes (world) and body points (world, from the pivot) at joint angles q."""
     As = rot_zyx(q[L.J_RIG_YAW], q[L.J_RIG_PITCH], q[L.J_RIG_ROLL])
@@ -73,7 +73,7 @@ def frames(q, p):
     return As, Aa, axes, G, rho, r_s, r_r, r_ref
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def velocities(axes, qd):
     """Arm and aircraft angular velocities (world) and their bias accelerations (J-dot qdot)."""
     a_roll, a_pitch, a_yaw, a_mp, a_my = axes[0], axes[1], axes[2], axes[3], axes[4]
@@ -110,7 +110,7 @@ def madd(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3], a[4] + b[4], a[5] + b[5], a[6] + b[6], a[7] + b[7], a[8] + b[8])
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def arm_kinematics(q, qd, p):
     """The kinematics of the right-hand side in arm axes (components along A_s's columns).
 
@@ -160,31 +160,31 @@ def arm_kinematics(q, qd, p):
     return B, (cf, sf), a2, (sz, cz), rho, w_s, w_a, b_s, b_a, (ct, st)
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def cross_x(a, s):
     """a x (s, 0, 0)."""
     return (0.0, a[2] * s, -(a[1] * s))
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def x_cross(s, a):
     """(s, 0, 0) x a."""
     return (0.0, -(s * a[2]), s * a[1])
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def dot_pitch(cs, v):
     """a_pitch . v with a_pitch = (0, c, -s), cs = (c, s)."""
     return cs[0] * v[1] - cs[1] * v[2]
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def dot_model_pitch(sc, v):
     """a_model_pitch . v with a_model_pitch = (-s, c, 0), sc = (s, c)."""
     return sc[1] * v[1] - sc[0] * v[0]
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def mass_matrix_terms(q, qd, p):
     """(M, h, kin) of M qdd + h = Q at joint angles q and rates qd, as values (no arrays, so that a loop over
     environments vectorises).
@@ -264,7 +264,7 @@ def mass_matrix_terms(q, qd, p):
 M_UPPER = ((0, 0), (0, 1), (0, 2), (0, 3), (0, 4), (1, 1), (1, 2), (1, 3), (1, 4), (2, 2), (2, 3), (2, 4), (3, 3), (3, 4), (4, 4))
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def store_mass_matrix(Mt, ht, M, hvec):
     """M (5x5, symmetric) and hvec (5) from :func:`mass_matrix_terms`' values."""
     for e in range(15):
@@ -275,7 +275,7 @@ def store_mass_matrix(Mt, ht, M, hvec):
         hvec[k] = ht[k]
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def mass_matrix_and_bias(q, qd, p, M, hvec, jv):
     """Fill M (5x5) and h (5) of M qdd + h = Q from :func:`mass_matrix_terms` (jv: unused scratch, kept for
     callers).  Returns the kinematics (As, Aa, axes, G, rho, r_s, r_r, r_ref, w_s, w_a) for the force terms."""
@@ -301,7 +301,7 @@ def air_velocity(u):
     return (-u[L.U_AIRSPEED] + u[L.U_GUST], u[L.U_GUST + 1], u[L.U_GUST + 2])
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def friction_torque(j, v, z, p, flags):
     """Friction on joint j at rate v and bristle state z (N m, on the joint's positive direction): -tau_f
     of eq. (21), or 0 without friction (computed, then selected: no branch for the lane kernel)."""
@@ -309,7 +309,7 @@ def friction_torque(j, v, z, p, flags):
     return tau_f if flags & L.F_FRICTION else 0.0
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def friction_torques(qd, z, p, flags):
     """:func:`friction_torque` of the five joints (a 5-tuple, N m)."""
     return (
@@ -319,7 +319,7 @@ def friction_torques(qd, z, p, flags):
     )  # fmt: skip
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def stop_torque(j, q, qd, p, flags):
     """Joint-stop torque on joint j (N m; 0 for the unlimited joints, or within the stops, or without stops)."""
     b = STOP_BASE[j]
@@ -345,7 +345,7 @@ FIXTURE_BASE = (
 """Offset of joint j's four fixture parameters (stiffness, neutral, inertia, torque) in the parameter vector."""
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def fixture_torque(j, qj, p):
     """A test fixture's generalised force on joint j at angle qj (N m): -k (qj - neutral) + torque (zero
     without one)."""
@@ -353,7 +353,7 @@ def fixture_torque(j, qj, p):
     return p[b + 3] - p[b] * (qj - p[b + 1])
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def applied_torques(q, qd, z, p, flags):
     """Friction (:func:`friction_torques`) plus fixture torque of the five joints (a 5-tuple, N m): the
     joint torques :func:`forces` takes as ``fric``."""
@@ -364,7 +364,7 @@ def applied_torques(q, qd, z, p, flags):
     )  # fmt: skip
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def fixture_potential(j, q, p):
     """Potential energy (J) of joint j's fixture: k (q_j - neutral)^2 / 2 - torque q_j."""
     b = FIXTURE_BASE[j]
@@ -372,7 +372,7 @@ def fixture_potential(j, q, p):
     return 0.5 * p[b] * d * d - p[b + 3] * q[j]
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def joint_torque(j, q, qd, z, p, flags):
     """Friction and stop torque on joint j (N m, acting on the joint's positive direction).
 
@@ -381,7 +381,7 @@ def joint_torque(j, q, qd, z, p, flags):
     return friction_torque(j, qd[j], z[j], p, flags) + stop_torque(j, q, qd, p, flags)
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
     """Generalised forces Q (5-tuple, N m) of gravity, aerodynamics, stops and the joint torques ``fric``.
 
@@ -435,7 +435,7 @@ def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
     )
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q):
     """Fill Q (5) with :func:`forces`."""
     Qt = forces(q, qd, applied_torques(q, qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
@@ -457,7 +457,7 @@ def free_mask(free_idx, n):
     return (is_free(0, free_idx, n), is_free(1, free_idx, n), is_free(2, free_idx, n), is_free(3, free_idx, n), is_free(4, free_idx, n))
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def solve_free(Mt, r, free):
     """qdd (5-tuple) of M[free, free] qdd[free] = r[free], qdd[locked] = 0, by LDL^T factorisation.
 
@@ -526,7 +526,7 @@ def solve_free(Mt, r, free):
     return x0, x1, x2, x3, x4
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def accelerations(q, qd, z, flaps, u, p, flags, free_idx, n_free, tabs, M, hvec, Q, jv, qdd):
     """Joint accelerations qdd (5; zero for locked joints) of the joint-space model, with M, h and Q of
     M qdd + h = Q written to M, hvec and Q (jv: unused scratch, kept for callers)."""

@@ -56,15 +56,15 @@ from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.integrator import N_Y, RK_C, RK_W, limited_demands
 from rig_env.physics.joint_space import fixture_torque, forces, free_mask, friction_torque, mass_matrix_terms, solve_free
+from rig_env.physics.llvm_inline import inlined
 from rig_env.physics.vmath import FASTMATH
 
 W = 8
 """Environments per block: the lanes of a 512-bit register of float64."""
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
-_INLINE = dict(_JIT, inline="always")
 _JIT_BATCH = dict(cache=True, error_model="numpy", fastmath=FASTMATH)
-_GENERATED = dict(_INLINE, cache=False)  # source made by exec has no file to cache against; inlined into cached callers
+_GENERATED = dict(_JIT, inline="always", cache=False)  # source made by exec has no file to cache against; inlined into cached callers
 
 # one block's row of the scratch S: each quantity k of lane l at row[OFF_... + k * W + l]
 OFF_X = 0  # state (layout.X_...), N_STATE
@@ -151,7 +151,7 @@ def _pointer(typingctx, address):
     return types.voidptr(address), codegen
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def rhs_values(y, fric, ud, u, p, flags, free, tabs):
     """Time derivative (N_Y-tuple) of the RK state y (q 5, qd 5, servo positions 7, servo rates 7), with the
     joints' friction torques fric (at y's rates and the held bristle states) and the delayed demands ud
@@ -179,7 +179,7 @@ def rhs_values(y, fric, ud, u, p, flags, free, tabs):
     )  # fmt: skip
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def joint_bristles(row, j, dt, reuse):
     """Every lane: joint j's bristle state over dt = h/2 at the lane's joint rate (exact, eq. 19), in place.
 
@@ -201,7 +201,7 @@ def joint_bristles(row, j, dt, reuse):
         row[OFF_X + (L.X_Z + j) * W + lane] = fr.advance_bristle_decay(v, z, a, g)
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def bristles(row, free, h, reuse):
     """The free joints' bristle states over h/2 (call with friction on only).  One loop over the lanes per
     free joint, chosen outside the loops: a locked joint costs nothing (inside a loop over the lanes a
@@ -219,7 +219,7 @@ def bristles(row, free, h, reuse):
         joint_bristles(row, 4, dt, reuse)
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def joint_torque(row, j, c, first, friction):
     """Every lane: joint j's friction torque (with ``friction``, a compile-time constant wherever this is
     inlined) at the RK stage's rate and the held bristle state, plus its test fixture's torque at the stage's
@@ -239,7 +239,7 @@ def joint_torque(row, j, c, first, friction):
             row[OFF_FRIC + j * W + lane] = fix
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def stage_torques(row, free, c, first, friction):
     """The free joints' friction and fixture torques at one RK stage (as :func:`bristles`: one loop per free
     joint, a locked joint costs nothing)."""
@@ -255,7 +255,7 @@ def stage_torques(row, free, c, first, friction):
         joint_torque(row, 4, c, first, friction)
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def axpy24(a, x, y):
     """y + a x for 24-tuples."""
     return (
@@ -267,7 +267,7 @@ def axpy24(a, x, y):
     )  # fmt: skip
 
 
-@njit(**_INLINE)
+@inlined(**_JIT)
 def start_step(row, free, friction, h, reuse_decay):
     """Bristles over h/2, then every lane's RK start state (reuse_decay: see :func:`joint_bristles`; a
     compile-time constant at each call site, so the loops have no branch)."""

@@ -12,10 +12,10 @@ The delay is a whole number of physics steps (rounded to the nearest; reported b
 
 from __future__ import annotations
 
-from numba import njit
 
 from rig_env.physics import layout as L
 from rig_env.physics.aero import mix
+from rig_env.physics.llvm_inline import inlined
 from rig_env.physics.vec import FASTMATH
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
@@ -27,12 +27,12 @@ _DELAY, _RATE, _LIMIT, _FREQ, _ZETA = 0, 1, 2, 3, 4
 TWO_PI = 6.283185307179586
 
 
-@njit(**_JIT)
+@inlined(ir_fallback=False, **_JIT)
 def group(k):
     return _COMP if k < 4 else _HAWK
 
 
-@njit(**_JIT)
+@inlined(ir_fallback=False, **_JIT)
 def demand(u, k):
     """Actuator k's demand (rad) from the surface commands u (rig_env.SURFACES order)."""
     if k < 4:
@@ -44,13 +44,13 @@ def demand(u, k):
     return u[L.U_HAWK_RUDDER]
 
 
-@njit(**_JIT)
+@inlined(ir_fallback=False, **_JIT)
 def limited(p, k, d):
     lim = p[group(k) + _LIMIT]
     return min(lim, max(-lim, d))
 
 
-@njit(**_JIT)
+@inlined(ir_fallback=False, **_JIT)
 def accel(p, k, ud, x, v):
     """v' of actuator k for delayed, limited demand ud, position x and rate v."""
     g = group(k)
@@ -62,7 +62,7 @@ def accel(p, k, ud, x, v):
     return a
 
 
-@njit(**_JIT)
+@inlined(ir_fallback=False, **_JIT)
 def project(p, k, x, v):
     """Rate and position limits applied after a physics step; returns (x, v)."""
     g = group(k)
@@ -76,7 +76,7 @@ def project(p, k, x, v):
     return x, v
 
 
-@njit(**_JIT)
+@inlined(ir_fallback=False, **_JIT)
 def derivatives(y, i_pos, i_rate, ud, p, flags, out, o_pos, o_rate):
     """Servo state derivatives: out[o_pos+k] = x_k', out[o_rate+k] = v_k' from y[i_pos+k], y[i_rate+k].
 
