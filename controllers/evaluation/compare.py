@@ -35,7 +35,9 @@ from controllers.design import DESIGNS
 from controllers.design.conditions import modes_for
 from controllers.design.tuning import plain
 from controllers.laws import law_for
+from rig_env.compile_watch import compile_watch
 from rig_env.envs import TASKS, RigVectorEnv
+from rig_env.precompile import precompile
 from rig_env.params import RigParams
 
 QUICK_EPISODES, FULL_EPISODES = 12, 64
@@ -129,30 +131,33 @@ def compare(
                 "machine": f"{platform.machine()} {platform.system()}, python {platform.python_version()}"}
     settings["command"] = command or _command(quick, n, seed, tasks, kinds, modes, params_file, policies)
     cmp = Comparison(settings, rule=rule)
+    fields0 = {**conditions[modes[0]].env_fields(), **env_params}
+    precompile(tasks, fields0, design=True, stream=prog)  # the kernels, side by side, on a fresh installation
     t0 = time.perf_counter()
-    for task in tasks:
-        laws, skipped = _build(kinds, task, n, {**conditions[modes[0]].env_fields(), **env_params}, stream, params)
-        spec = LoopSpec.from_env(RigVectorEnv(1, task=task, **{**conditions[modes[0]].env_fields(), **env_params}))
-        for c in (c for c in contenders if c.task == task):
-            try:
-                c.check(spec)
-                laws[c.name] = c.build  # a factory: evaluate builds it for each batch
-            except UnsupportedTask as exc:
-                skipped.append({"task": task, "controller": c.name, "reason": str(exc)})
-                stream.write(f"  note: {c.name} skipped on {task}: {exc}\n")
-        cmp.skipped += skipped
-        if not laws:
-            continue
-        for law_name, law in laws.items():
-            if hasattr(law, "describe"):
-                cmp.margins.setdefault(task, {})[law_name] = plain(law.describe())
-        for mode in modes:
-            res = evaluate(laws, task, n_episodes=n, seed=seed, conditions=conditions[mode], record=record, env_overrides=env_params,
-                           progress=prog)
-            cmp.results.append(res)
-            rows = rows_of(res, rule)
-            cmp.rows += rows
-            cmp.recommendations.setdefault(task, {})[mode] = recommend({r["law"]: r for r in rows}, rule)
+    with compile_watch(prog):  # anything left to compile is announced while it compiles
+        for task in tasks:
+            laws, skipped = _build(kinds, task, n, {**conditions[modes[0]].env_fields(), **env_params}, stream, params)
+            spec = LoopSpec.from_env(RigVectorEnv(1, task=task, **{**conditions[modes[0]].env_fields(), **env_params}))
+            for c in (c for c in contenders if c.task == task):
+                try:
+                    c.check(spec)
+                    laws[c.name] = c.build  # a factory: evaluate builds it for each batch
+                except UnsupportedTask as exc:
+                    skipped.append({"task": task, "controller": c.name, "reason": str(exc)})
+                    stream.write(f"  note: {c.name} skipped on {task}: {exc}\n")
+            cmp.skipped += skipped
+            if not laws:
+                continue
+            for law_name, law in laws.items():
+                if hasattr(law, "describe"):
+                    cmp.margins.setdefault(task, {})[law_name] = plain(law.describe())
+            for mode in modes:
+                res = evaluate(laws, task, n_episodes=n, seed=seed, conditions=conditions[mode], record=record, env_overrides=env_params,
+                               progress=prog)
+                cmp.results.append(res)
+                rows = rows_of(res, rule)
+                cmp.rows += rows
+                cmp.recommendations.setdefault(task, {})[mode] = recommend({r["law"]: r for r in rows}, rule)
     cmp.seconds = time.perf_counter() - t0
     for mode in modes:
         rows = [r for r in cmp.rows if r["mode"] == mode]

@@ -30,6 +30,7 @@ import numpy as np
 from controllers import Controller, LoopSpec, make_controller
 from controllers.evaluation.traces import trace_metrics
 from controllers.design.conditions import GUSTY, MODES, NOMINAL, ROBUST, Conditions  # noqa: F401  (re-exported)
+from rig_env.compile_watch import compile_watch
 from rig_env.envs import RigVectorEnv
 from rig_env.params import JOINTS
 
@@ -65,19 +66,6 @@ class EvalResult:
 LawFactory = Callable[[LoopSpec, int], Controller]
 
 
-_ANNOUNCED = [False]
-
-
-def _announce_kernels(stream: TextIO | None) -> None:
-    """Say once per process, before the first batch is built, why the first progress line may take minutes."""
-    if stream is None or _ANNOUNCED[0]:
-        return
-    _ANNOUNCED[0] = True
-    stream.write("  loading the numba kernels (the first run of a fresh installation compiles them once, a few minutes on "
-                 "2 cores; later runs load them from the disk cache in seconds)\n")
-    stream.flush()
-
-
 def _progress(stream: TextIO | None, label: str, k: int, total: int, last: list[int]) -> None:
     if stream is None:
         return
@@ -110,6 +98,20 @@ def evaluate(
     ``env_overrides``: further :class:`rig_env.envs.RigEnvConfig` fields; ``progress``: a stream for a
     progress display (None: silent).  See the module docstring.
     """
+    with compile_watch(progress):  # a fresh installation's first batch compiles its kernels: say so while it does
+        return _evaluate(laws, task, n_episodes, seed, conditions, record, env_overrides, progress)
+
+
+def _evaluate(
+    laws: Mapping[str, str | Controller | LawFactory],
+    task: str,
+    n_episodes: int,
+    seed: int,
+    conditions: Conditions,
+    record: int,
+    env_overrides: Mapping[str, Any] | None,
+    progress: TextIO | None,
+) -> EvalResult:
     if not laws:
         raise ValueError("laws: give at least one law")
     if not isinstance(n_episodes, int) or n_episodes < 1:
@@ -119,7 +121,6 @@ def evaluate(
     names = list(laws)
     n, C = n_episodes, len(names)
     fields = {**conditions.env_fields(), **dict(env_overrides or {})}
-    _announce_kernels(progress)
     env = RigVectorEnv(n * C, task=task, **fields)
     spec = LoopSpec.from_env(env)
     built: dict[str, Controller] = {}

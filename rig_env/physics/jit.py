@@ -32,6 +32,13 @@ imported in a process that imported :mod:`rig_env`, see :mod:`rig_env.importhook
   kernels therefore cache under a directory named by a hash of every source file of
   :mod:`rig_env.physics` (and numba's version), so any change to the physics invalidates every cached
   kernel at once.
+* one cache for every installation of the same sources: numba files a function's cache under a hash of
+  the *absolute* directory of its source, so the README's two quick-start installs (``pip install .``
+  into site-packages, then ``pip install -e .`` from the checkout) would each compile everything once.
+  :class:`PackageCacheLocator` files rig_env's kernels under their directory *inside the package*
+  (``rig_env/physics``...) instead; numba's source stamp is already a hash of the file's content, so a
+  second installation of the same sources finds the first one's kernels.  Functions outside rig_env keep
+  numba's own locators.
 * the compile-time fix for numba's IR inliner (:mod:`rig_env.physics.fast_inline`;
   ``RIG_ENV_FAST_INLINE=0`` turns it off).
 """
@@ -85,12 +92,62 @@ def setup_numba() -> Any:
 
             if not os.environ.get("NUMBA_CACHE_DIR"):
                 numba.config.CACHE_DIR = cache_dir(numba.__version__)
+            _install_locator()
             if os.environ.get("RIG_ENV_FAST_INLINE", "1") != "0":
                 from rig_env.physics import fast_inline
 
                 fast_inline.install()
             _numba = numba
     return _numba
+
+
+_PACKAGE_ROOT = Path(__file__).resolve().parents[1]  # the rig_env package directory
+
+
+def package_subpath(py_file: str) -> str | None:
+    """The cache subdirectory of a source file of rig_env: its directory inside the package, e.g.
+    ``rig_env_physics``; None for a file outside the package."""
+    try:
+        rel = Path(py_file).resolve().parent.relative_to(_PACKAGE_ROOT)
+    except ValueError:
+        return None
+    return "_".join(("rig_env",) + rel.parts)
+
+
+def _install_locator() -> bool:
+    """Put :class:`PackageCacheLocator` first among numba's cache locators (idempotent); False if numba's
+    caching internals are not the ones this was written for (numba's own locators then serve)."""
+    global PackageCacheLocator
+    try:
+        from numba.core import caching
+        base = caching.UserProvidedCacheLocator
+        impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # renamed in numba 0.68
+        classes = impl._locator_classes
+    except (ImportError, AttributeError):
+        return False
+    if PackageCacheLocator is not None and PackageCacheLocator in classes:
+        return True
+
+    class _PackageCacheLocator(base):  # type: ignore[misc, valid-type]
+        """numba's user-directory locator with the source's directory inside rig_env as the subpath."""
+
+        @classmethod
+        def get_suitable_cache_subpath(cls, py_file: str) -> str:
+            return package_subpath(py_file) or base.get_suitable_cache_subpath(py_file)
+
+        @classmethod
+        def from_function(cls, py_func: Any, py_file: str) -> Any:
+            if package_subpath(py_file) is None:
+                return None
+            return super().from_function(py_func, py_file)
+
+    PackageCacheLocator = _PackageCacheLocator
+    classes.insert(0, _PackageCacheLocator)
+    return True
+
+
+PackageCacheLocator: Any = None
+"""numba cache locator for rig_env's sources (module docstring), created by :func:`setup_numba`."""
 
 
 # ---------------------------------------------------------------- modes
@@ -296,6 +353,6 @@ def float_from_bits(bits: int) -> float:
 
 
 __all__ = [
-    "MODES", "Intrinsic", "Kernel", "bits_from_float", "cache_dir", "float_from_bits", "intrinsic", "kernel", "mode",
-    "numba_available", "prange", "python_mode", "setup_numba", "use_numba", "use_python",
+    "MODES", "Intrinsic", "Kernel", "PackageCacheLocator", "bits_from_float", "cache_dir", "float_from_bits", "intrinsic", "kernel", "mode",
+    "numba_available", "package_subpath", "prange", "python_mode", "setup_numba", "use_numba", "use_python",
 ]
