@@ -18,7 +18,9 @@ from rig_env.params import JOINTS, SURFACES, ParameterError, RigParams, param_ba
 from rig_env.physics import layout as L
 from rig_env.physics.pipeline import PhysicsBatch, delay_line, flags_of, rates  # noqa: F401  (delay_line: re-exported)
 
-Schedule = float | np.ndarray | Callable[[float], "float | np.ndarray"]
+Schedule = float | Sequence[float] | np.ndarray | Callable[[float], "float | Sequence[float] | np.ndarray"]
+"""A signal over time: a constant, a per-environment (or per-component: a gust's three) sequence or array,
+or a function of time in seconds giving either."""
 
 STATUS_NAMES = {L.S_OK: "ok", L.S_NONFINITE: "non-finite state", L.S_RUNAWAY: "runaway joint rate", L.S_CONSTRAINT: "constraint residual"}
 

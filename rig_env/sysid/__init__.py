@@ -10,6 +10,8 @@ model's kernels when a fit runs).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from rig_env.importhook import lazy_attributes
 from rig_env.sysid.fit import METHODS, fit
 from rig_env.sysid.inputs import doublet, multisine, peak_factors, three_two_one_one  # scipy only inside multisine()
@@ -24,6 +26,11 @@ from rig_env.sysid.records import (
 )
 from rig_env.sysid.result import Fit
 from rig_env.sysid.smoothing import lowess
+
+if TYPE_CHECKING:  # what a type checker sees of the lazy names below (their real signatures)
+    from rig_env.sysid.friction import fig4_setup, free_decay_estimates, friction_first_estimates, simulate_friction_test
+    from rig_env.sysid.paramfile import save_fit_params, write_params
+    from rig_env.sysid.report import write_report
 
 _LAZY = {  # imported at first use (matplotlib, scipy, the model's kernels)
     "fig4_setup": "rig_env.sysid.friction",
