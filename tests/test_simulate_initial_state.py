@@ -40,3 +40,18 @@ def test_the_stop_margin_is_measured_from_the_parameters_own_stops():
     X[0, L.X_Q + 3] = math.radians(hi + STOP_MARGIN_DEG + 0.01)
     with pytest.raises(ValueError, match="model_pitch"):
         check_initial_state(X, P)
+
+
+@pytest.mark.parametrize("formulation", ["joint", "dae"])
+def test_a_blow_up_mid_run_is_reported_and_frozen_in_both_formulations(formulation):
+    """A gust of 1e6 m/s from t = 0.5 s overflows the aerodynamic loads: the environment is flagged
+    non-finite and holds its last healthy state; the trajectory has no NaN (the DAE once returned NaN)."""
+    p = RigParams.default()
+    with pytest.warns(RuntimeWarning, match="blew up and were frozen"):
+        r = simulate(p, [0.0, 0.3], [0.0, 0.0], 1.0, free_dofs=["rig_roll", "model_pitch"], formulation=formulation,
+                     gust=lambda t: [0.0, 0.0, 1e6] if t > 0.5 else [0.0, 0.0, 0.0])
+    assert int(np.ravel(r.status)[0]) == L.S_NONFINITE
+    q = np.asarray(r.q).reshape(-1, 2)
+    assert np.all(np.isfinite(q)) and np.all(np.isfinite(np.asarray(r.qd)))
+    k = int(np.argmax(np.asarray(r.t) > 0.52))
+    np.testing.assert_array_equal(q[k:], np.broadcast_to(q[k], q[k:].shape))  # frozen from the blow-up on
