@@ -78,8 +78,10 @@ def _bounded(lo: float, hi: float, unit: str, integer: bool = False, lo_open: bo
             v = int(text) if integer else float(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{text!r}: not {'an integer' if integer else 'a number'}") from None
-        if not (math.isfinite(v) and (lo < v if lo_open else lo <= v) and v <= hi):
-            raise argparse.ArgumentTypeError(f"{text}: allowed range {'(' if lo_open else '['}{lo:g}, {hi:g}] {unit}")
+        # an integer is compared exactly (a 400-digit one has no float; math.isfinite would overflow)
+        if not ((integer or math.isfinite(v)) and (lo < v if lo_open else lo <= v) and v <= hi):
+            shown = text if len(text) <= 24 else text[:20] + "..."
+            raise argparse.ArgumentTypeError(f"{shown}: allowed range {'(' if lo_open else '['}{lo:g}, {hi:g}] {unit}")
         return v
     return parse
 
