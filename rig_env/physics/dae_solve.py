@@ -118,7 +118,8 @@ def accelerations(y, tgt, z, flaps, u, p, flags, free_idx, n_free, locked, n_loc
 
     y: coordinates and velocities in its first 32 entries; tgt: locked targets (5); z: bristle states
     (5); flaps: 7 surface deflections, rad; locked[:n_locked]: locked joints.  Returns the applied
-    loads (world axes) (f_a, n_a, f_s, n_s, f_r, alpha-dot terms) of :func:`dae_loads.loads_at`.
+    loads (world axes) (f_a, n_a, f_s, n_s, f_r): those of :func:`dae_loads.loads_at` with the Hawk's
+    alpha-dot load at the solved acceleration added (the loads eq. (1) holds with).
 
     The Hawk's alpha-dot load F_ad (n . a_a) depends on the Hawk c.g.'s acceleration a_a (docs/MODEL.md 3.1):
     with v1 the solution for the loads F and v2 that for F_ad alone (b = 0), the same factorisation,
@@ -187,7 +188,13 @@ def accelerations(y, tgt, z, flaps, u, p, flags, free_idx, n_free, locked, n_loc
         c_ad = a1 / (1.0 - a2)
         for k in range(15):
             acc[k] += c_ad * acc2[k]
-    return loads
+        s_ad = n[0] * acc[C_VA] + n[1] * acc[C_VA + 1] + n[2] * acc[C_VA + 2]  # = a1 / (1 - a2)
+        return (
+            (f_a[0] + s_ad * fd[0], f_a[1] + s_ad * fd[1], f_a[2] + s_ad * fd[2]),
+            (n_a[0] + s_ad * md[0], n_a[1] + s_ad * md[1], n_a[2] + s_ad * md[2]),
+            f_s, n_s, f_r,
+        )  # fmt: skip
+    return f_a, n_a, f_s, n_s, f_r
 
 
 
