@@ -25,6 +25,9 @@ Method (the textbook one, where the kernel uses condensed sums):
 * a wind-off test fixture (springs and masses on a joint, the paper's Fig. 4(a)): its inertia on the
   joint's diagonal of M, its spring and constant torque in Q (:func:`fixture_inertia`,
   :func:`fixture_force`; zero in flight);
+* the Hawk's alpha-dot (its share ``alphadot_fraction`` of the q derivatives) from the time derivative of
+  its body-axis velocity, ``alpha' = (u w' - w u') / (u^2 + w^2)``, which is linear in qdd: the loads per
+  unit alpha-dot, through ``J^T``, times its gradient go to the left-hand side, ``(M - d g^T) qdd = Q``;
 * ``numpy.linalg.solve`` on the free rows and columns; locked joints have zero derivatives.
 
 Locked joints are expected to have zero rate in ``y`` (as :func:`rig_env.simulate` sets them).
@@ -182,16 +185,27 @@ def gravity_force(bs: list[dict], p: np.ndarray) -> np.ndarray:
     return sum(b["Jv"].T @ (b["m"] * g * E_Z) for b in bs)
 
 
-def hawk_loads(p: np.ndarray, Aa: np.ndarray, v_rel: np.ndarray, w: np.ndarray, de: float, da: float, dr: float, nonlinear: bool, tabs: tuple) -> tuple[np.ndarray, np.ndarray]:
-    """Hawk aerodynamic force (N) and moment about its c.g. (N m), world axes; eq. (23) plus lateral terms.
+def fin_factor(alpha: float, p: np.ndarray) -> float:
+    """Share of the fin's derivatives left at angle of attack alpha (rad): 1 below the blanking onset,
+    ``blanked_fraction`` beyond onset + width, a cubic smoothstep (3 t^2 - 2 t^3) in between."""
+    t = np.clip((alpha - p[L.P_HAWK_AERO_BLANKING_ALPHA_DEG]) / p[L.P_HAWK_AERO_BLANKING_WIDTH_DEG], 0.0, 1.0)
+    return 1.0 - (1.0 - p[L.P_HAWK_AERO_BLANKED_FRACTION]) * (3 * t**2 - 2 * t**3)
+
+
+def hawk_loads(p: np.ndarray, Aa: np.ndarray, v_rel: np.ndarray, w: np.ndarray, de: float, da: float, dr: float, nonlinear: bool, tabs: tuple, alpha_dot: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Hawk aerodynamic force (N) and moment about its c.g. (N m), world axes; eq. (23) plus lateral terms,
+    and the force and moment per unit alpha-dot beyond ``alpha_dot`` (rad/s).
 
     v_rel: c.g. velocity relative to the air (world, m/s); w: angular velocity (world, rad/s);
-    de, da, dr: elevator, aileron, rudder (rad).
+    de, da, dr: elevator, aileron, rudder (rad).  The combined q derivatives CLq, CMq are shared between q
+    ((1 - f) of them) and alpha-dot (f, ``alphadot_fraction``); the induced drag takes the lift with
+    ``alpha_dot``.  The fin's derivatives (CYbeta, Cnbeta and the rudder's) are scaled by
+    :func:`fin_factor`; Clbeta grows with the static lift by Clbeta_CL.
     """
     u, v, wz = Aa.T @ v_rel
     V = math.sqrt(u * u + v * v + wz * wz)
     if V < MIN_AIRSPEED:
-        return np.zeros(3), np.zeros(3)
+        return np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3)
     pb, qb, rb = Aa.T @ w
     S, c, b = p[L.P_HAWK_AERO_S], p[L.P_HAWK_AERO_C], p[L.P_HAWK_AERO_B]
     alpha = math.atan2(wz, u)
@@ -203,17 +217,40 @@ def hawk_loads(p: np.ndarray, Aa: np.ndarray, v_rel: np.ndarray, w: np.ndarray, 
     else:
         cl_alpha = p[L.P_HAWK_AERO_CL0] + p[L.P_HAWK_AERO_CLALPHA] * (alpha - p[L.P_HAWK_AERO_ALPHA0])
         cm_alpha = p[L.P_HAWK_AERO_CM0] + p[L.P_HAWK_AERO_CMALPHA] * (alpha - p[L.P_HAWK_AERO_ALPHA0])
-    CL = cl_alpha + p[L.P_HAWK_AERO_CLQ] * q_hat + p[L.P_HAWK_AERO_CLDE] * de
+    f = p[L.P_HAWK_AERO_ALPHADOT_FRACTION]
+    CLq_q, CLq_ad = (1 - f) * p[L.P_HAWK_AERO_CLQ], f * p[L.P_HAWK_AERO_CLQ]
+    CMq_q, CMq_ad = (1 - f) * p[L.P_HAWK_AERO_CMQ], f * p[L.P_HAWK_AERO_CMQ]
+    ad_hat = alpha_dot * c / (2 * V)
+    CL = cl_alpha + CLq_q * q_hat + CLq_ad * ad_hat + p[L.P_HAWK_AERO_CLDE] * de
     CD = p[L.P_HAWK_AERO_CD0] + CL**2 / (math.pi * p[L.P_HAWK_AERO_E_OSWALD] * b * b / S)
-    CM = cm_alpha + p[L.P_HAWK_AERO_CMQ] * q_hat + p[L.P_HAWK_AERO_CMDE] * de
-    CY = p[L.P_HAWK_AERO_CYBETA] * beta + p[L.P_HAWK_AERO_CYDR] * dr
-    Cl = p[L.P_HAWK_AERO_CLBETA] * beta + p[L.P_HAWK_AERO_CLP] * p_hat + p[L.P_HAWK_AERO_CLR] * r_hat + p[L.P_HAWK_AERO_CLDA] * da + p[L.P_HAWK_AERO_CLDR] * dr
-    Cn = p[L.P_HAWK_AERO_CNBETA] * beta + p[L.P_HAWK_AERO_CNP] * p_hat + p[L.P_HAWK_AERO_CNR] * r_hat + p[L.P_HAWK_AERO_CNDA] * da + p[L.P_HAWK_AERO_CNDR] * dr
+    CM = cm_alpha + CMq_q * q_hat + CMq_ad * ad_hat + p[L.P_HAWK_AERO_CMDE] * de
+    fin = fin_factor(alpha, p)
+    CY = fin * (p[L.P_HAWK_AERO_CYBETA] * beta + p[L.P_HAWK_AERO_CYDR] * dr)
+    Clb = p[L.P_HAWK_AERO_CLBETA] + p[L.P_HAWK_AERO_CLBETA_CL] * cl_alpha
+    Cl = Clb * beta + p[L.P_HAWK_AERO_CLP] * p_hat + p[L.P_HAWK_AERO_CLR] * r_hat + p[L.P_HAWK_AERO_CLDA] * da + fin * p[L.P_HAWK_AERO_CLDR] * dr
+    Cn = fin * p[L.P_HAWK_AERO_CNBETA] * beta + p[L.P_HAWK_AERO_CNP] * p_hat + p[L.P_HAWK_AERO_CNR] * r_hat + p[L.P_HAWK_AERO_CNDA] * da + fin * p[L.P_HAWK_AERO_CNDR] * dr
     qS = 0.5 * p[L.P_ENVIRONMENT_AIR_DENSITY] * V * V * S
     lift_dir = np.array([math.sin(alpha), 0.0, -math.cos(alpha)])  # normal to the velocity in the x-z plane
     force = qS * (CL * lift_dir - CD * np.array([u, v, wz]) / V + CY * E_Y)
     moment = qS * np.array([b * Cl, c * CM, b * Cn])
-    return Aa @ force, Aa @ moment
+    per_ad = c / (2 * V)
+    return Aa @ force, Aa @ moment, Aa @ (qS * CLq_ad * per_ad * lift_dir), Aa @ (qS * c * CMq_ad * per_ad * E_Y)
+
+
+def hawk_alpha_dot(kin: dict, hawk: dict, qd: np.ndarray, v_air: np.ndarray) -> tuple[float, np.ndarray]:
+    """The Hawk's alpha-dot (rad/s) at qdd = 0 and its gradient with respect to qdd (5,), s.
+
+    alpha = atan2(w, u) of v_b = A_a^T (v_cg - v_air), the air held over the step:
+    v_b' = dA_a^T (v_cg - v_air) + A_a^T (J_v qdd + dJ_v qd), alpha' = (u w' - w u') / (u^2 + w^2).
+    """
+    Aa, dAa = kin["Aa"], kin["dAa"]
+    v_rel = hawk["Jv"] @ qd - v_air
+    u, _, w = Aa.T @ v_rel
+    if u * u + w * w == 0.0:  # no velocity in the body x-z plane: alpha undefined, no alpha-dot load
+        return 0.0, np.zeros(5)
+    vb_dot0 = dAa.T @ v_rel + Aa.T @ (hawk["dJv"] @ qd)
+    k = np.array([-w, 0.0, u]) / (u * u + w * w)  # d(alpha) / d(v_b)
+    return float(k @ vb_dot0), (k @ Aa.T) @ hawk["Jv"]
 
 
 def compensator_strips(p: np.ndarray, As: np.ndarray, flaps: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -324,8 +361,11 @@ def rhs(t: float, y: np.ndarray, flaps: np.ndarray, u: np.ndarray, p: np.ndarray
         nonlinear = bool(flags & L.F_NONLINEAR)
         v_air = np.array([-u[L.U_AIRSPEED], 0.0, 0.0]) + u[L.U_GUST : L.U_GUST + 3]
         hawk = bs[2]
-        F, T = hawk_loads(p, kin["Aa"], hawk["Jv"] @ qd - v_air, hawk["Jw"] @ qd, flaps[4], flaps[5], flaps[6], nonlinear, tabs)
+        # the Hawk's alpha-dot depends on qdd: its loads are Q0 + Q_ad (g . qdd), moved into M below
+        ad0, g = hawk_alpha_dot(kin, hawk, qd, v_air)
+        F, T, dF, dT = hawk_loads(p, kin["Aa"], hawk["Jv"] @ qd - v_air, hawk["Jw"] @ qd, flaps[4], flaps[5], flaps[6], nonlinear, tabs, ad0)
         Q += hawk["Jv"].T @ F + hawk["Jw"].T @ T
+        M = M - np.outer(hawk["Jv"].T @ dF + hawk["Jw"].T @ dT, g)
         Q += compensator_generalized_force(p, kin, qd, v_air, flaps, nonlinear, tabs)
     dy = np.zeros(15)
     for j in free_idx:

@@ -48,6 +48,16 @@ SERVOS: tuple[str, ...] = ("flap1", "flap2", "flap3", "flap4", "hawk_elevator", 
 
 SOURCES = ("paper", "rig-code", "estimate", "identified")
 _META = ("sources", "identified")  # RigParams fields that record provenance, not parameters
+
+NEUTRAL_DEFAULTS: dict[str, tuple[float, str]] = {
+    "hawk_aero.alphadot_fraction": (0.0, "not in the file: 0, the combined CMq + CMalphadot (and CLq) acting on q alone, as before issue 21"),
+    "hawk_aero.blanking_alpha_deg": (12.0, "not in the file: 12 deg (paper Sec. VII); inactive with blanked_fraction = 1"),
+    "hawk_aero.blanking_width_deg": (6.0, "not in the file: 6 deg; inactive with blanked_fraction = 1"),
+    "hawk_aero.blanked_fraction": (1.0, "not in the file: 1, no tail blanking, as before issue 21"),
+    "hawk_aero.Clbeta_CL": (0.0, "not in the file: 0, Clbeta independent of lift, as before issue 21"),
+}
+"""Parameters added after the file format was first used: a file without them loads with these values
+(source ``estimate``), which switch the added terms off, so that an older file keeps its model exactly."""
 DATA_DIR = Path(__file__).parent / "data"
 DEFAULT_FILE = DATA_DIR / "default_rig.toml"
 
@@ -129,6 +139,13 @@ class HawkAero:
     Cnr: float = _f(-5.0, 0.5, "1/rad")
     Cnda: float = _f(-2.0, 2.0, "1/rad")
     Cndr: float = _f(-2.0, 2.0, "1/rad")
+    # issue 21 (docs/MODEL.md 3.1): the share of the combined q derivatives that is alpha-dot, tail blanking
+    # of the fin's derivatives above a break angle of attack, and the swept wing's dihedral effect with lift
+    alphadot_fraction: float = _f(0.0, 0.9, "-")  # CMalphadot / (CMq + CMalphadot), likewise for CL
+    blanking_alpha_deg: float = _f(0.0, 45.0, "deg")  # onset of fin blanking
+    blanking_width_deg: float = _f(0.1, 45.0, "deg")  # blanking complete this far above the onset
+    blanked_fraction: float = _f(0.0, 1.0, "-")  # fin derivatives' share left when fully blanked
+    Clbeta_CL: float = _f(-1.0, 1.0, "1/rad")  # d(Clbeta)/d(CL), the swept wing's share
 
 
 @dataclass(frozen=True)
@@ -469,6 +486,10 @@ def _build(cls: type, raw: Mapping[str, Any], prefix: str, sources: dict, path: 
         if f.name in _META:
             continue
         name = prefix + f.name
+        if f.name not in raw and name in NEUTRAL_DEFAULTS:
+            kwargs[f.name], note = NEUTRAL_DEFAULTS[name]
+            sources[name] = ("estimate", note)
+            continue
         if f.name not in raw:
             raise ParameterError(f"{path}: missing field {name}")
         entry = raw[f.name]

@@ -37,7 +37,7 @@ AERO_CASES = ("linear", "nonlinear", "wind_off")
 N_STATES = 3  # per lock set, aero case and parameter set: 6 x 3 x 2 x 3 = 108 states
 
 
-# the default rig has seven parameters at zero (a symmetric Hawk and arm, a symmetric compensator
+# the default rig has nine parameters at zero (a symmetric Hawk and arm, a symmetric compensator
 # section); this variant gives each a value so that its terms are compared too
 NONZERO = {
     "geometry.hawk_cg_x": 0.02,
@@ -47,6 +47,8 @@ NONZERO = {
     "comp_aero.CL0": 0.05,
     "comp_aero.alpha0": 0.02,
     "comp_aero.CM0": -0.01,
+    "geometry.comp_cg_z": 0.01,
+    "hawk_aero.alpha0": 0.02,
 }
 PARAM_SETS = {"default": RigParams.default(), "no-zero-parameters": RigParams.default().replace(**NONZERO)}
 

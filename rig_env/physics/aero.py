@@ -24,7 +24,7 @@ from numba import njit
 from rig_env.physics import layout as L
 from rig_env.physics import vmath
 from rig_env.physics.llvm_inline import inlined
-from rig_env.physics.vec import FASTMATH, mtv, mv, sub
+from rig_env.physics.vec import FASTMATH, col, dot, mtv, mv, scale, sub
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
 
@@ -71,13 +71,43 @@ def mix(da, de, dr, i):
 
 
 @inlined(**_JIT)
-def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl, tab_cm):
-    """Hawk force and moment about its c.g., world axes (N, N m).
+def blanking(alpha, p):
+    """Tail-blanking factor eta(alpha) of the fin's derivatives (docs/MODEL.md 3.1): 1 up to the onset
+    alpha_b, a smoothstep down to ``blanked_fraction`` over ``blanking_width``, held beyond:
 
-    p: parameter vector; A: aircraft rotation (body to world); v_cg, omega: c.g. velocity and angular
-    velocity (world); v_air: air velocity at the c.g. (world); de, da, dr: surface deflections (rad).
-    Eq. (23): CL = CL0 + CLa (a - a0) + CLq q c/2V + CLde de, CD = CD0 + CL^2/(pi e AR),
-    CM = CM0 + CMa (a - a0) + (CMq + CMadot) q c/2V + CMde de; plus CY, Cl, Cn in beta, p, r, da, dr.
+        t = clip((alpha - alpha_b) / width, 0, 1),   eta = 1 - (1 - eta_min) t^2 (3 - 2 t)
+
+    Exactly 1 below the onset (the linear model there is untouched), continuous with its slope."""
+    t = min(max((alpha - p[L.P_HAWK_AERO_BLANKING_ALPHA_DEG]) / p[L.P_HAWK_AERO_BLANKING_WIDTH_DEG], 0.0), 1.0)
+    return 1.0 - (1.0 - p[L.P_HAWK_AERO_BLANKED_FRACTION]) * (t * t * (3.0 - 2.0 * t))
+
+
+@inlined(**_JIT)
+def hawk_aero_full(p, A, v_cg, omega, v_air, a_bias, de, da, dr, nonlinear, tab_alpha, tab_cl, tab_cm):
+    """Hawk force and moment about its c.g. (N, N m), and their alpha-dot parts, in the caller's axes.
+
+    p: parameter vector; A: aircraft rotation (body to the caller's axes); v_cg, omega: c.g. velocity and
+    angular velocity; v_air: air velocity at the c.g. (held over the step); a_bias: the part of the c.g.'s
+    acceleration that the caller knows without the joint (or body) accelerations; de, da, dr: surface
+    deflections (rad).  All vectors in the caller's axes (world, or the arm's: any inertial components).
+
+    Eq. (23) with the combined q derivatives split (``alphadot_fraction`` f):
+    CL = CL(alpha) + (1 - f) CLq q^ + f CLq alphadot^ + CLde de, CD = CD0 + CL_v^2/(pi e AR),
+    CM = CM(alpha) + (1 - f) CMq q^ + f CMq alphadot^ + CMde de, with x^ = x c/2V; plus CY, Cl, Cn in beta,
+    p, r, da, dr, the fin's terms times the blanking factor and Clbeta + Clbeta_CL CL(alpha).
+
+    alpha-dot: alpha = atan2(w, u) of v_b = A^T (v_cg - v_air), whose body-axis rate is
+    v_b' = A^T a_cg - w_b x v_b, so
+
+        alphadot = q - v (p u + r w) / (u^2 + w^2) + n . a_cg,    n = A (-w, 0, u) / (u^2 + w^2).
+
+    The loads returned use alphadot_v, the value with a_cg = a_bias; the caller adds the rest, n . (a_cg -
+    a_bias), through the returned (fd, md, n): the force and moment per unit of it and n, which makes the
+    loads linear in the accelerations (an added-mass-like term the solvers handle: joint_space.solve_free_rank1,
+    dae_solve.accelerations).  The induced drag takes CL_v, the lift with alphadot_v (its dependence on the
+    acceleration part is left out, so that the loads stay linear in it).
+
+    Returns (f, m, fd, md, n); all zero below MIN_AIRSPEED.
     """
     vb = mtv(A, sub(v_cg, v_air))
     vxz2 = vb[0] * vb[0] + vb[2] * vb[2]
@@ -94,6 +124,11 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
     ph = wb[0] * b * (0.5 * iV)
     qh = wb[1] * c * (0.5 * iV)
     rh = wb[2] * b * (0.5 * iV)
+    ixz = 1.0 / vxz
+    ixz2 = ixz * ixz if vxz > 0.0 else 0.0
+    n = mv(A, (-(vb[2] * ixz2), 0.0, vb[0] * ixz2))
+    adot = wb[1] - vb[1] * (wb[0] * vb[0] + wb[2] * vb[2]) * ixz2 + dot(n, a_bias)
+    adh = adot * c * (0.5 * iV)
     a0 = p[L.P_HAWK_AERO_ALPHA0]
     if nonlinear:
         cl_static = interp(alpha, tab_alpha, tab_cl)
@@ -101,26 +136,28 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
     else:
         cl_static = p[L.P_HAWK_AERO_CL0] + p[L.P_HAWK_AERO_CLALPHA] * (alpha - a0)
         cm_static = p[L.P_HAWK_AERO_CM0] + p[L.P_HAWK_AERO_CMALPHA] * (alpha - a0)
-    CL = cl_static + p[L.P_HAWK_AERO_CLQ] * qh + p[L.P_HAWK_AERO_CLDE] * de
+    f_ad = p[L.P_HAWK_AERO_ALPHADOT_FRACTION]
+    clq = p[L.P_HAWK_AERO_CLQ]
+    cmq = p[L.P_HAWK_AERO_CMQ]
+    CL = cl_static + (1.0 - f_ad) * clq * qh + f_ad * clq * adh + p[L.P_HAWK_AERO_CLDE] * de
     k_ind = S / (math.pi * p[L.P_HAWK_AERO_E_OSWALD] * b * b)  # 1 / (pi e AR), AR = b^2 / S
     CD = p[L.P_HAWK_AERO_CD0] + k_ind * CL * CL
-    CM = cm_static + p[L.P_HAWK_AERO_CMQ] * qh + p[L.P_HAWK_AERO_CMDE] * de
-    CY = p[L.P_HAWK_AERO_CYBETA] * beta + p[L.P_HAWK_AERO_CYDR] * dr
+    CM = cm_static + (1.0 - f_ad) * cmq * qh + f_ad * cmq * adh + p[L.P_HAWK_AERO_CMDE] * de
+    eta = blanking(alpha, p)
+    CY = eta * (p[L.P_HAWK_AERO_CYBETA] * beta + p[L.P_HAWK_AERO_CYDR] * dr)
     Cl = (
-        p[L.P_HAWK_AERO_CLBETA] * beta
+        (p[L.P_HAWK_AERO_CLBETA] + p[L.P_HAWK_AERO_CLBETA_CL] * cl_static) * beta
         + p[L.P_HAWK_AERO_CLP] * ph
         + p[L.P_HAWK_AERO_CLR] * rh
         + p[L.P_HAWK_AERO_CLDA] * da
-        + p[L.P_HAWK_AERO_CLDR] * dr
+        + eta * (p[L.P_HAWK_AERO_CLDR] * dr)
     )
     Cn = (
-        p[L.P_HAWK_AERO_CNBETA] * beta
+        eta * (p[L.P_HAWK_AERO_CNBETA] * beta + p[L.P_HAWK_AERO_CNDR] * dr)
         + p[L.P_HAWK_AERO_CNP] * ph
         + p[L.P_HAWK_AERO_CNR] * rh
         + p[L.P_HAWK_AERO_CNDA] * da
-        + p[L.P_HAWK_AERO_CNDR] * dr
     )
-    ixz = 1.0 / vxz
     sa = vb[2] * ixz if vxz > 0.0 else 0.0
     ca = vb[0] * ixz if vxz > 0.0 else 1.0
     k = qbar * S
@@ -132,10 +169,26 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
         k * (-CL * ca - kd * vb[2]),
     )
     mb = (k * b * Cl, k * c * CM, k * b * Cn)
+    # per unit of alphadot beyond alphadot_v: lift f CLq c/2V and moment f CMq c/2V
+    kl = k * f_ad * clq * (c * 0.5 * iV)
+    km = k * c * f_ad * cmq * (c * 0.5 * iV)
+    fdb = (kl * sa, 0.0, -(kl * ca))
     if V < MIN_AIRSPEED:  # wind off: no load (the values above are computed anyway and dropped, so that
         fb = (0.0, 0.0, 0.0)  # the lane kernel has nothing to branch on)
         mb = (0.0, 0.0, 0.0)
-    return mv(A, fb), mv(A, mb)
+        fdb = (0.0, 0.0, 0.0)
+        km = 0.0
+        n = (0.0, 0.0, 0.0)
+    return mv(A, fb), mv(A, mb), mv(A, fdb), scale(col(A, 1), km), n
+
+
+@inlined(**_JIT)
+def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl, tab_cm):
+    """Hawk force and moment about its c.g. (:func:`hawk_aero_full`) for a caller that does not have the
+    accelerations (the MuJoCo peer): alphadot from the velocities alone, q - v (p u + r w) / (u^2 + w^2),
+    which is alphadot wherever the c.g. does not accelerate (the model pitching about a gimbal at its c.g.)."""
+    f, m, fd, md, n = hawk_aero_full(p, A, v_cg, omega, v_air, (0.0, 0.0, 0.0), de, da, dr, nonlinear, tab_alpha, tab_cl, tab_cm)
+    return f, m
 
 
 @inlined(**_JIT)

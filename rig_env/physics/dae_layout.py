@@ -71,7 +71,8 @@ W_F = 988  # applied + gyroscopic forces F (15)
 W_LAM = 1003  # multipliers / projection unknowns
 W_ACC = 1018  # vdot (15)
 W_BACK = 1033  # last good state, N_DAE
-N_WORK_DAE = 1089
+W_ACC2 = 1089  # vdot per unit of the Hawk's alpha-dot (15)
+N_WORK_DAE = 1104
 
 RK_C = (0.0, 0.5, 0.5, 1.0)
 RK_W = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)

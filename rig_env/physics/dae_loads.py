@@ -6,7 +6,7 @@ from __future__ import annotations
 from numba import njit
 
 from rig_env.physics import layout as L
-from rig_env.physics.aero import comp_aero, hawk_aero
+from rig_env.physics.aero import comp_aero, hawk_aero_full
 from rig_env.physics.dae_layout import Y_RS, Y_VA, Y_VS
 from rig_env.physics.dae_rotations import add, body_matrices, col, cross, joint_angles, joint_bases, joint_rates, scale, sub, vec3, world_rates
 from rig_env.physics.joint_space import air_velocity, joint_torque
@@ -65,7 +65,10 @@ def applied_loads(y, z, flaps, u, p, flags, free_idx, n_free, tabs):
 
 @njit(**_JIT)
 def loads_at(y, Aa, As, z, flaps, u, p, flags, free_idx, n_free, tabs):
-    """Applied loads (world axes): (f_a, n_a, f_s, n_s, f_r), forces at each c.g. (N), moments (N m).
+    """Applied loads (world axes): (f_a, n_a, f_s, n_s, f_r, (fd, md, n)), forces at each c.g. (N), moments
+    (N m), and the Hawk's alpha-dot terms (aero.hawk_aero_full, with no acceleration known: the whole c.g.
+    acceleration goes through them): force and moment per unit of n . a_a, the Hawk c.g.'s acceleration
+    along n (zero without aerodynamics).
 
     Gravity on every body; Hawk aero at its c.g.; compensator aero force at the arm point
     A_s [comp_aero_x 0 0]^T plus its moment, on the arm; friction and stop torques of the free joints
@@ -79,12 +82,15 @@ def loads_at(y, Aa, As, z, flaps, u, p, flags, free_idx, n_free, tabs):
     f_s = (0.0, 0.0, p[L.P_MASS_ARM_MASS] * g)
     n_s = (0.0, 0.0, 0.0)
     f_r = (0.0, 0.0, p[L.P_MASS_COMP_MASS] * g)
+    zero = (0.0, 0.0, 0.0)
+    ad = (zero, zero, zero)
     if flags & L.F_AERO:
         v_air = air_velocity(u)
         nonlin = (flags & L.F_NONLINEAR) != 0
-        fa, ta = hawk_aero(
-            p, Aa, vec3(y, Y_VA), w_a, v_air, flaps[4], flaps[5], flaps[6], nonlin, tabs[0], tabs[1], tabs[2]
+        fa, ta, fd, md, n = hawk_aero_full(
+            p, Aa, vec3(y, Y_VA), w_a, v_air, zero, flaps[4], flaps[5], flaps[6], nonlin, tabs[0], tabs[1], tabs[2]
         )
+        ad = (fd, md, n)
         f_a = add(f_a, fa)
         n_a = add(n_a, ta)
         lever = sub(scale(col(As, 0), p[L.P_GEOMETRY_COMP_AERO_X]), vec3(y, Y_RS))  # ref point - arm c.g.
@@ -117,5 +123,5 @@ def loads_at(y, Aa, As, z, flaps, u, p, flags, free_idx, n_free, tabs):
         t_m = add(scale(col(Aa, 1), (tau_mp - g12 * tau_my) / det2), scale(col(As, 2), (tau_my - g12 * tau_mp) / det2))
         n_a = add(n_a, t_m)
         n_s = add(n_s, sub(t_rig, t_m))
-    return f_a, n_a, f_s, n_s, f_r
+    return f_a, n_a, f_s, n_s, f_r, ad
 

@@ -36,7 +36,7 @@ from numba import njit
 from rig_env.physics import layout as L
 from rig_env.physics.dae_constraints import constraint_system, constraints_at
 from rig_env.physics.dae_layout import (
-    C_VA, C_VR, C_VS, C_WA, C_WS, N_CMAX, PROJ_ITERS, PROJ_SKIP_RECHECK, PROJ_TOL, W_ACC, W_B, W_C, W_F, W_J, W_LAM, W_MJ,
+    C_VA, C_VR, C_VS, C_WA, C_WS, N_CMAX, PROJ_ITERS, PROJ_SKIP_RECHECK, PROJ_TOL, W_ACC, W_ACC2, W_B, W_C, W_F, W_J, W_LAM, W_MJ,
     W_SCHUR, Y_QA, Y_QS, Y_RA, Y_RR, Y_RS, Y_V, Y_WA, Y_WS,
 )  # fmt: skip
 from rig_env.physics.dae_loads import inertias, inv_inertias, loads_at
@@ -118,7 +118,13 @@ def accelerations(y, tgt, z, flaps, u, p, flags, free_idx, n_free, locked, n_loc
 
     y: coordinates and velocities in its first 32 entries; tgt: locked targets (5); z: bristle states
     (5); flaps: 7 surface deflections, rad; locked[:n_locked]: locked joints.  Returns the applied
-    loads (world axes) (f_a, n_a, f_s, n_s, f_r).
+    loads (world axes) (f_a, n_a, f_s, n_s, f_r): those of :func:`dae_loads.loads_at` with the Hawk's
+    alpha-dot load at the solved acceleration added (the loads eq. (1) holds with).
+
+    The Hawk's alpha-dot load F_ad (n . a_a) depends on the Hawk c.g.'s acceleration a_a (docs/MODEL.md 3.1):
+    with v1 the solution for the loads F and v2 that for F_ad alone (b = 0), the same factorisation,
+    vdot = v1 + v2 (n . a_a(v1)) / (1 - n . a_a(v2)) (Sherman-Morrison on the constrained system; v2 = 0 and
+    vdot = v1 without the alpha-dot share).
     """
     J = w[W_J : W_J + N_CMAX * 15]
     MJ = w[W_MJ : W_MJ + N_CMAX * 15]
@@ -130,7 +136,7 @@ def accelerations(y, tgt, z, flaps, u, p, flags, free_idx, n_free, locked, n_loc
     acc = w[W_ACC : W_ACC + 15]
     Aa, As = body_matrices(y)
     loads = loads_at(y, Aa, As, z, flaps, u, p, flags, free_idx, n_free, tabs)
-    f_a, n_a, f_s, n_s, f_r = loads
+    f_a, n_a, f_s, n_s, f_r, ad = loads
     Ia, Is = inertias(p)
     ima, ims = inv_inertias(p)
     ma = 1.0 / p[L.P_MASS_HAWK_MASS]
@@ -158,7 +164,37 @@ def accelerations(y, tgt, z, flaps, u, p, flags, free_idx, n_free, locked, n_loc
     for r in range(m):
         for k in range(15):
             acc[k] -= lam[r] * MJ[r * 15 + k]
-    return loads
+    if flags & L.F_AERO:
+        fd, md, n = ad
+        acc2 = w[W_ACC2 : W_ACC2 + 15]
+        mdb = mtv(Aa, md)
+        for k in range(15):
+            F[k] = 0.0
+        for d in range(3):
+            F[C_VA + d] = fd[d]
+            F[C_WA + d] = mdb[d]
+        _minv(F, 0, acc2, 0, ima, ims, ma, ms, mr)
+        for r in range(m):
+            s = 0.0
+            for k in range(15):
+                s += MJ[r * 15 + k] * F[k]
+            lam[r] = s
+        _chol_solve(S, m, lam)
+        for r in range(m):
+            for k in range(15):
+                acc2[k] -= lam[r] * MJ[r * 15 + k]
+        a1 = n[0] * acc[C_VA] + n[1] * acc[C_VA + 1] + n[2] * acc[C_VA + 2]
+        a2 = n[0] * acc2[C_VA] + n[1] * acc2[C_VA + 1] + n[2] * acc2[C_VA + 2]
+        c_ad = a1 / (1.0 - a2)
+        for k in range(15):
+            acc[k] += c_ad * acc2[k]
+        s_ad = n[0] * acc[C_VA] + n[1] * acc[C_VA + 1] + n[2] * acc[C_VA + 2]  # = a1 / (1 - a2)
+        return (
+            (f_a[0] + s_ad * fd[0], f_a[1] + s_ad * fd[1], f_a[2] + s_ad * fd[2]),
+            (n_a[0] + s_ad * md[0], n_a[1] + s_ad * md[1], n_a[2] + s_ad * md[2]),
+            f_s, n_s, f_r,
+        )  # fmt: skip
+    return f_a, n_a, f_s, n_s, f_r
 
 
 

@@ -40,7 +40,7 @@ from numba import njit
 from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import vmath
-from rig_env.physics.aero import comp_aero_arm, hawk_aero
+from rig_env.physics.aero import comp_aero_arm, hawk_aero_full
 from rig_env.physics.llvm_inline import inlined
 from rig_env.physics.vec import FASTMATH, add, col, cross, dot, inertia_world, mm, mtv, mv, rot_zy, rot_zyx, scale, sub
 
@@ -190,7 +190,8 @@ def mass_matrix_terms(q, qd, p):
     environments vectorises).
 
     M: the 15 entries of its upper triangle by rows (m00, m01, .., m04, m11, .., m14, m22, .., m44);
-    h: 5 bias forces; kin: the kinematics of :func:`arm_kinematics` for :func:`forces`.  Every arm joint
+    h: 5 bias forces; kin: the kinematics of :func:`arm_kinematics` for :func:`forces`, with the Hawk c.g.'s
+    bias acceleration a_a (J_v-dot qdot, arm axes) appended.  Every arm joint
     turns all three bodies about an axis through the pivot and every model joint turns the Hawk about an
     axis through the model gimbal, so with J_v = a x r, J_w = a:
 
@@ -257,7 +258,7 @@ def mass_matrix_terms(q, qd, p):
     t_hawk = add(add(mv(I_a, b_a), cross(w_a, mv(I_a, w_a))), cross(rho, f_a))  # about the gimbal
     t_arm = add(add(mv(I_arm, b_s), cross(w_s, mv(I_arm, w_s))), add(t_hawk, x_cross(lf, f_a)))
     ht = (t_arm[0], dot_pitch(cs, t_arm), dot(a2, t_arm), dot_model_pitch(sc, t_hawk), t_hawk[2])
-    return Mt, ht, kin
+    return Mt, ht, (B, cs, a2, sc, rho, w_s, w_a, b_s, b_a, ts, a_a)
 
 
 # (row, column) of the 15 upper-triangle entries of mass_matrix_terms' M
@@ -382,8 +383,25 @@ def joint_torque(j, q, qd, z, p, flags):
 
 
 @inlined(**_JIT)
+def joint_projection(t_pivot, t_gimbal, cs, a2, sc):
+    """Generalised force (5-tuple) of loads whose moment is t_pivot about the pivot (all of them) and
+    t_gimbal about the model gimbal (those on the Hawk): each joint axis dotted with the moment about its
+    centre (arm axes)."""
+    return (t_pivot[0], dot_pitch(cs, t_pivot), dot(a2, t_pivot), dot_model_pitch(sc, t_gimbal), t_gimbal[2])
+
+
+@inlined(**_JIT)
 def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
-    """Generalised forces Q (5-tuple, N m) of gravity, aerodynamics, stops and the joint torques ``fric``.
+    """Generalised forces (Q, D, G), three 5-tuples: Q (N m) of gravity, aerodynamics, stops and the joint
+    torques ``fric``, with the Hawk's alpha-dot at its velocity part (aero.hawk_aero_full); D (N m s/rad)
+    the generalised force per unit of the rest of alpha-dot (rad/s) and G (s) that rest per unit joint
+    acceleration, so that the full generalised force is Q + D (G . qdd):
+
+        G_k = n . J_v,k = a_k . (r_a x n)  (rig joints),  a_k . (rho x n)  (model joints)
+
+    with n the Hawk's alpha-dot direction (aero.hawk_aero_full) and r_a, rho its c.g. from the pivot and
+    the gimbal; D is :func:`joint_projection` of the loads per unit alpha-dot.  Without aerodynamics (or
+    wind off) D = G = 0.
 
     fric: the joints' friction and test-fixture torques (:func:`applied_torques`; the lane kernel
     computes them in loops of their own, for the free joints only, so that a locked joint costs nothing).
@@ -392,7 +410,7 @@ def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
     (the lane kernel) rather than looped over (the per-environment kernel vectorises that loop); both
     are compile-time constants wherever the lane kernel inlines this.
     """
-    B, cs, a2, sc, rho, w_s, w_a, b_s, b_a, ts = kin  # arm axes (arm_kinematics)
+    B, cs, a2, sc, rho, w_s, w_a, b_s, b_a, ts, a_bias = kin  # arm axes (arm_kinematics, mass_matrix_terms)
     g = p[L.P_ENVIRONMENT_GRAVITY]
     m_a = p[L.P_MASS_HAWK_MASS]
     lf = p[L.P_GEOMETRY_ARM_LENGTH]
@@ -409,6 +427,9 @@ def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
         m_s * p[L.P_GEOMETRY_ARM_CG_Z] + m_r * p[L.P_GEOMETRY_COMP_CG_Z],
     )
     t_arm = cross(first_moment, gv)
+    zero = (0.0, 0.0, 0.0, 0.0, 0.0)
+    D = zero
+    Gv = zero
     if flags & L.F_AERO:
         v_air = air_velocity(u)  # world; into arm axes: A_s^T = Rx(phi)^T Ry(theta)^T Rz(psi)^T
         sp, cp = vmath.sincos(q[L.J_RIG_YAW])
@@ -418,27 +439,30 @@ def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
         v2 = (ct * v1[0] - st * v1[2], v1[1], st * v1[0] + ct * v1[2])
         v_air_s = (v2[0], cf * v2[1] + sf * v2[2], cf * v2[2] - sf * v2[1])
         v_a = add(cross_x(w_s, lf), cross(w_a, rho))
-        fa, ta = hawk_aero(p, B, v_a, w_a, v_air_s, flaps[4], flaps[5], flaps[6], nonlinear, tabs[0], tabs[1], tabs[2])
+        fa, ta, fd, md, n = hawk_aero_full(p, B, v_a, w_a, v_air_s, a_bias, flaps[4], flaps[5], flaps[6], nonlinear, tabs[0], tabs[1], tabs[2])
         f_a = add(f_a, fa)
         t_a = ta
+        D = joint_projection(add(cross(r_a, fd), md), add(cross(rho, fd), md), cs, a2, sc)
+        Gv = joint_projection(cross(r_a, n), cross(rho, n), cs, a2, sc)
         x_ref = p[L.P_GEOMETRY_COMP_AERO_X]
         fc, tc = comp_aero_arm(p, sub(cross_x(w_s, x_ref), v_air_s), w_s, flaps, nonlinear, tabs[3], tabs[4], unrolled)
         t_arm = add(t_arm, add(x_cross(x_ref, fc), tc))
     t_pivot = add(t_arm, add(cross(r_a, f_a), t_a))
     t_gimbal = add(cross(rho, f_a), t_a)
-    return (
+    Qt = (
         t_pivot[0] + (fric[0] + stop_torque(0, q, qd, p, flags)),
         dot_pitch(cs, t_pivot) + (fric[1] + stop_torque(1, q, qd, p, flags)),
         dot(a2, t_pivot) + (fric[2] + stop_torque(2, q, qd, p, flags)),
         dot_model_pitch(sc, t_gimbal) + (fric[3] + stop_torque(3, q, qd, p, flags)),
         t_gimbal[2] + (fric[4] + stop_torque(4, q, qd, p, flags)),
     )
+    return Qt, D, Gv
 
 
 @inlined(**_JIT)
 def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q):
-    """Fill Q (5) with :func:`forces`."""
-    Qt = forces(q, qd, applied_torques(q, qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
+    """Fill Q (5) with :func:`forces`' Q (alpha-dot at its velocity part)."""
+    Qt, D, Gv = forces(q, qd, applied_torques(q, qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
     for k in range(5):
         Q[k] = Qt[k]
 
@@ -459,9 +483,32 @@ def free_mask(free_idx, n):
 
 @inlined(**_JIT)
 def solve_free(Mt, r, free):
-    """qdd (5-tuple) of M[free, free] qdd[free] = r[free], qdd[locked] = 0, by LDL^T factorisation.
+    """qdd (5-tuple) of M[free, free] qdd[free] = r[free], qdd[locked] = 0 (:func:`ldl_factor`, :func:`ldl_solve`)."""
+    return ldl_solve(ldl_factor(Mt, free), r, free)
 
-    Mt: M's upper triangle as :func:`mass_matrix_terms` gives it; r: 5 right-hand sides; free: 5 bools.
+
+@inlined(**_JIT)
+def solve_free_rank1(Mt, r, d, g, free):
+    """qdd (5-tuple) of (M - d g^T)[free, free] qdd[free] = r[free], qdd[locked] = 0: the joint equations
+    with the Hawk's alpha-dot load D (G . qdd) moved to the left (:func:`forces`).
+
+    Sherman-Morrison on M's one LDL^T factorisation: x = M^-1 r, y = M^-1 d, qdd = x + y (g . x) / (1 - g . y)
+    (over the free joints; x and y are zero at the locked ones).  With d = 0 (no alpha-dot share, or wind
+    off) qdd = x exactly."""
+    fac = ldl_factor(Mt, free)
+    x = ldl_solve(fac, r, free)
+    y = ldl_solve(fac, d, free)
+    s = (g[0] * x[0] + g[1] * x[1] + g[2] * x[2] + g[3] * x[3] + g[4] * x[4]) / (
+        1.0 - (g[0] * y[0] + g[1] * y[1] + g[2] * y[2] + g[3] * y[3] + g[4] * y[4])
+    )
+    return x[0] + y[0] * s, x[1] + y[1] * s, x[2] + y[2] * s, x[3] + y[3] * s, x[4] + y[4] * s
+
+
+@inlined(**_JIT)
+def ldl_factor(Mt, free):
+    """LDL^T factors ((l_ij), (1 / d_j)) of M[free, free] for :func:`ldl_solve`.
+
+    Mt: M's upper triangle as :func:`mass_matrix_terms` gives it; free: 5 bools.
     Locked rows and columns are replaced by the identity (and r by 0), so one fixed 5x5 factorisation
     serves every lock set with no index indirection or branch.  LDL^T (Golub and Van Loan, Matrix
     Computations, sec. 4.1) rather than Cholesky: five divisions and no square roots, which are the
@@ -512,6 +559,14 @@ def solve_free(Mt, r, free):
     l43 = e43 * i3
     d = m44 - l40 * m04 - l41 * e41 - l42 * e42 - l43 * e43
     i4 = 1.0 / d if d > 0.0 else np.nan
+    return (l10, l20, l30, l40, l21, l31, l41, l32, l42, l43), (i0, i1, i2, i3, i4)
+
+
+@inlined(**_JIT)
+def ldl_solve(fac, r, free):
+    """x (5-tuple) of L D L^T x = r with :func:`ldl_factor`'s factors, r's locked entries taken as 0."""
+    f0, f1, f2, f3, f4 = free
+    (l10, l20, l30, l40, l21, l31, l41, l32, l42, l43), (i0, i1, i2, i3, i4) = fac
     # L y = r, then L^T x = D^-1 y
     y0 = r[0] if f0 else 0.0
     y1 = (r[1] if f1 else 0.0) - l10 * y0
@@ -528,12 +583,13 @@ def solve_free(Mt, r, free):
 
 @inlined(**_JIT)
 def accelerations(q, qd, z, flaps, u, p, flags, free_idx, n_free, tabs, M, hvec, Q, jv, qdd):
-    """Joint accelerations qdd (5; zero for locked joints) of the joint-space model, with M, h and Q of
-    M qdd + h = Q written to M, hvec and Q (jv: unused scratch, kept for callers)."""
+    """Joint accelerations qdd (5; zero for locked joints) of the joint-space model, (M - D G^T) qdd + h = Q
+    (:func:`forces`, :func:`solve_free_rank1`), with M, h and Q (alpha-dot at its velocity part) written to
+    M, hvec and Q (jv: unused scratch, kept for callers)."""
     Mt, ht, kin = mass_matrix_terms(q, qd, p)
-    Qt = forces(q, qd, applied_torques(q, qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
+    Qt, D, Gv = forces(q, qd, applied_torques(q, qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
     r = (Qt[0] - ht[0], Qt[1] - ht[1], Qt[2] - ht[2], Qt[3] - ht[3], Qt[4] - ht[4])
-    x = solve_free(Mt, r, free_mask(free_idx, n_free))
+    x = solve_free_rank1(Mt, r, D, Gv, free_mask(free_idx, n_free))
     store_mass_matrix(Mt, ht, M, hvec)
     for k in range(5):
         Q[k] = Qt[k]
