@@ -60,6 +60,10 @@ NEUTRAL_DEFAULTS: dict[str, tuple[float, str]] = {
 (source ``estimate``), which switch the added terms off, so that an older file keeps its model exactly."""
 DATA_DIR = Path(__file__).parent / "data"
 DEFAULT_FILE = DATA_DIR / "default_rig.toml"
+CONSISTENT_FILE = DATA_DIR / "consistent_rig.toml"
+"""The consistent set (issue 21): CM0 and alpha0 from one table, the compensator on the arm axis, the later
+rig's roll imbalance, the alpha-dot split, fin blanking and Clbeta with lift on; not yet the default (the
+designed laws and the shipped policies were tuned on the default set)."""
 
 
 
@@ -292,6 +296,13 @@ class RigParams:
     def default(cls) -> "RigParams":
         """The default rig, from ``rig_env/data/default_rig.toml``."""
         return cls.from_toml(DEFAULT_FILE)
+
+    @classmethod
+    def consistent(cls) -> RigParams:
+        """The consistent set, from ``rig_env/data/consistent_rig.toml`` (:data:`CONSISTENT_FILE`): the default
+        rig with CM0 and alpha0 from Table 3, the compensator on the arm axis, the measured 0.398 kg m roll
+        imbalance, and the alpha-dot split, fin blanking and Clbeta with lift switched on."""
+        return cls.from_toml(CONSISTENT_FILE)
 
     @classmethod
     def from_toml(cls, path: str | Path) -> "RigParams":

@@ -95,6 +95,17 @@ def test_static_balance_and_roll_imbalance(params):
     """Sec. I: the compensator balances the pendulum in pitch; a small roll imbalance remains (Sec. VI)."""
     g, m = params.geometry, params.mass
     pitch_moment = m.hawk_mass * (g.arm_length + g.hawk_cg_x) + m.arm_mass * g.arm_cg_x + m.comp_mass * g.comp_cg_x
+    roll_moment = m.hawk_mass * g.hawk_cg_z + m.arm_mass * g.arm_cg_z + m.comp_mass * g.comp_cg_z
+    assert abs(pitch_moment) < 0.02  # kg m
+    assert 0.05 < roll_moment < 0.398  # below the rig-code no-model value
+
+
+def test_consistent_set_balance_roll_imbalance_and_compensator_axis():
+    """The consistent set: pitch balanced; the rig's roll imbalance without the model is the later rig's
+    measured 0.398 kg m (rig-code); the compensator on the arm axis with its force at its c.g. (eq. 17)."""
+    params = RigParams.consistent()
+    g, m = params.geometry, params.mass
+    pitch_moment = m.hawk_mass * (g.arm_length + g.hawk_cg_x) + m.arm_mass * g.arm_cg_x + m.comp_mass * g.comp_cg_x
     rig_roll_moment = m.arm_mass * g.arm_cg_z + m.comp_mass * g.comp_cg_z  # without the model
     assert abs(pitch_moment) < 0.02  # kg m
     assert rig_roll_moment == pytest.approx(0.398, abs=0.001)  # the later rig's measured value (rig-code)
@@ -127,9 +138,9 @@ def test_to_toml_round_trip_values_sources_and_identified(params, tmp_path: Path
 def test_file_without_the_issue21_parameters_keeps_its_model(tmp_path):
     """A parameter file written before the alpha-dot split, tail blanking and Clbeta(CL) loads with the
     documented neutral values (params.NEUTRAL_DEFAULTS), which switch those terms off."""
-    from rig_env.params import DEFAULT_FILE, NEUTRAL_DEFAULTS
+    from rig_env.params import CONSISTENT_FILE, NEUTRAL_DEFAULTS
 
-    text = DEFAULT_FILE.read_text()
+    text = CONSISTENT_FILE.read_text()  # the set where the new terms are on
     kept = [ln for ln in text.splitlines() if not ln.startswith(tuple(n.split(".")[1] + " =" for n in NEUTRAL_DEFAULTS))]
     assert len(kept) == len(text.splitlines()) - len(NEUTRAL_DEFAULTS)
     old = tmp_path / "old.toml"
@@ -139,5 +150,5 @@ def test_file_without_the_issue21_parameters_keeps_its_model(tmp_path):
     assert (a.alphadot_fraction, a.blanked_fraction, a.Clbeta_CL) == (0.0, 1.0, 0.0)
     assert p.source("hawk_aero.alphadot_fraction")[0] == "estimate"
     # everything else as in the file
-    d = RigParams.default()
+    d = RigParams.consistent()
     assert p.replace(**{n: getattr(d.hawk_aero, n.split(".")[1]) for n in NEUTRAL_DEFAULTS}) == d
