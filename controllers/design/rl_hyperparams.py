@@ -86,8 +86,6 @@ RUN_FIELDS: dict[str, Check] = {
     "clip_obs": (_pos, "a positive number"),
     "error_reset": (lambda v: isinstance(v, dict), "a table {entry = OBSERVATION_LABEL, bound = POSITIVE_NUMBER}"),
     "env": (lambda v: isinstance(v, dict), "a table of RigEnvConfig fields"),
-    "shaping": (lambda v: isinstance(v, dict) and all(_num(x) for x in v.values()), "a table {OBSERVATION_LABEL = WEIGHT}"),
-    "hold_rate": (_nonneg, "a number >= 0"),
     "algo": (lambda v: isinstance(v, dict), "a table of the algorithm's keyword arguments"),
 }
 _COMMON_ALGO: dict[str, Check] = {
@@ -126,6 +124,7 @@ POLICY_FIELDS: dict[str, Check] = {
     "log_std_init": (_num, "a number"),
     "activation_fn": (lambda v: v in ACTIVATIONS, f"one of {list(ACTIVATIONS)}"),
     "ortho_init": (_bool, "true or false"),
+    "squash_output": (_bool, "true or false (PPO with use_sde only: tanh-squashed actions)"),
 }
 REQUIRED = ("num_envs", "timesteps", "eval_every", "normalize", "clip_obs")
 
@@ -145,8 +144,6 @@ class RunSettings:
     clip_obs: float
     error_reset: tuple[str, float] | None = None
     env: Mapping[str, Any] = field(default_factory=dict)
-    shaping: Mapping[str, float] = field(default_factory=dict)
-    hold_rate: float = 0.0
     algo_kwargs: Mapping[str, Any] = field(default_factory=dict)
 
     def sb3_kwargs(self) -> dict[str, Any]:
@@ -164,7 +161,6 @@ class RunSettings:
         return {"file": self.file, "source": self.source, "num_envs": self.num_envs, "timesteps": self.timesteps,
                 "eval_every": self.eval_every, "normalize": self.normalize, "clip_obs": self.clip_obs,
                 "error_reset": list(self.error_reset) if self.error_reset else None, "env": dict(self.env),
-                "shaping": dict(self.shaping), "hold_rate": self.hold_rate,
                 "algo_kwargs": _plain(self.algo_kwargs)}
 
 
@@ -235,8 +231,7 @@ def settings(algo: str, task: str, path: Path | None = None) -> RunSettings:
         algo=algo, task=task, file=str(path), source=str(merged.get("source", "")), num_envs=merged["num_envs"],
         timesteps=merged["timesteps"], eval_every=merged["eval_every"], normalize=merged["normalize"],
         clip_obs=float(merged["clip_obs"]), error_reset=(er["entry"], float(er["bound"])) if er else None,
-        env=dict(merged.get("env", {})), shaping=dict(merged.get("shaping", {})), hold_rate=float(merged.get("hold_rate", 0.0)),
-        algo_kwargs=algo_kw,
+        env=dict(merged.get("env", {})), algo_kwargs=algo_kw,
     )
 
 
