@@ -4,7 +4,11 @@
 |---|---|
 | ``SuccessInfo`` | VecEnvWrapper: copies the task's ``success`` into ``is_success`` (what SB3's EvalCallback counts) |
 | ``ErrorReset`` | VecEnvWrapper: ends a training episode once the tracking error passes a bound (curriculum) |
-| ``TrainingReward`` | VecEnvWrapper: potential-based shaping and a hold-rate penalty, training batch only |
+
+The reward is always the task's own (``rig_env.envs.tasks``: its wide term ranks actions at large errors,
+its rate terms sit on the success criterion's scale, its control-rate cost makes chatter never optimal);
+what used to be training-side shaping here (potential shaping on the errors, a hold-rate penalty) is
+part of the tasks' rewards now.
 | ``SeededEvalCallback`` | EvalCallback that reseeds its batch before each evaluation and records wall time |
 | ``StopAtSuccess`` | after an evaluation: stop once the success rate reaches the target |
 | ``EnvTimer`` | VecEnvWrapper: wall time spent in the environment's ``step_wait`` (the native batch and the wrappers under it) |
@@ -27,10 +31,6 @@ from stable_baselines3.common.callbacks import (
 )
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
-RATE_SCALE = 12.0  # rad/s per unit of the task's roll_rate_error entry (rig_env.envs.tasks.VelocityVectorRoll)
-HOLD_RATE_BOUND = np.radians(20.0)  # rad/s: the velocity-vector-roll success bound on |roll rate|
-
-
 class SuccessInfo(VecEnvWrapper):
     """Adds ``infos[i]["is_success"] = infos[i]["success"]`` on finishing steps (RigSB3VecEnv's episode metric)."""
 
@@ -42,59 +42,6 @@ class SuccessInfo(VecEnvWrapper):
         for i in np.flatnonzero(done):
             infos[i]["is_success"] = bool(infos[i].get("success", False))
         return obs, rew, done, infos
-
-
-class TrainingReward(VecEnvWrapper):
-    """The training reward: the task's reward plus potential-based shaping plus an optional hold-rate penalty.
-
-    ``r' = r + (gamma Phi(o') - Phi(o)) - w_hold (rate_error(o') / 20 deg/s)^2 [roll_rate_ref(o') = 0]``
-
-    - ``Phi(o) = -sum_k w_k |o[k]|`` over named raw observation entries (e.g. ``roll_error``): potential-
-      based shaping (Ng, Harada and Russell, ICML 1999) changes no optimal policy of the discounted task
-      and gives a gradient where the task's ``exp(-cost)`` reward is flat (large errors).
-    - the hold-rate penalty (velocity-vector roll) charges roll-rate error while the reference is at
-      rest, scaled to the task's success bound (|roll rate| < 20 deg/s); without it PPO learns to hold
-      the angle to 0.3 deg while chattering at 15-21 deg/s (benchmarks/RESULTS.md, "RL training").
-
-    ``o'`` is the last observation of a finishing episode (``terminal_observation``), so the first
-    observation of the next episode never enters.  No weights and ``w_hold = 0``: the identity (the
-    eval batch uses that, so that both wrapper stacks match).  Evaluation always uses the task's reward.
-    """
-
-    def __init__(self, venv: VecEnv, labels: tuple[str, ...], weights: dict[str, float], gamma: float, hold_rate: float = 0.0) -> None:
-        super().__init__(venv)
-        unknown = sorted(set(weights) - set(labels))
-        if unknown:
-            raise ValueError(f"shaping: observation has no entries {unknown}; entries: {list(labels)}")
-        if hold_rate and not {"roll_rate_ref", "roll_rate_error"} <= set(labels):
-            raise ValueError("hold_rate penalty needs observation entries roll_rate_ref and roll_rate_error")
-        self.cols = np.array([labels.index(k) for k in weights], dtype=np.int64)
-        self.w = np.array(list(weights.values()), dtype=np.float64)
-        self.gamma, self.hold_rate = float(gamma), float(hold_rate)
-        if hold_rate:
-            self.c_ref, self.c_err = labels.index("roll_rate_ref"), labels.index("roll_rate_error")
-        self.phi = np.zeros(venv.num_envs)
-
-    def _potential(self, obs: np.ndarray) -> np.ndarray:
-        return -np.abs(np.asarray(obs, dtype=np.float64)[..., self.cols]) @ self.w
-
-    def reset(self) -> Any:
-        obs = self.venv.reset()
-        self.phi = self._potential(obs)
-        return obs
-
-    def step_wait(self) -> Any:
-        obs, rew, done, infos = self.venv.step_wait()
-        nxt = np.array(obs, dtype=np.float64, copy=True)
-        for i in np.flatnonzero(done):
-            nxt[i] = infos[i]["terminal_observation"]
-        phi_next = self._potential(nxt)
-        shaped = rew + (self.gamma * phi_next - self.phi)
-        if self.hold_rate:
-            rate_err = nxt[:, self.c_err] * RATE_SCALE / HOLD_RATE_BOUND
-            shaped = shaped - self.hold_rate * np.where(nxt[:, self.c_ref] == 0.0, rate_err**2, 0.0)
-        self.phi = np.where(done, self._potential(obs), phi_next)
-        return obs, shaped.astype(np.float32), done, infos
 
 
 class ErrorReset(VecEnvWrapper):

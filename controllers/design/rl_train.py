@@ -10,10 +10,11 @@
 
 Settings per (algorithm, task): ``controllers/design/hyperparams/<algo>.toml`` (read and checked by
 :mod:`controllers.design.rl_hyperparams`; ``--hyperparams FILE`` for another file of the same shape).
-The batch is one :class:`rig_env.envs.sb3.RigSB3VecEnv` (no per-environment Python objects), wrapped in
-``VecMonitor``, the file's optional training-side signals (``controllers/design/rl_callbacks.py``: episode
-reset on a lost track, potential-based shaping, hold-rate penalty; ``--no-shaping`` drops them) and, where
-the file says so, ``VecNormalize`` of observations (its statistics are shipped with the policy; rewards
+The reward is the task's own, training and evaluation alike (the tasks' docstrings define it).  The batch
+is one :class:`rig_env.envs.sb3.RigSB3VecEnv` (no per-environment Python objects), wrapped in
+``VecMonitor``, the file's optional curriculum (``error_reset``: a training episode ends once an error entry
+passes a bound, :class:`controllers.design.rl_callbacks.ErrorReset`; ``--no-error-reset`` drops it) and,
+where the file says so, ``VecNormalize`` of observations (its statistics are shipped with the policy; rewards
 are not normalised).  An ``EvalCallback`` runs every ``eval_every`` timesteps on a separate batch seeded
 ``seed + 10000``, reseeded before every evaluation (the same episodes each time, so the curve compares like
 with like); training stops once its success rate reaches ``--target-success`` (the task's per-episode
@@ -98,7 +99,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--final-episodes", type=int, default=100)
     p.add_argument("--target-success", type=float, default=0.95, help="stop when the eval success rate reaches this")
     p.add_argument("--no-stop", action="store_true", help="train the whole budget even after reaching the target")
-    p.add_argument("--no-shaping", action="store_true", help="train on the task's reward alone: no shaping, hold-rate penalty or error reset (ablation)")
+    p.add_argument("--no-error-reset", action="store_true", help="no lost-track curriculum even where the settings file has one (ablation)")
     p.add_argument("--checkpoint-every", type=int, default=200_000, help="timesteps between checkpoints")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (a line every 10 s instead)")
     p.add_argument("--ship", action="store_true", help="copy policy.json and curve.png into controllers/policies/")
@@ -285,7 +286,6 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
         EnvTimer,
         ErrorReset,
         SuccessInfo,
-        TrainingReward,
         build_callbacks,
         plot_curve,
     )
@@ -304,20 +304,20 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
     overrides = training_overrides(args, dict(hp.env))
     out.mkdir(parents=True, exist_ok=True)
     kwargs = hp.sb3_kwargs()
-    gamma = float(kwargs.get("gamma", 0.99))
     timer: list[EnvTimer] = []
 
     def make_env(n: int, seed: int, training: bool) -> tuple[Any, Any]:
         base = RigSB3VecEnv(n, task=args.task, **overrides)
         base.seed(seed)
-        # training-side signals on the training batch only; the eval batch gets the same wrappers as
-        # identities, so that both stacks match (SB3's sync_envs_normalization walks them in step)
-        signals = training and not args.no_shaping
-        weights, hold, reset_at = (hp.shaping, hp.hold_rate, hp.error_reset) if signals else ({}, 0.0, None)
+        # the curriculum on the training batch only; the eval batch gets the same wrappers as identities,
+        # so that both stacks match (SB3's sync_envs_normalization walks them in step)
+        reset_at = hp.error_reset if training and not args.no_error_reset else None
+        if reset_at is not None and reset_at[0] not in base.vec.obs_labels:
+            raise SystemExit(f"rig train: settings {hp.file} [{args.task}].error_reset.entry = {reset_at[0]!r}: not an "
+                             f"observation entry; entries: {list(base.vec.obs_labels)}")
         env = EnvTimer(SuccessInfo(VecMonitor(ErrorReset(base, *(reset_at or (None, np.inf))))))
         if training:
             timer.append(env)
-        env = TrainingReward(env, tuple(base.vec.obs_labels), dict(weights), gamma, hold)
         return base, env
 
     base, env = make_env(num_envs, args.seed, True)
