@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 TASK = "velocity_vector_roll"
 
 
-def _tiny_model(algo: str, normalize: bool, seed: int = 3):
+def _tiny_model(algo: str, normalize: bool, seed: int = 3, sde: bool = False, squash: bool = False):
     import torch
     from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.vec_env import VecNormalize
@@ -37,8 +37,8 @@ def _tiny_model(algo: str, normalize: bool, seed: int = 3):
     base.seed(seed)
     env = VecNormalize(base, norm_obs=True, norm_reward=False, clip_obs=3.0) if normalize else base
     if algo == "ppo":  # relu and a non-default std so the test sees more than the defaults
-        model = PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=2, seed=seed, device="cpu",
-                    policy_kwargs=dict(net_arch=[32, 32], activation_fn=torch.nn.ReLU, log_std_init=-0.5))
+        model = PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=2, seed=seed, device="cpu", use_sde=sde,
+                    policy_kwargs=dict(net_arch=[32, 32], activation_fn=torch.nn.ReLU, log_std_init=-0.5, squash_output=squash))
     else:
         model = SAC("MlpPolicy", env, learning_starts=64, buffer_size=2000, batch_size=64, seed=seed, device="cpu",
                     policy_kwargs=dict(net_arch=[32, 32]))
@@ -46,10 +46,12 @@ def _tiny_model(algo: str, normalize: bool, seed: int = 3):
     return model, env if normalize else None, LoopSpec.from_env(base)
 
 
-@pytest.fixture(scope="module", params=[("ppo", False), ("ppo", True), ("sac", False), ("sac", True)], ids=lambda p: f"{p[0]}-norm{int(p[1])}")
+@pytest.fixture(scope="module", params=[("ppo", False, False), ("ppo", True, False), ("ppo", True, True), ("ppo", True, "squash"),
+                                        ("sac", False, False), ("sac", True, False)],
+                ids=lambda p: f"{p[0]}-norm{int(p[1])}" + {False: "", True: "-gsde", "squash": "-gsde-squash"}[p[2]])
 def exported(request, tmp_path_factory):
-    algo, normalize = request.param
-    model, vn, spec = _tiny_model(algo, normalize)
+    algo, normalize, sde = request.param
+    model, vn, spec = _tiny_model(algo, normalize, sde=bool(sde), squash=sde == "squash")
     path = tmp_path_factory.mktemp(algo) / "policy.json"
     save(export_sb3(model, spec, vn), path)
     return algo, model, vn, spec, path
@@ -188,42 +190,6 @@ def test_missing_shipped_policy_names_the_file():
         make_controller("ppo", spec, 1)
 
 
-def test_potential_shaping_telescopes():
-    """With gamma = 1 the shaped return minus the task's return is Phi(last obs) - Phi(first obs)."""
-    from rig_env.envs.sb3 import RigSB3VecEnv
-    from controllers.design.rl_callbacks import TrainingReward
-
-    base = RigSB3VecEnv(3, task=TASK, episode_seconds=0.5)
-    base.seed(5)
-    w = {"roll_error": 1.0, "roll_rate_error": 0.5}
-    env = TrainingReward(base, tuple(base.vec.obs_labels), w, gamma=1.0)
-    cols = [base.vec.obs_labels.index(k) for k in w]
-    phi = lambda o: -np.abs(np.asarray(o, dtype=np.float64)[..., cols]) @ np.array(list(w.values()))
-    obs = env.reset()
-    phi0, diff = phi(obs), np.zeros(3)
-    rng = np.random.default_rng(0)
-    while True:
-        env.step_async(rng.uniform(-1, 1, (3, 3)).astype(np.float32))
-        obs, rew, done, infos = env.step_wait()
-        diff += rew.astype(np.float64)
-        if done.all():  # equal episode lengths: all end on the same step
-            last = np.stack([i["terminal_observation"] for i in infos])
-            break
-    # the task's own return over the same episode, recomputed without shaping
-    base2 = RigSB3VecEnv(3, task=TASK, episode_seconds=0.5)
-    base2.seed(5)
-    base2.reset()
-    rng = np.random.default_rng(0)
-    task_return = np.zeros(3)
-    while True:
-        base2.step_async(rng.uniform(-1, 1, (3, 3)).astype(np.float32))
-        _, r, d, _ = base2.step_wait()
-        task_return += r
-        if d.all():
-            break
-    np.testing.assert_allclose(diff - task_return, phi(last) - phi0, rtol=0, atol=1e-4)
-
-
 def test_error_reset_ends_lost_episodes_as_failures():
     """Zero action loses the spinning reference: every episode ends once |roll_error| > 45 deg, terminated."""
     from rig_env.envs.sb3 import RigSB3VecEnv
@@ -304,16 +270,19 @@ def test_policies_are_shipped_for_both_tasks():
 
 @pytest.mark.slow
 def test_short_ppo_run_improves_the_return(tmp_path):
-    """rig train end to end on a small budget (bank-to-bank, its table settings): the exported
-    policy after 400k steps earns clearly more of the task's reward than after one PPO update."""
+    """rig train end to end on a small budget (velocity-vector roll, the shipped settings, nominal conditions,
+    about 20 s here): the exported policy after 500k steps earns clearly more of the task's reward, and
+    succeeds far more often, than after one PPO update (one 16k-step rollout)."""
     from controllers.design.rl_train import main
 
-    common = ["--algo", "ppo", "--task", "bank_to_bank", "--seed", "0", "--eval-every", "400000",
-              "--eval-episodes", "8", "--final-episodes", "32", "--no-stop"]
+    common = ["--algo", "ppo", "--task", TASK, "--seed", "0", "--eval-every", "500000",
+              "--eval-episodes", "8", "--final-episodes", "32", "--no-stop", "--no-progress"]
     assert main(common + ["--timesteps", "1", "--out", str(tmp_path / "t0")]) == 0
-    assert main(common + ["--timesteps", "400000", "--out", str(tmp_path / "t1")]) == 0
+    assert main(common + ["--timesteps", "500000", "--out", str(tmp_path / "t1")]) == 0
     before = load(tmp_path / "t0" / "policy.json").provenance["final_eval"]
     after = load(tmp_path / "t1" / "policy.json").provenance["final_eval"]
-    # one update: about 0.06 of the maximum return (79.8 of 1320); 400k steps: about 0.55 (RESULTS.md, "RL training")
+    # one update: about 0.13 of the maximum return and no success; 500k steps: about 0.3 and most episodes
+    # successful (benchmarks/RESULTS.md, "RL training": the target is reached at 0.6-0.8M steps)
     assert after["mean_return"] > before["mean_return"] + 0.1 * after["max_return"], (before, after)
+    assert after["success_rate"] >= before["success_rate"] + 0.4, (before, after)
     assert (tmp_path / "t1" / "curve.png").is_file() and (tmp_path / "t1" / "evaluations.npz").is_file()

@@ -4,10 +4,15 @@
 |---|---|
 | ``SuccessInfo`` | VecEnvWrapper: copies the task's ``success`` into ``is_success`` (what SB3's EvalCallback counts) |
 | ``ErrorReset`` | VecEnvWrapper: ends a training episode once the tracking error passes a bound (curriculum) |
-| ``TrainingReward`` | VecEnvWrapper: potential-based shaping and a hold-rate penalty, training batch only |
+
+The reward is always the task's own (``rig_env.envs.tasks``: its wide term ranks actions at large errors,
+its rate terms sit on the success criterion's scale, its control-rate cost makes chatter never optimal);
+what used to be training-side shaping here (potential shaping on the errors, a hold-rate penalty) is
+part of the tasks' rewards now.
 | ``SeededEvalCallback`` | EvalCallback that reseeds its batch before each evaluation and records wall time |
 | ``StopAtSuccess`` | after an evaluation: stop once the success rate reaches the target |
-| ``ProgressLine`` | a printed progress line every 15 s (when tqdm/rich are missing) |
+| ``EnvTimer`` | VecEnvWrapper: wall time spent in the environment's ``step_wait`` (the native batch and the wrappers under it) |
+| ``Progress`` | a tqdm bar (a printed line every 10 s without tqdm): steps/s and the split into environment, policy and learner time |
 | ``plot_curve`` | mean return and success rate vs timesteps, PNG |
 """
 
@@ -26,10 +31,6 @@ from stable_baselines3.common.callbacks import (
 )
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
-RATE_SCALE = 12.0  # rad/s per unit of the task's roll_rate_error entry (rig_env.envs.tasks.VelocityVectorRoll)
-HOLD_RATE_BOUND = np.radians(20.0)  # rad/s: the velocity-vector-roll success bound on |roll rate|
-
-
 class SuccessInfo(VecEnvWrapper):
     """Adds ``infos[i]["is_success"] = infos[i]["success"]`` on finishing steps (RigSB3VecEnv's episode metric)."""
 
@@ -41,59 +42,6 @@ class SuccessInfo(VecEnvWrapper):
         for i in np.flatnonzero(done):
             infos[i]["is_success"] = bool(infos[i].get("success", False))
         return obs, rew, done, infos
-
-
-class TrainingReward(VecEnvWrapper):
-    """The training reward: the task's reward plus potential-based shaping plus an optional hold-rate penalty.
-
-    ``r' = r + (gamma Phi(o') - Phi(o)) - w_hold (rate_error(o') / 20 deg/s)^2 [roll_rate_ref(o') = 0]``
-
-    - ``Phi(o) = -sum_k w_k |o[k]|`` over named raw observation entries (e.g. ``roll_error``): potential-
-      based shaping (Ng, Harada and Russell, ICML 1999) changes no optimal policy of the discounted task
-      and gives a gradient where the task's ``exp(-cost)`` reward is flat (large errors).
-    - the hold-rate penalty (velocity-vector roll) charges roll-rate error while the reference is at
-      rest, scaled to the task's success bound (|roll rate| < 20 deg/s); without it PPO learns to hold
-      the angle to 0.3 deg while chattering at 15-21 deg/s (benchmarks/RESULTS.md, "RL training").
-
-    ``o'`` is the last observation of a finishing episode (``terminal_observation``), so the first
-    observation of the next episode never enters.  No weights and ``w_hold = 0``: the identity (the
-    eval batch uses that, so that both wrapper stacks match).  Evaluation always uses the task's reward.
-    """
-
-    def __init__(self, venv: VecEnv, labels: tuple[str, ...], weights: dict[str, float], gamma: float, hold_rate: float = 0.0) -> None:
-        super().__init__(venv)
-        unknown = sorted(set(weights) - set(labels))
-        if unknown:
-            raise ValueError(f"shaping: observation has no entries {unknown}; entries: {list(labels)}")
-        if hold_rate and not {"roll_rate_ref", "roll_rate_error"} <= set(labels):
-            raise ValueError("hold_rate penalty needs observation entries roll_rate_ref and roll_rate_error")
-        self.cols = np.array([labels.index(k) for k in weights], dtype=np.int64)
-        self.w = np.array(list(weights.values()), dtype=np.float64)
-        self.gamma, self.hold_rate = float(gamma), float(hold_rate)
-        if hold_rate:
-            self.c_ref, self.c_err = labels.index("roll_rate_ref"), labels.index("roll_rate_error")
-        self.phi = np.zeros(venv.num_envs)
-
-    def _potential(self, obs: np.ndarray) -> np.ndarray:
-        return -np.abs(np.asarray(obs, dtype=np.float64)[..., self.cols]) @ self.w
-
-    def reset(self) -> Any:
-        obs = self.venv.reset()
-        self.phi = self._potential(obs)
-        return obs
-
-    def step_wait(self) -> Any:
-        obs, rew, done, infos = self.venv.step_wait()
-        nxt = np.array(obs, dtype=np.float64, copy=True)
-        for i in np.flatnonzero(done):
-            nxt[i] = infos[i]["terminal_observation"]
-        phi_next = self._potential(nxt)
-        shaped = rew + (self.gamma * phi_next - self.phi)
-        if self.hold_rate:
-            rate_err = nxt[:, self.c_err] * RATE_SCALE / HOLD_RATE_BOUND
-            shaped = shaped - self.hold_rate * np.where(nxt[:, self.c_ref] == 0.0, rate_err**2, 0.0)
-        self.phi = np.where(done, self._potential(obs), phi_next)
-        return obs, shaped.astype(np.float32), done, infos
 
 
 class ErrorReset(VecEnvWrapper):
@@ -130,11 +78,14 @@ class ErrorReset(VecEnvWrapper):
 class SeededEvalCallback(EvalCallback):
     """EvalCallback on the same seeded episodes every time; keeps (timesteps, wall s, return, success) points."""
 
-    def __init__(self, eval_env: VecEnv, eval_seed: int, **kwargs: Any) -> None:
+    def __init__(self, eval_env: VecEnv, eval_seed: int, curve_path: Path | None = None,
+                 points: list[dict[str, float]] | None = None, wall_offset: float = 0.0, **kwargs: Any) -> None:
         super().__init__(eval_env, **kwargs)
         self.eval_seed = eval_seed
-        self.points: list[dict[str, float]] = []
+        self.points: list[dict[str, float]] = list(points or [])  # a resumed run's earlier points
+        self.curve_path, self.wall_offset = curve_path, wall_offset
         self.t0 = time.perf_counter()
+        self.eval_seconds = 0.0
 
     def _on_training_start(self) -> None:
         self.t0 = time.perf_counter()
@@ -142,15 +93,23 @@ class SeededEvalCallback(EvalCallback):
     def _on_step(self) -> bool:
         if self.eval_freq > 0 and self.n_calls % self.eval_freq == 0:
             self.eval_env.seed(self.eval_seed)  # consumed by the reset at the start of the evaluation
+            t = time.perf_counter()
+            out = super()._on_step()
+            self.eval_seconds += time.perf_counter() - t
+            return out
         return super()._on_step()
 
     def _on_event(self) -> bool:
         """Right after each evaluation, before ``callback_after_eval``: record the point."""
         succ = float(np.mean(self._is_success_buffer)) if self._is_success_buffer else float("nan")
         self.points.append({
-            "timesteps": int(self.num_timesteps), "wall_s": round(time.perf_counter() - self.t0, 1),
+            "timesteps": int(self.num_timesteps), "wall_s": round(self.wall_offset + time.perf_counter() - self.t0, 1),
             "mean_return": round(float(self.last_mean_reward), 2), "success_rate": succ,
         })
+        if self.curve_path is not None:  # after every evaluation: a resumed run keeps its curve
+            import json
+
+            self.curve_path.write_text(json.dumps(self.points, indent=1) + "\n")
         print(f"  eval at {self.num_timesteps:>9d} steps, {self.points[-1]['wall_s']:7.1f} s: "
               f"return {self.last_mean_reward:7.1f}, success {succ:.2f}", flush=True)
         return super()._on_event()
@@ -179,21 +138,92 @@ class StopAtSuccess(BaseCallback):
         return self.target if self.target is not None else np.inf
 
 
-class ProgressLine(BaseCallback):
-    """Prints timesteps, share done and steps/s every ``every_s`` seconds."""
+class EnvTimer(VecEnvWrapper):
+    """Identity wrapper that adds up the wall time of the wrapped batch's ``step_wait`` (``seconds``)."""
 
-    def __init__(self, total: int, every_s: float = 15.0) -> None:
+    def __init__(self, venv: VecEnv) -> None:
+        super().__init__(venv)
+        self.seconds = 0.0
+
+    def reset(self) -> Any:
+        return self.venv.reset()
+
+    def step_wait(self) -> Any:
+        t = time.perf_counter()
+        out = self.venv.step_wait()
+        self.seconds += time.perf_counter() - t
+        return out
+
+
+class Progress(BaseCallback):
+    """Progress and where the time goes: environment (``EnvTimer``), evaluation, policy (the rest of the
+    rollout: forward passes, SB3's buffers and wrappers) and learner (between rollouts: the gradient updates).
+
+    With tqdm: a bar over the budget, its postfix the shares; without: a printed line every ``every_s`` seconds.
+    :meth:`split` gives the seconds of each part (recorded in the policy's provenance).
+    """
+
+    def __init__(self, total: int, env_timer: EnvTimer, eval_cb: "SeededEvalCallback", every_s: float = 10.0, bar: bool = True) -> None:
         super().__init__()
-        self.total, self.every_s = total, every_s
-        self.t0 = self.last = time.perf_counter()
+        self.total, self.timer, self.eval_cb, self.every_s = total, env_timer, eval_cb, every_s
+        self.use_bar = bar
+        self.bar: Any = None
+        self.collect = self.learn = 0.0
+        self.t_mark = self.t0 = self.last = time.perf_counter()
+        self.start_steps = 0
+
+    def _on_training_start(self) -> None:
+        self.t0 = self.last = self.t_mark = time.perf_counter()
+        self.start_steps = int(self.num_timesteps)
+        self.env0, self.eval0 = self.timer.seconds, self.eval_cb.eval_seconds
+        if self.use_bar:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=self.total, initial=self.start_steps, unit="step", unit_scale=True, dynamic_ncols=True, mininterval=1.0)
+
+    def _on_rollout_start(self) -> None:
+        now = time.perf_counter()
+        if self.t_mark is not None and self.num_timesteps > self.start_steps:
+            self.learn += now - self.t_mark
+        self.t_mark = now
+
+    def _on_rollout_end(self) -> None:
+        now = time.perf_counter()
+        self.collect += now - self.t_mark
+        self.t_mark = now
+
+    def split(self) -> dict[str, float]:
+        """Seconds so far in this session: environment, evaluation, policy (rest of the rollouts), learner."""
+        env = self.timer.seconds - self.env0
+        ev = self.eval_cb.eval_seconds - self.eval0
+        return {"env_s": round(env, 2), "eval_s": round(ev, 2), "policy_s": round(max(self.collect - env - ev, 0.0), 2),
+                "learner_s": round(self.learn, 2)}
+
+    def _describe(self) -> str:
+        sp = self.split()
+        busy = sum(sp.values()) or 1.0
+        n = self.num_timesteps - self.start_steps
+        el = time.perf_counter() - self.t0
+        return (f"{n / max(el, 1e-9):,.0f} steps/s; env {100 * sp['env_s'] / busy:.0f} %, policy {100 * sp['policy_s'] / busy:.0f} %, "
+                f"learner {100 * sp['learner_s'] / busy:.0f} %, eval {100 * sp['eval_s'] / busy:.0f} %")
 
     def _on_step(self) -> bool:
         now = time.perf_counter()
-        if now - self.last >= self.every_s:
+        if self.bar is not None:
+            self.bar.update(self.training_env.num_envs)
+            if now - self.last >= 2.0:
+                self.last = now
+                self.bar.set_postfix_str(self._describe(), refresh=False)
+        elif now - self.last >= self.every_s:
             self.last = now
             n = self.num_timesteps
-            print(f"  {n:>9d} / {self.total} steps ({100.0 * n / self.total:5.1f} %), {n / (now - self.t0):7.0f} steps/s", flush=True)
+            print(f"  {n:>9d} / {self.total} steps ({100.0 * n / self.total:5.1f} %), {self._describe()}", flush=True)
         return True
+
+    def _on_training_end(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+        print(f"  time: {self._describe()}", flush=True)
 
 
 class _Tracker:
@@ -210,18 +240,21 @@ class _Tracker:
 
 def build_callbacks(
     eval_env: VecEnv, out: Path, *, eval_seed: int, eval_freq: int, n_eval: int, checkpoint_freq: int,
-    target: float | None, progress_line: bool, total: int,
-) -> tuple[CallbackList, _Tracker]:
-    """Eval (+ stop at target), checkpoints, optional progress line; frequencies in vec-env steps."""
+    target: float | None, total: int, env_timer: EnvTimer, bar: bool, save_replay_buffer: bool = False,
+    points: list[dict[str, float]] | None = None, wall_offset: float = 0.0,
+) -> tuple[CallbackList, _Tracker, Progress]:
+    """Eval (+ stop at target; its points also in ``out/curve.json``), checkpoints (+ VecNormalize statistics,
+    + the replay buffer when asked), progress; frequencies in vec-env steps.  ``points``, ``wall_offset``: a
+    resumed run's curve so far and its wall time."""
     stop = StopAtSuccess(target)
     ev = SeededEvalCallback(
-        eval_env, eval_seed, n_eval_episodes=n_eval, eval_freq=eval_freq, log_path=str(out),
+        eval_env, eval_seed, curve_path=out / "curve.json", points=points, wall_offset=wall_offset,
+        n_eval_episodes=n_eval, eval_freq=eval_freq, log_path=str(out),
         best_model_save_path=str(out), deterministic=True, callback_after_eval=stop, verbose=0,
     )
-    cbs: list[BaseCallback] = [ev, CheckpointCallback(checkpoint_freq, str(out / "checkpoints"), save_vecnormalize=True)]
-    if progress_line:
-        cbs.append(ProgressLine(total))
-    return CallbackList(cbs), _Tracker(ev, stop)
+    ckpt = CheckpointCallback(checkpoint_freq, str(out / "checkpoints"), save_vecnormalize=True, save_replay_buffer=save_replay_buffer)
+    progress = Progress(total, env_timer, ev, bar=bar)
+    return CallbackList([ev, ckpt, progress]), _Tracker(ev, stop), progress
 
 
 def plot_curve(curve: list[dict[str, float]], path: Path, title: str, target: float) -> None:

@@ -64,14 +64,19 @@ def export_sb3(
     Write it with :func:`controllers.laws.artefact.save`.
     """
     from stable_baselines3 import PPO, SAC
-    from stable_baselines3.common.distributions import DiagGaussianDistribution
+    from stable_baselines3.common.distributions import DiagGaussianDistribution, StateDependentNoiseDistribution
     from stable_baselines3.common.torch_layers import FlattenExtractor
     from torch import nn
 
     if isinstance(model, PPO):
         kind, pol = "ppo", model.policy
-        if not isinstance(pol.action_dist, DiagGaussianDistribution) or pol.squash_output:
-            raise ValueError("PPO export: only a DiagGaussian action distribution without squashing (no gSDE)")
+        # gSDE (StateDependentNoiseDistribution) explores with state-dependent noise; its deterministic action is
+        # the same mean action_net(latent) as the diagonal Gaussian's, so both export alike, unsquashed
+        # the same mean action_net(latent) as the diagonal Gaussian's, so both export alike; with squash_output
+        # (gSDE only) the deterministic action is tanh(mean) unscaled to the action space, as SAC's is
+        if not isinstance(pol.action_dist, (DiagGaussianDistribution, StateDependentNoiseDistribution)):
+            raise ValueError("PPO export: only a DiagGaussian or gSDE action distribution")
+        post = "tanh_unscale" if pol.squash_output else "clip"
         extractor = pol.pi_features_extractor if not pol.share_features_extractor else pol.features_extractor
         hidden, acts = _sequential_layers(pol.mlp_extractor.policy_net, "PPO policy_net")
         out = pol.action_net
@@ -82,6 +87,7 @@ def export_sb3(
         extractor = pol.features_extractor
         hidden, acts = _sequential_layers(pol.latent_pi, "SAC latent_pi")
         out = pol.mu
+        post = POSTPROCESS[kind]
     else:
         raise ValueError(f"export_sb3: model of type {type(model).__name__}; expected PPO or SAC")
     if not isinstance(extractor, FlattenExtractor):
@@ -96,7 +102,7 @@ def export_sb3(
         raise ValueError(f"{kind} export: model spaces {model.observation_space.shape} -> {space.shape} do not match the loop spec")
 
     overrides = dict(env_overrides or {})
-    data: dict[str, Any] = {"activation": acts.pop() if acts else "tanh", "postprocess": POSTPROCESS[kind], "obs_norm": None,
+    data: dict[str, Any] = {"activation": acts.pop() if acts else "tanh", "postprocess": post, "obs_norm": None,
                             "action_low": _f64(space.low), "action_high": _f64(space.high)}
     for i, (W, b) in enumerate(layers):
         data[f"weight_{i}"], data[f"bias_{i}"] = _f64(W), _f64(b)

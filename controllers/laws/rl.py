@@ -26,7 +26,7 @@ The law's data (``to_data`` / ``from_data``, stored in the artefact):
 | ``obs_mean``, ``obs_var`` | arrays, (obs_dim,) | SB3's VecNormalize statistics (absent when trained without it) |
 | ``action_low``, ``action_high`` | arrays, (n_actions,) | the action space |
 | ``activation`` | param | ``"tanh"`` or ``"relu"`` |
-| ``postprocess`` | param | ``"clip"`` (PPO) or ``"tanh_unscale"`` (SAC) |
+| ``postprocess`` | param | ``"clip"`` (PPO) or ``"tanh_unscale"`` (SAC, and PPO trained with ``squash_output``: gSDE's tanh-squashed actions) |
 | ``obs_norm`` | param | ``{"clip_obs", "epsilon"}`` of VecNormalize, or null |
 
 Loading checks all of it (names, shapes, finite values, that the layers chain from obs_dim to
@@ -52,6 +52,9 @@ from controllers.laws.base import Controller, LoopSpec, register
 POLICY_DIR = Path(__file__).resolve().parents[1] / "policies"
 ACTIVATIONS = {"tanh": np.tanh, "relu": lambda x: np.maximum(x, 0.0)}
 POSTPROCESS = {"ppo": "clip", "sac": "tanh_unscale"}
+"""Each kind's default output stage."""
+ALLOWED_POSTPROCESS = {"ppo": ("clip", "tanh_unscale"), "sac": ("tanh_unscale",)}
+"""What each kind may use: a PPO policy trained with SB3's ``squash_output`` (gSDE) ends in tanh, as SAC's does."""
 _LAYER = re.compile(r"(weight|bias)_(\d+)$")
 _PARAMS = {"activation", "postprocess", "obs_norm"}
 
@@ -79,10 +82,11 @@ class PolicyData:
     obs_var: np.ndarray | None = None  # (obs_dim,)
     clip_obs: float = math.inf
     epsilon: float = 1e-8
+    post: str | None = None  # None: the kind's default (POSTPROCESS)
 
     @property
     def postprocess(self) -> str:
-        return POSTPROCESS[self.kind]
+        return self.post or POSTPROCESS[self.kind]
 
     def forward(self, obs: np.ndarray) -> np.ndarray:
         """Actions (m, n_actions) float64 for observations (m, obs_dim): stages 1-5 of the module table."""
@@ -134,8 +138,9 @@ def parse_data(kind: str, data: Mapping[str, Any], spec: LoopSpec) -> PolicyData
     if activation not in ACTIVATIONS:
         raise ValueError(f"{where}: activation = {activation!r}, expected one of {sorted(ACTIVATIONS)}")
     post = data.get("postprocess")
-    if post != POSTPROCESS[kind]:
-        raise ValueError(f"{where}: postprocess = {post!r}, a {kind} policy needs {POSTPROCESS[kind]!r}")
+    if post not in ALLOWED_POSTPROCESS[kind]:
+        need = " or ".join(repr(p) for p in ALLOWED_POSTPROCESS[kind])
+        raise ValueError(f"{where}: postprocess = {post!r}, a {kind} policy needs {need}")
     norm = data.get("obs_norm")
     arrays = {k for k, v in data.items() if isinstance(v, np.ndarray)}
     n = len([k for k in arrays if (m := _LAYER.match(k)) and m.group(1) == "weight"])
@@ -167,7 +172,7 @@ def parse_data(kind: str, data: Mapping[str, Any], spec: LoopSpec) -> PolicyData
             raise ValueError(f"{where}: obs_norm needs var >= 0, clip_obs > 0, epsilon > 0")
         extra_norm = dict(obs_mean=mean, obs_var=var, clip_obs=clip, epsilon=eps)
     return PolicyData(kind=kind, activation=activation, weights=tuple(weights), biases=tuple(biases), action_low=low,
-                      action_high=high, **extra_norm)
+                      action_high=high, post=post, **extra_norm)
 
 
 def check_spec(have: LoopSpec, want: LoopSpec, where: str) -> None:

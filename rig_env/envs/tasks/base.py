@@ -14,8 +14,38 @@ batch and calls the task with (n, ...) arrays at the control rate, in this order
 
 Disturbances: a task's pilot inputs on the Hawk surfaces (3-2-1-1s, pulses; :meth:`Task.pilot_inputs`)
 and, for every task, the configuration's gusts (``turbulence``, ``turbulence_tau``; off by default).
-Every reward is ``exp(-cost)`` with ``cost >= 0``, so it lies in (0, 1]; a step that ends the episode
-by failure (blow-up or a joint beyond its stop margin) earns 0 (the environment does that).  Episodes
+Every reward has one form (:meth:`Task.shaped_reward`), from the task's tracking cost ``c >= 0`` (squared
+errors over their scales, in each task's docstring) and the control cost ``c_u >= 0``:
+
+    r = (0.7 exp(-c) + 0.3 exp(-sqrt(c) / 6)) exp(-c_u)                         in (0, 1]
+    c_u = sum_j [0.05 a_j^2 + 0.3 (max(|a_j| - 0.9, 0) / 0.1)^2] + 0.2 m
+    m' = (sum_j (da_j/dt / 4 s^-1)^2 - m) / 0.25 s                             (command activity, m = 0 at reset)
+
+with ``a`` the normalised actions (+-1 full deflection), ``da/dt`` their change per control period over
+dt, and ``m`` advanced once per control step (``m += dt / 0.25 s (... - m)``; a per-episode state of the
+task, zeroed in :meth:`Task.conditions`).  Why each part:
+
+- ``0.7 exp(-c)`` is the manoeuvre's precision: near 1 only inside the error scales.  Alone it is flat
+  once the errors pass two or three scales, so an untrained policy that has lost the reference sees no
+  difference between its actions; ``0.3 exp(-sqrt(c) / 6)`` (errors in units six times wider, decaying
+  like ``exp(-|e|)``, not ``exp(-e^2)``) still ranks actions there: halving a 90 deg roll error is worth
+  as much as halving a 9 deg one was.
+- the rate term charges the command's rate in 1/s (a full-range swing in half a second is one unit), not
+  its change per control step, which shrinks with the control period: a 2.5 Hz +-30 deg aileron
+  oscillation (8.3 s^-1 RMS) costs 59 % of the reward, a single full-range swing in 0.5 s (one unit of
+  rate) up to 16 % of the reward while it lasts, fading over the next quarter second.  It charges the rate's average over the last
+  0.25 s, not the step's own: a per-step charge inside ``exp`` can take at most the one step's reward,
+  so a bang from stop to stop would cost one step in 80 and bang-bang chatter would be cheaper than a
+  smooth oscillation; averaged, one switch costs the reward of tens of steps and a square wave at 2.5 Hz
+  nearly all of it.  A policy exploring with white noise at 80 Hz would pay this on its noise (SB3's
+  default Gaussian: the reward all but vanishes); ``rig train`` explores with gSDE (state-dependent,
+  smooth noise), the RL Zoo's choice for the same reason.  Chatter is never the best way to earn equal tracking (the surfaces are summed:
+  chatter on one is not diluted by the others at rest);
+- the saturation term charges commands beyond 90 % of full deflection (a surface held at its stop costs
+  30 % of the reward), so holding a stop is never free.
+
+A step that ends the episode by failure (blow-up or a joint beyond its stop margin) earns 0 (the
+environment does that).  Episodes
 run to their time limit otherwise, so ending early never pays.  Angles in rad and rates in rad/s
 inside; the ``*_deg`` names and the metrics' display units are deg.
 """
@@ -55,17 +85,40 @@ def _stop_flags(q, P, joints, cols, margin, on, beyond):
         on[i], beyond[i] = o, b
 
 
+RATE_SCALE = 4.0
+"""1/s: the normalised command rate the control-rate cost counts in units of (a full-range swing, 2, in half a second)."""
+RATE_WEIGHT = 0.2
+"""Weight of the command activity in the control cost."""
+RATE_TAU = 0.25
+"""s: time constant of the command-activity average the rate cost charges (a switch is charged for about this long)."""
+WIDE = 6.0
+"""The wide tracking term's errors count in units WIDE times the fine term's (:meth:`Task.shaped_reward`)."""
+FINE_SHARE = 0.7
+"""Share of the fine term in the tracking reward; the wide term has the rest."""
+SAT_KNEE = 0.9
+"""|a| above this (normalised) is charged as saturation."""
+
+
 @kernel(**_JIT)
-def _control_cost_kernel(a, a_prev, out):
-    """out (n,) = 0.05 mean_j a_j^2 + 0.05 mean_j (a_j - a_prev_j)^2 for normalised actions a, a_prev (n, k)."""
+def _control_cost_kernel(a, a_prev, rate_step, alpha, knee, w_rate, activity, out):
+    """out (n,) = sum_j [0.05 a_j^2 + 0.3 (max(|a_j| - knee, 0) / (1 - knee))^2] + w_rate m, where the command
+    activity m (n,) (in/out) is first advanced m += alpha (sum_j ((a_j - a_prev_j) / rate_step)^2 - m).
+
+    a, a_prev (n, k) normalised actions; rate_step = RATE_SCALE * dt, the change per control step that counts as
+    one unit of rate; alpha = dt / RATE_TAU; knee: SAT_KNEE; w_rate: RATE_WEIGHT.
+    """
     k = a.shape[1]
     for i in range(a.shape[0]):
-        s, ds = 0.0, 0.0
+        s, r2 = 0.0, 0.0
         for j in range(k):
-            s += a[i, j] * a[i, j]
-            d = a[i, j] - a_prev[i, j]
-            ds += d * d
-        out[i] = 0.05 * (s / k) + 0.05 * (ds / k)
+            x = a[i, j]
+            d = (x - a_prev[i, j]) / rate_step
+            ax = x if x >= 0.0 else -x
+            sat = (ax - knee) / (1.0 - knee) if ax > knee else 0.0
+            s += 0.05 * x * x + 0.3 * sat * sat
+            r2 += d * d
+        activity[i] += alpha * (r2 - activity[i])
+        out[i] = s + w_rate * activity[i]
 
 
 class Task:
@@ -130,6 +183,7 @@ class Task:
         self.obs_high = np.full(len(self.ref_labels), 5.0)
         self.V = np.zeros(n_envs)
         self.l = np.ones(n_envs)
+        self.activity = np.zeros(n_envs)  # the control cost's command activity m (module docstring), zeroed per episode
         self._zero_pilot = np.zeros((n_envs, 3))
 
     # ------------------------------------------------------------------ options and defaults
@@ -160,6 +214,7 @@ class Task:
         """Episode conditions of envs idx: airspeed (m,) m/s and kernel parameter rows P (m, N_PARAMS)."""
         self.V[idx] = airspeed
         self.l[idx] = P[:, L.P_GEOMETRY_ARM_LENGTH]
+        self.activity[idx] = 0.0
 
     def initial_state(self, idx: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(m, 5) angles and rates: free joints uniform in +-3 deg, at rest (uses len(free) uniforms)."""
@@ -177,12 +232,18 @@ class Task:
         _stop_flags(q, P, self.limited, self._stop_cols, STOP_MARGIN, on, beyond)
         return on, beyond
 
-    @staticmethod
-    def _control_cost(a: np.ndarray, a_prev: np.ndarray) -> np.ndarray:
-        """(n,) ``0.05 mean(a^2) + 0.05 mean((a - a_prev)^2)`` of normalised actions (n, k)."""
+    def _control_cost(self, a: np.ndarray, a_prev: np.ndarray) -> np.ndarray:
+        """(n,) control cost of normalised actions a, a_prev (n, k) (the module docstring's ``c_u``)."""
         out = np.empty(a.shape[0])
-        _control_cost_kernel(a, a_prev, out)
+        _control_cost_kernel(np.ascontiguousarray(a, dtype=np.float64), np.ascontiguousarray(a_prev, dtype=np.float64),
+                             RATE_SCALE * self.dt, self.dt / RATE_TAU, SAT_KNEE, RATE_WEIGHT, self.activity, out)
         return out
+
+    def shaped_reward(self, c: np.ndarray, a: np.ndarray, a_prev: np.ndarray) -> np.ndarray:
+        """(n,) ``(FINE_SHARE exp(-c) + (1 - FINE_SHARE) exp(-sqrt(c) / WIDE)) exp(-c_u)`` from the task's tracking
+        cost c (n,) >= 0 (a sum of squared errors over their scales) and the control cost of a, a_prev (n, k)."""
+        track = FINE_SHARE * np.exp(-c) + (1.0 - FINE_SHARE) * np.exp(-np.sqrt(c) / WIDE)
+        return track * np.exp(-self._control_cost(a, a_prev))
 
     # ------------------------------------------------------------------ hooks with defaults
     def pilot_inputs(self, t: np.ndarray) -> np.ndarray:

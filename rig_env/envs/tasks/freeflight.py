@@ -166,9 +166,9 @@ class FreeFlightEmulation(Task):
     | input_active | 1 from t0, else 0 | - |
 
     Measured alpha uses the measured angles and rates, the episode's airspeed and the arm length.
-    Reward (from t0) ``exp(-(e_alpha / 1.5 deg)^2 - (e_q / 15 deg/s)^2 - 0.5 (max(|rig pitch| - 15 deg, 0)
-    / 5 deg)^2 - control)``; before t0 ``exp(-(q / 10 deg/s)^2 - (rig pitch rate / 10 deg/s)^2 - control)``
-    (settle); control = 0.05 mean(a^2) + 0.05 mean(da^2).  Metrics: RMS error is e_alpha in deg (0
+    Reward (the form of :mod:`.base`): tracking cost from t0 ``c = (e_alpha / 1.5 deg)^2 + (e_q / 15 deg/s)^2
+    + 0.5 (max(|rig pitch| - 15 deg, 0) / 5 deg)^2``; before t0 ``c = (q / 10 deg/s)^2 + (rig pitch rate /
+    10 deg/s)^2`` (settle).  Metrics: RMS error is e_alpha in deg (0
     before t0); no step segments (rise, settling, overshoot NaN); ``emulation_error`` = sqrt(sum
     e_alpha^2 / sum alpha_ff^2) over [t0, end].  Success: reached the time limit with emulation_error
     below 0.5.
@@ -278,7 +278,7 @@ class FreeFlightEmulation(Task):
         stop = np.maximum(np.abs(q[:, 1]) - 15.0 * D, 0.0) / (5.0 * D)
         tracking = (ea / (1.5 * D)) ** 2 + (eq / (15.0 * D)) ** 2 + 0.5 * stop**2
         settle = (eq / (10.0 * D)) ** 2 + (qd[:, 1] / (10.0 * D)) ** 2
-        return np.exp(-(np.where(on, tracking, settle) + self._control_cost(a, a_prev)))
+        return self.shaped_reward(np.where(on, tracking, settle), a, a_prev)
 
     def tracked(self, t, q, qd, ref):
         ea, _, _ = self._errors(q, qd, ref)

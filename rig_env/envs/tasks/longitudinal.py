@@ -56,7 +56,7 @@ class PullUpPushOver(Task):
     | heave_rate_error | theta_ref' - estimated rig-pitch rate | / 5 rad/s, clipped to +-5 |
     | accel_ref | a_n | / 9.81 m/s^2 (load-factor increment) |
 
-    Reward ``exp(-(e_theta / 2.5 deg)^2 - (e_rate / 15 deg/s)^2 - 0.05 mean(a^2) - 0.05 mean(da^2))``.
+    Reward (the form of :mod:`.base`): tracking cost ``c = (e_theta / 2.5 deg)^2 + (e_rate / 15 deg/s)^2``.
     Metrics: segment 0 the first manoeuvre (rig pitch to theta_b + s dtheta), segment 1 the return to
     theta_b, band 0.5 deg; RMS error is the rig-pitch error, deg.  Success: reached the time limit,
     both segments settled, final |rig-pitch error| < 1 deg.
@@ -124,7 +124,7 @@ class PullUpPushOver(Task):
 
     def reward(self, q, qd, ref, a, a_prev):
         c = ((ref[:, 0] - q[:, 1]) / (2.5 * D)) ** 2 + ((ref[:, 1] - qd[:, 1]) / (15.0 * D)) ** 2
-        return np.exp(-(c + self._control_cost(a, a_prev)))
+        return self.shaped_reward(c, a, a_prev)
 
     def tracked(self, t, q, qd, ref):
         seg = np.where(t <= self.T_LEAD, -1, np.where(t <= self.t_return(), 0, 1))

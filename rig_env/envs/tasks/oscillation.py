@@ -41,7 +41,7 @@ class ForcedOscillation(Task):
     | osc_amplitude | A | / 10 deg |
     | osc_frequency | f | / 1 Hz |
 
-    Reward ``exp(-(e / 2 deg)^2 - (e_rate / 15 deg/s)^2 - 0.05 mean(a^2) - 0.05 mean(da^2))``.
+    Reward (the form of :mod:`.base`): tracking cost ``c = (e / 2 deg)^2 + (e_rate / 15 deg/s)^2``.
     Metrics: RMS error of the driven angle, deg; an oscillation has no step, so rise time, settling
     time and overshoot are NaN (segment id -1 throughout).  Over the steady part (t >= 1.5 s) the
     driven angle is fitted by least squares with ``theta_b + c0 + a sin(phi) + b cos(phi)``:
@@ -154,7 +154,7 @@ class ForcedOscillation(Task):
 
     def reward(self, q, qd, ref, a, a_prev):
         c = ((ref[:, 0] - q[:, self.j]) / (2.0 * D)) ** 2 + ((ref[:, 1] - qd[:, self.j]) / (15.0 * D)) ** 2
-        return np.exp(-(c + self._control_cost(a, a_prev)))
+        return self.shaped_reward(c, a, a_prev)
 
     def tracked(self, t, q, qd, ref):
         y = q[:, self.j]

@@ -91,7 +91,12 @@ class VelocityVectorRoll(Task):
     | roll_rate_ref | reference roll rate | / 12 rad/s |
     | roll_rate_error | reference - estimated roll rate | / 12 rad/s, clipped to +-5 |
 
-    Reward ``exp(-(e_phi / 10 deg)^2 - (e_p / 60 deg/s)^2 - 0.05 mean(a^2) - 0.05 mean(da^2))``.
+    Reward (the form of :mod:`.base`): tracking cost ``c = (e_phi / 10 deg)^2 + (e_p / s_p)^2`` with
+    ``s_p = 60 deg/s`` while the reference rate moves and ``s_p = 20 deg/s`` once it is at rest (the
+    success criterion's |roll rate| < 20 deg/s: the reward charges the stop's residual rate on the
+    scale the criterion judges it, so holding the angle while chattering at 15-20 deg/s, which earned
+    almost full reward on a 60 deg/s scale, no longer does); the wide term ranks actions while the
+    spinning reference is lost (tens of degrees of roll error, where ``exp(-c)`` is flat).
     Metrics: segment 0 the spin-up (roll rate to R, band 5 deg/s), segment 1 the stop (roll angle to
     the stop angle, band 2 deg); RMS error is the roll-angle error, deg.  Success: reached the time
     limit with |roll error| < 5 deg and |roll rate| < 20 deg/s.
@@ -140,8 +145,9 @@ class VelocityVectorRoll(Task):
         return out
 
     def reward(self, q, qd, ref, a, a_prev):
-        c = ((ref[:, 0] - q[:, 0]) / (10 * D)) ** 2 + ((ref[:, 1] - qd[:, 0]) / (60 * D)) ** 2
-        return np.exp(-(c + self._control_cost(a, a_prev)))
+        s_p = np.where(ref[:, 1] == 0.0, 20.0 * D, 60.0 * D)
+        c = ((ref[:, 0] - q[:, 0]) / (10 * D)) ** 2 + ((ref[:, 1] - qd[:, 0]) / s_p) ** 2
+        return self.shaped_reward(c, a, a_prev)
 
     def tracked(self, t, q, qd, ref):
         n = t.shape[0]
@@ -169,8 +175,9 @@ class BankToBank(Task):
     | roll_error | reference - measured roll angle | / 45 deg, clipped to +-5 |
     | roll_ref | reference bank angle | / 90 deg |
 
-    Reward ``exp(-(e_phi / 15 deg)^2 - 0.25 (rig_yaw / 20 deg)^2 - 0.05 mean(a^2) - 0.05 mean(da^2))``
-    (rig_yaw term only when it is free).  Metrics: one segment per bank step (band 2 deg); RMS error is
+    Reward (the form of :mod:`.base`): tracking cost ``c = (e_phi / 15 deg)^2 + 0.25 (rig_yaw / 20 deg)^2``
+    (rig_yaw term only when it is free); the wide term ranks actions through a 30-90 deg step, where
+    ``exp(-c)`` is flat until the roll is within about 30 deg of the new bank.  Metrics: one segment per bank step (band 2 deg); RMS error is
     the roll-angle error, deg.  Success: reached the time limit, every step settled, final |error| < 5 deg.
     Defaults: the 4-DOF set above (rig_roll required), airspeed U(15, 20) m/s, 17 s.
     """
@@ -225,7 +232,7 @@ class BankToBank(Task):
         c = ((ref[:, 0] - q[:, 0]) / (15 * D)) ** 2
         if self.yaw:
             c = c + 0.25 * (q[:, 2] / (20 * D)) ** 2
-        return np.exp(-(c + self._control_cost(a, a_prev)))
+        return self.shaped_reward(c, a, a_prev)
 
     def tracked(self, t, q, qd, ref):
         # a step segment starts on the step; the metrics' segment clock starts one step earlier
