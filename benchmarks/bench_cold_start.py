@@ -64,8 +64,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=at_least_one, default=1, help="repeat the alternation")
     ap.add_argument("--before", action="store_true", help="also the numba IR inliner in one process (about 3 minutes)")
+    ap.add_argument("--only-default", action="store_true", help="the default variant alone (repeat it with --rounds)")
     args = ap.parse_args()
-    names = list(VARIANTS) if args.before else list(VARIANTS)[:2]
+    names = ["default"] if args.only_default else (list(VARIANTS) if args.before else list(VARIANTS)[:2])
     print(f"# {machine_line()}")
     print("| variant | round | cold: wall (s) | cold: longest silence (s) | warm: wall (s) | cold / default cold |")
     print("|---|---|---|---|---|---|")

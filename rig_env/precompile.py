@@ -25,7 +25,7 @@ import os
 import subprocess
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
@@ -115,11 +115,13 @@ def precompile(
     stream: TextIO | None = None,
     interval: float = 3.0,
     timeout: float = 900.0,
+    while_waiting: Callable[[], object] | None = None,
 ) -> PrecompileReport:
     """Compile the kernels of ``tasks`` (with the configuration ``env_fields``) and, with ``design``, of the
     linearisation, in up to ``processes`` child processes (default: ``RIG_ENV_PRECOMPILE_PROCESSES`` if set,
     else the CPUs, at most 3; 1 turns the parallel compile off); progress on ``stream``.  See the module docstring.  ``timeout``: seconds before a child is
-    stopped (its kernels then compile in the caller)."""
+    stopped (its kernels then compile in the caller).  ``while_waiting``: called once while the children
+    compile (work of the caller's that needs no kernel, e.g. importing the plotting library)."""
     from rig_env.envs import TASKS
 
     bad = [t for t in tasks if t not in TASKS]
@@ -155,6 +157,8 @@ def precompile(
         procs.append((job, time.perf_counter(), subprocess.Popen([sys.executable, "-m", "rig_env.precompile", payload],
                                                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)))
     report = PrecompileReport()
+    if while_waiting is not None:
+        while_waiting()
     last = time.perf_counter()
     running = list(procs)
     while running:
@@ -203,8 +207,10 @@ def _child(payload: str) -> None:
     fields = _tuples(job["fields"])
     from rig_env.envs import RigVectorEnv
 
-    for task in job["tasks"]:
-        for n in job["sizes"]:
+    for k, task in enumerate(job["tasks"]):
+        # every size for the job's first task (the physics kernel's serial and parallel versions, compiled in one
+        # process); the later tasks share that kernel and need their own kernels once, at the largest size
+        for n in job["sizes"] if k == 0 else job["sizes"][-1:]:
             env = RigVectorEnv(int(n), task=task, **fields)
             env.reset(seed=0)
             env.step(np.zeros((int(n), len(env.action_names))))

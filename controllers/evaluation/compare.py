@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence, TextIO
 
 from controllers import CONTROLLERS, Controller, LoopSpec, UnsupportedTask, make_controller
-from controllers.evaluation import report, schema
+from controllers.evaluation import figures, report, schema
 from controllers.evaluation.contenders import load_contenders
 from controllers.evaluation.score import DEFAULT_RULE, ScoreRule, recommend
 from controllers.evaluation.summary import Comparison, format_table, rows_of
@@ -132,7 +132,8 @@ def compare(
     settings["command"] = command or _command(quick, n, seed, tasks, kinds, modes, params_file, policies)
     cmp = Comparison(settings, rule=rule)
     fields0 = {**conditions[modes[0]].env_fields(), **env_params}
-    precompile(tasks, fields0, design=True, stream=prog)  # the kernels, side by side, on a fresh installation
+    # the kernels, side by side, on a fresh installation; matplotlib is imported meanwhile (the report needs it)
+    precompile(tasks, fields0, design=True, stream=prog, while_waiting=figures.preload if out_dir is not None else None)
     t0 = time.perf_counter()
     with compile_watch(prog):  # anything left to compile is announced while it compiles
         for task in tasks:
@@ -219,5 +220,5 @@ def write_files(cmp: Comparison, out: Path, stream: TextIO) -> None:
     for stale in (p for pat in OUR_PATTERNS for p in out.glob(pat)):  # an earlier run's figures of tasks not flown now
         stale.unlink()
     schema.write(cmp, out)
-    files = report.write(cmp, out)
+    files = report.write(cmp, out, progress=stream)
     stream.write(f"wrote {out}/summary.json, summary.csv, report.md and {len(files)} plots\n")

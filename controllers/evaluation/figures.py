@@ -25,6 +25,11 @@ BOX_METRICS = ("rms_error", "hold_error", "saturation", "cmd_rate_rms", "cmd_fre
 COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
 
 
+def preload() -> None:
+    """Import matplotlib (Agg) now: half a second a caller can spend while it waits for something else."""
+    _plt()
+
+
 def _plt():
     import matplotlib
 

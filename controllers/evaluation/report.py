@@ -9,9 +9,11 @@ laws' loop margins; skipped laws.
 
 from __future__ import annotations
 
+import functools
 import math
+import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, TextIO
 
 from controllers.evaluation import figures
 from controllers.evaluation.summary import BY_KEY, Comparison, table_cells
@@ -83,12 +85,27 @@ def _glossary() -> list[str]:
     return [f"- {BY_KEY[k].header}, {BY_KEY[k].unit}: {BY_KEY[k].meaning}" for k in keys]
 
 
-def write(cmp: Comparison, out: Path) -> list[Path]:
-    """Write the figures and report.md into ``out``; returns the figure paths."""
+def write(cmp: Comparison, out: Path, progress: TextIO | None = None) -> list[Path]:
+    """Write the figures and report.md into ``out``; returns the figure paths.  ``progress``: a stream told how
+    many figures are written, every couple of seconds (drawing a dozen takes several)."""
     tasks = list(dict.fromkeys(r["task"] for r in cmp.rows))
-    hist = {r.task: figures.plot_history(r, out / f"history_{r.task}.png") for r in cmp.results if r.conditions == cmp.settings["modes"][0]}
-    dist = {t: figures.plot_distributions(cmp, t, out / f"distributions_{t}.png") for t in tasks}
-    files = [*hist.values(), *dist.values(), figures.plot_metrics(cmp, out / "metrics.png")]
+    first = [r for r in cmp.results if r.conditions == cmp.settings["modes"][0]]
+    jobs: list[tuple[str, Callable[[], Path]]] = [(f"history_{r.task}", functools.partial(figures.plot_history, r, out / f"history_{r.task}.png")) for r in first]
+    jobs += [(f"distributions_{t}", functools.partial(figures.plot_distributions, cmp, t, out / f"distributions_{t}.png")) for t in tasks]
+    jobs += [("metrics", functools.partial(figures.plot_metrics, cmp, out / "metrics.png"))]
+    if progress is not None:
+        progress.write(f"  drawing {len(jobs)} plots into {out} ...\n")
+        progress.flush()
+    files, last = [], time.perf_counter()
+    for k, (_, draw) in enumerate(jobs, 1):
+        files.append(draw())
+        if progress is not None and time.perf_counter() - last >= 2.0 and k < len(jobs):
+            last = time.perf_counter()
+            progress.write(f"  plots: {k} of {len(jobs)}\n")
+            progress.flush()
+    named = {name: path for (name, _), path in zip(jobs, files)}
+    hist = {t: named[f"history_{t}"] for t in tasks if f"history_{t}" in named}
+    dist = {t: named[f"distributions_{t}"] for t in tasks}
     s = cmp.settings
     parts = [
         "# Controller comparison on the manoeuvre rig",
