@@ -215,9 +215,22 @@ def test_stop_flags_and_control_cost_equal_the_numpy_formulas():
     np.testing.assert_array_equal(on, on_np)
     np.testing.assert_array_equal(beyond, beyond_np)
     assert 0 < on.sum() < n and 0 < beyond.sum() < on.sum()  # both outcomes occur
+    # the control cost (tasks/base.py's docstring): 0.05 a^2 + 0.3 ((|a| - knee) / (1 - knee))^2 above the knee, per
+    # action, plus RATE_WEIGHT m, the command activity m advanced each step by alpha (sum ((a - a_prev) / (RATE_SCALE dt))^2 - m)
+    from rig_env.envs.tasks import base as tb
+
+    dt = 1 / 80
     for k in (3, 6):
-        a, a_prev = rng.uniform(-1, 1, (n, k)), rng.uniform(-1, 1, (n, k))
-        np.testing.assert_array_equal(Task._control_cost(a, a_prev), 0.05 * np.mean(a**2, axis=1) + 0.05 * np.mean((a - a_prev) ** 2, axis=1))
+        task = VelocityVectorRoll(n, free, dt, 8.0)
+        m = np.zeros(n)
+        a_prev = rng.uniform(-1, 1, (n, k))
+        for _ in range(3):
+            a = rng.uniform(-1.2, 1.2, (n, k))
+            sat = np.maximum(np.abs(a) - tb.SAT_KNEE, 0.0) / (1.0 - tb.SAT_KNEE)
+            m = m + (dt / tb.RATE_TAU) * (np.sum(((a - a_prev) / (tb.RATE_SCALE * dt)) ** 2, axis=1) - m)
+            expected = np.sum(0.05 * a**2 + 0.3 * sat**2, axis=1) + tb.RATE_WEIGHT * m
+            np.testing.assert_allclose(task._control_cost(a, a_prev), expected, rtol=1e-12, atol=1e-14)
+            a_prev = a
 
 
 def test_actions_are_clipped_as_np_clip_and_non_finite_rejected():

@@ -37,7 +37,7 @@ AERO_CASES = ("linear", "nonlinear", "wind_off")
 N_STATES = 3  # per lock set, aero case and parameter set: 6 x 3 x 2 x 3 = 108 states
 
 
-# the default rig has nine parameters at zero (a symmetric Hawk and arm, a symmetric compensator
+# the default rig has parameters at zero (a symmetric Hawk and arm, a symmetric compensator
 # section); this variant gives each a value so that its terms are compared too
 NONZERO = {
     "geometry.hawk_cg_x": 0.02,
@@ -49,6 +49,10 @@ NONZERO = {
     "comp_aero.CM0": -0.01,
     "geometry.comp_cg_z": 0.01,
     "hawk_aero.alpha0": 0.02,
+    # the issue-21 terms, off in the default rig: the alpha-dot split, fin blanking, Clbeta with lift
+    "hawk_aero.alphadot_fraction": 0.37,
+    "hawk_aero.blanked_fraction": 0.25,
+    "hawk_aero.Clbeta_CL": -0.167,
 }
 PARAM_SETS = {"default": RigParams.default(), "no-zero-parameters": RigParams.default().replace(**NONZERO)}
 
