@@ -18,7 +18,7 @@ from rig_env.envs import streams as rs
 from rig_env.envs.metrics import StepMetrics
 from rig_env.envs.sensors import AIRSPEED_SCALE, ANGLE_SCALE, FLAP_SCALE, Sensors
 from rig_env.envs.tasks import VelocityVectorRoll
-from rig_env.envs.tasks.base import STOP_MARGIN, Task
+from rig_env.envs.tasks.base import STOP_MARGIN
 from rig_env.envs.vector_env import _command_inputs, _episode_ends
 from rig_env.params import JOINTS, RigParams, param_batch
 from rig_env.physics import layout as L
