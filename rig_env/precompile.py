@@ -24,6 +24,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -154,8 +155,10 @@ def precompile(
     procs = []
     for job in jobs:
         payload = json.dumps({**job, "fields": fields, "sizes": spec["sizes"]})
-        procs.append((job, time.perf_counter(), subprocess.Popen([sys.executable, "-m", "rig_env.precompile", payload],
-                                                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)))
+        # the child's messages go to a file, not a pipe: a pipe read only at the end would stall a chatty child
+        log = tempfile.TemporaryFile(mode="w+")
+        proc = subprocess.Popen([sys.executable, "-m", "rig_env.precompile", payload], stdout=subprocess.DEVNULL, stderr=log, text=True)
+        procs.append((job, time.perf_counter(), proc, log))
     report = PrecompileReport()
     if while_waiting is not None:
         while_waiting()
@@ -165,12 +168,15 @@ def precompile(
         time.sleep(0.25)
         now = time.perf_counter()
         for item in list(running):
-            job, start, proc = item
+            job, start, proc, log = item
             if proc.poll() is None and now - start > timeout:
                 proc.kill()
             if proc.poll() is not None:
                 running.remove(item)
-                out, err = proc.communicate()
+                proc.wait()
+                log.seek(0)
+                err = log.read()[-20000:]
+                log.close()
                 what = ", ".join(job["tasks"] + (["design"] if job["design"] else []))
                 entry = {"tasks": job["tasks"], "design": job["design"], "seconds": round(now - start, 1)}
                 report.jobs.append(entry)
