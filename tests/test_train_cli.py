@@ -88,18 +88,21 @@ def test_shipped_settings_files_cover_every_task_and_parse():
             assert s.num_envs > 0 and s.timesteps > 0 and "learning_rate" in s.algo_kwargs
 
 
-def test_task_table_overrides_defaults_key_by_key(tmp_path):
-    from controllers.design.rl_hyperparams import settings
-
-    f = tmp_path / "mine.toml"
-    f.write_text("""
+_GOOD = """
 [defaults]
 num_envs = 32
 timesteps = 1000
 eval_every = 500
 normalize = true
 clip_obs = 5.0
-[defaults.algo]
+"""
+
+
+def test_task_table_overrides_defaults_key_by_key(tmp_path):
+    from controllers.design.rl_hyperparams import settings
+
+    f = tmp_path / "mine.toml"
+    f.write_text(_GOOD + """[defaults.algo]
 n_steps = 16
 batch_size = 128
 [defaults.algo.policy_kwargs]
@@ -124,14 +127,6 @@ activation_fn = "relu"
     assert other.num_envs == 32 and other.error_reset is None
 
 
-_GOOD = """
-[defaults]
-num_envs = 32
-timesteps = 1000
-eval_every = 500
-normalize = true
-clip_obs = 5.0
-"""
 
 
 @pytest.mark.parametrize("extra, message", [

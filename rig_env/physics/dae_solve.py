@@ -113,6 +113,23 @@ def _chol_solve(S, m, x):
 
 
 @njit(**_JIT)
+def _solve_constrained(F, acc, MJ, S, m, lam, b, with_b, ima, ims, ma, ms, mr):
+    """acc (15) = the accelerations under the loads F (15) and the m constraints already factored into MJ = J M^-1
+    and the Schur complement S: acc = M^-1 F - MJ^T lam with S lam = MJ F + b (b only ``with_b``: the
+    constraints' velocity terms; without them for a load alone, e.g. the alpha-dot load's column)."""
+    _minv(F, 0, acc, 0, ima, ims, ma, ms, mr)
+    for r in range(m):
+        s = b[r] if with_b else 0.0
+        for k in range(15):
+            s += MJ[r * 15 + k] * F[k]
+        lam[r] = s
+    _chol_solve(S, m, lam)
+    for r in range(m):
+        for k in range(15):
+            acc[k] -= lam[r] * MJ[r * 15 + k]
+
+
+@njit(**_JIT)
 def accelerations(y, tgt, z, flaps, u, p, flags, free_idx, n_free, locked, n_locked, tabs, w):
     """vdot (15) of the DAE into w[W_ACC:W_ACC+15] by the Schur complement of the module docstring.
 
@@ -154,16 +171,7 @@ def accelerations(y, tgt, z, flaps, u, p, flags, free_idx, n_free, locked, n_loc
         F[C_VR + d] = f_r[d]
     m = constraints_at(y, Aa, As, tgt, p, locked, n_locked, J, c, b)
     _factor(J, MJ, S, m, ima, ims, ma, ms, mr)
-    _minv(F, 0, acc, 0, ima, ims, ma, ms, mr)
-    for r in range(m):
-        s = b[r]
-        for k in range(15):
-            s += MJ[r * 15 + k] * F[k]
-        lam[r] = s
-    _chol_solve(S, m, lam)
-    for r in range(m):
-        for k in range(15):
-            acc[k] -= lam[r] * MJ[r * 15 + k]
+    _solve_constrained(F, acc, MJ, S, m, lam, b, True, ima, ims, ma, ms, mr)
     if flags & L.F_AERO:
         fd, md, n = ad
         acc2 = w[W_ACC2 : W_ACC2 + 15]
@@ -173,16 +181,7 @@ def accelerations(y, tgt, z, flaps, u, p, flags, free_idx, n_free, locked, n_loc
         for d in range(3):
             F[C_VA + d] = fd[d]
             F[C_WA + d] = mdb[d]
-        _minv(F, 0, acc2, 0, ima, ims, ma, ms, mr)
-        for r in range(m):
-            s = 0.0
-            for k in range(15):
-                s += MJ[r * 15 + k] * F[k]
-            lam[r] = s
-        _chol_solve(S, m, lam)
-        for r in range(m):
-            for k in range(15):
-                acc2[k] -= lam[r] * MJ[r * 15 + k]
+        _solve_constrained(F, acc2, MJ, S, m, lam, b, False, ima, ims, ma, ms, mr)
         a1 = n[0] * acc[C_VA] + n[1] * acc[C_VA + 1] + n[2] * acc[C_VA + 2]
         a2 = n[0] * acc2[C_VA] + n[1] * acc2[C_VA + 1] + n[2] * acc2[C_VA + 2]
         c_ad = a1 / (1.0 - a2)
