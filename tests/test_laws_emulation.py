@@ -326,11 +326,11 @@ def test_registry_and_bad_input(params):
 
 # --------------------------------------------------------------------------------------------- closed loop
 # Measured on these 32 seeded episodes (seed 0, NOMINAL spread of mass and servos, 15-25 m/s, sensor noise):
-# calm air 32/32 (median emulation error 0.30); 0.25 % gusts 32/32 (0.31); 0.5 % 30/32 (0.35); 1 % gusts, the
-# comparison's tunnel turbulence, 18/32 (0.47: the gusts alone, without a pilot input, score 0.40 against the
-# still-air reference; 0.62 with the law off).  The heave/sway PID: 2/32, 2/32, 2/32, 0/32.  Thresholds 10-15
-# points below.
-@pytest.mark.parametrize("turbulence, threshold", [(0.0, 0.85), (0.0025, 0.80), (0.01, 0.40)])
+# calm air 32/32 (median emulation error 0.30); 0.25 % gusts 32/32 (0.30); 0.5 % 31/32 (0.33); 1 % gusts, the
+# comparison's tunnel turbulence, 24/32 (0.37; 18/32 and 0.47 when the free-Hawk reference flew in still air
+# and the rig's whole gust response counted as error).  The heave/sway PID: 2/32, 2/32, 0/32, 0/32.
+# Thresholds 10-15 points below.
+@pytest.mark.parametrize("turbulence, threshold", [(0.0, 0.85), (0.0025, 0.80), (0.01, 0.60)])
 def test_success_rate_of_the_emulation(turbulence, threshold):
     res = evaluate({"lqr": "lqr", "pid": "pid"}, "free_flight_emulation", n_episodes=32, seed=0,
                    conditions=replace(NOMINAL, turbulence=turbulence))

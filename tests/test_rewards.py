@@ -106,11 +106,11 @@ def test_roll_rate_counts_on_the_success_scale_once_the_reference_stops():
 
 
 def test_departure_rates_count_on_the_recovery_scale():
-    """Level rig, alpha 0, one free joint rate of 20 deg/s (the recovery bound): c = 1, r = 0.51146 (on the
-    old 60 deg/s scale it was e^(-1/9) = 0.895, nearly full reward for a rig not yet recovered)."""
+    """Level rig, alpha 0, one free joint rate of 30 deg/s (the recovery bound): c = 1, r = 0.51146 (on the
+    old 60 deg/s scale it was e^(-1/4) = 0.78, most of the reward for a rig not yet recovered)."""
     task = DepartureRecovery(1, ("rig_roll", "rig_pitch", "model_pitch", "model_yaw"), DT, 8.0)
     q, qd = np.zeros((1, 5)), np.zeros((1, 5))
-    qd[0, 0] = 20 * D
+    qd[0, 0] = 30 * D
     a = np.zeros((1, 3))
     assert task.reward(q, qd, np.zeros((1, 1)), a, a)[0] == pytest.approx(0.51146, abs=5e-5)
 

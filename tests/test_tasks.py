@@ -229,6 +229,55 @@ def test_free_hawk_3211_response_matches_the_exact_discretisation(params):
     np.testing.assert_allclose((hs[2:] - 2 * hs[1:-1] + hs[:-2]) / dt**2, an[1:-1], atol=0.02 * np.abs(an).max())
 
 
+def test_free_hawk_flies_in_the_gust_it_is_given(params):
+    """The reference's gust channel against theory: held in a steady updraft alpha_g, the statically stable
+    free Hawk weathercocks into it (q' = 0 and theta' = q = 0 need alpha + alpha_g = 0): its kinematic alpha
+    goes to -alpha_g, q and a_n to 0; and its response equals the exact zero-order-hold discretisation of
+    x' = A x + B_g alpha_g with B_g = (-Za, Ma, 0, 0, 0, 0), written out independently."""
+    V, dt, ag = 20.0, 1 / 80, 0.5 * D
+    model = FreeHawkShortPeriod(1, dt)
+    model.configure(np.arange(1), np.array([V]), param_batch(params, 1))
+    d = _derivatives(params, V)
+    A, _ = model.matrices(np.arange(1))
+    Bg = np.array([-d["Za"], d["Ma"], 0.0, 0.0, 0.0, 0.0])
+    Phi = expm(np.block([[A[0], Bg[:, None]], [np.zeros((1, 7))]]) * dt)
+    x = np.zeros(6)
+    zero = np.zeros(1)
+    for k in range(80):  # 1 s: the short period's transient
+        x = Phi[:6, :6] @ x + Phi[:6, 6] * ag
+        model.step(zero, np.array([ag]))
+        assert model.x[0] == pytest.approx(np.zeros(6), abs=0.0)  # the pilot part stays at rest
+    np.testing.assert_allclose(model.xg[0], x, rtol=1e-9, atol=1e-15)
+    for k in range(80 * 30):
+        model.step(zero, np.array([ag]))
+    assert model.xg[0, 0] == pytest.approx(-ag, rel=1e-3)  # weathercocked: alpha_a = 0
+    assert abs(model.xg[0, 1]) < 1e-4 * ag and abs(model.an[0]) < 1e-3
+
+
+def test_free_flight_reference_flies_the_rigs_gusts_from_the_input_on():
+    """In gusts the reference moves with the environment's gust from t0 (the input's start) on and not before;
+    the score's normaliser is the pilot input's response alone; calm air leaves the gust part at zero."""
+    n = 8
+    env = RigVectorEnv(n, task="free_flight_emulation", turbulence=0.02)
+    env.reset(seed=3)
+    task = env.task
+    a = np.zeros((n, 3))
+    seen_before, seen_after = 0.0, 0.0
+    for _ in range(int(3.0 / env.dt)):
+        env.step(a)
+        before = env.t < task.t0 - 0.5 * env.dt
+        seen_before += np.abs(task.model.xg[before]).sum()
+        seen_after += np.abs(task.model.xg[~before]).sum()
+    assert seen_before == 0.0 and seen_after > 0.0
+    ref = task.reference(np.full(n, env.t))
+    np.testing.assert_allclose(ref[:, 0], task.model.x[:, 0] + task.model.xg[:, 0])
+    calm = RigVectorEnv(n, task="free_flight_emulation")
+    calm.reset(seed=3)
+    for _ in range(int(3.0 / calm.dt)):
+        calm.step(a)
+    assert not calm.task.model.xg.any() and calm.task.model.x.any()
+
+
 def test_rig_alpha_and_static_alpha_follow_the_rig_kinematics(params):
     rng = np.random.default_rng(3)
     q = rng.uniform(-0.5, 0.5, size=(20, 5))
@@ -279,6 +328,36 @@ def test_departure_recovery_draws_a_departure_and_uses_the_stall_tables():
     u = env.task.pilot_inputs(np.zeros(16))[:, 0]
     assert np.all((-12 * D <= u) & (u <= -6 * D))  # nose-up pull
     assert np.all(env.task.pilot_inputs(env.task.t_rel + 1e-9)[:, 0] == 0.0)  # released
+
+
+def test_departure_rate_bound_sits_above_the_trimmed_rigs_response_to_tunnel_turbulence():
+    """A recovered rig is one whose rates are back at its own turbulence response: trimmed at 20 m/s (no
+    control, the task's free joints and tables) in 1 % gusts (first-order Gauss-Markov, 0.2 s, as the
+    environments draw them), every free joint's peak rate over 6 s stays below the recovery bound, the
+    median peak below two thirds of it; the departure's initial rates (60 deg/s) are twice the bound."""
+    from rig_env.envs.tasks.departure import RATE_RECOVERED, DepartureRecovery
+
+    p = rig_env.RigParams.default()
+    free = DepartureRecovery.default_free_dofs
+    n, dt, T = 16, 1.0 / 80.0, 6.0
+    q0 = np.tile([0.0, 7.0 * D, 0.0, 8.0 * D, 0.0], (n, 1))
+    settle = rig_env.simulate(p, q0, np.zeros((n, 5)), 15.0, free_dofs=free, airspeed=20.0, nonlinear_aero=True)
+    qs, qds = settle.q[:, -1], settle.qd[:, -1]
+    assert np.all(np.abs(qds) < 1e-3)  # at rest: a trim
+    rng = np.random.default_rng(0)
+    steps = int(T / dt) + 2
+    phi, sigma = math.exp(-dt / 0.2), 0.01 * 20.0
+    g = np.zeros((steps, n, 3))
+    g[0] = sigma * rng.normal(size=(n, 3))
+    for k in range(1, steps):
+        g[k] = phi * g[k - 1] + sigma * math.sqrt(1.0 - phi**2) * rng.normal(size=(n, 3))
+    r = rig_env.simulate(p, qs, qds, T, free_dofs=free, airspeed=20.0, nonlinear_aero=True,
+                         gust=lambda t: g[min(int(round(t / dt)), steps - 1)])
+    peak = np.abs(r.qd).max(axis=1).max(axis=1)  # (n,) the largest free joint rate of each run
+    assert np.all(peak < RATE_RECOVERED)
+    assert np.median(peak) < RATE_RECOVERED / 1.5
+    assert np.median(peak) > 0.2 * RATE_RECOVERED  # the gusts do move the rig: the bound is not vacuous
+    assert DepartureRecovery.IC_RATE[0][1] * D >= 2.0 * RATE_RECOVERED
 
 
 # ---------------------------------------------------------------------- open-loop episodes

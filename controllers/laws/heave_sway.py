@@ -34,9 +34,10 @@ row, ``u_ff = (a_ref - A_j x) / b_j`` on the measured state, so that the gimbal 
 Hawk's heave acceleration whatever the model does.
 
 Departure recovery keeps rig_roll free, so the roll laws (:mod:`controllers.laws.pid`, :mod:`controllers.laws.lqr`)
-fly it (they come first in the registry); with wind-tunnel turbulence (1 %) they recover 28/32 and 27/32
-episodes at 20 m/s.  With 5 % gusts (the "gusty" stress mode) no law does: the passive model joints' rates stay
-above the task's 20 deg/s recovery limit (peaks 60-85 deg/s), which no compensator input can damp.
+fly it (they come first in the registry); with wind-tunnel turbulence (1 %) the PID and the LQR recover 32/32
+and 29/32 episodes at 20 m/s (the comparison's nominal conditions otherwise).  With 5 % gusts (the "gusty"
+stress mode) no law does (0/32): the passive model joints' rates stay above the task's 30 deg/s recovery
+limit (peaks 60-85 deg/s), which no compensator input can damp.
 
 ``law.describe()`` gives gains and margins (servo, delay and rate sensor in the loop) for the report.
 

@@ -422,6 +422,7 @@ class RigVectorEnv(VectorEnv):
         self.steps += 1
         self.t = self.steps * self.dt
         q, qd = self.X[:, L.X_Q : L.X_Q + 5], self.X[:, L.X_QD : L.X_QD + 5]
+        self.task.air(self.U[:, L.U_GUST : L.U_GUST + 3])
         self.task.advance(self.t, q, qd)
         noise = rs.normal(self.keys, self.episode, self.steps, rs.S_SENSOR, self.sensors.n_channels) if self._noisy else None
         self.sensors.update(q[:, self.free_idx], self.X[:, L.X_SERVO : L.X_SERVO + 4], self.airspeed, noise)

@@ -7,7 +7,8 @@ batch and calls the task with (n, ...) arrays at the control rate, in this order
 |---|---|---|
 | reset of envs ``idx`` | ``conditions(idx, airspeed, P)`` then ``reset(idx, u)`` | episode airspeed and parameter rows, then the task's draws and initial state |
 | start of a control step | ``pilot_inputs(t)`` | Hawk elevator, aileron, rudder disturbances (rad), held over the step |
-| after the physics step | ``advance(t, q, qd)`` | internal states (reference models, captured baselines) |
+| after the physics step | ``air(gust)`` | the gust (n, 3), m/s world, that acted over the step (zeros in calm air) |
+| after ``air`` | ``advance(t, q, qd)`` | internal states (reference models, captured baselines) |
 | after ``advance`` | ``reference(t)``, ``reward``, ``tracked`` | reference signals, reward, metrics' signal |
 | episode end of envs ``idx`` | ``episode_metrics(idx)`` | task-specific metrics, added to ``final_info`` |
 | time limit | ``success(q, qd, ref, metrics)`` | success flag of the envs that reached it (metrics include the task's) |
@@ -253,6 +254,10 @@ class Task:
         control step; with ``hawk_surfaces=True`` it is added to the action's command.  Default: zeros.
         """
         return self._zero_pilot
+
+    def air(self, gust: np.ndarray) -> None:
+        """The gust (n, 3), m/s in world axes (x upstream, z down), held over the step just taken; a reference
+        model that flies in the same air as the rig reads it here.  Default: ignored."""
 
     def advance(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> None:
         """Update internal states to time t (n,) s from the true state q, qd (n, 5).  Default: nothing."""
