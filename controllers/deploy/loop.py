@@ -569,7 +569,8 @@ class RigLoop:
         if self.state != ACTIVE or self.missed >= self.cfg.stale_frames:
             return mode, compute, obs_t
         self.t_arr[0] = obs_t
-        # tasks with internal states (the free-Hawk reference model) advance on the measured joints
+        # tasks with internal states (the free-Hawk reference model) advance on the measured joints; the tunnel's
+        # gusts are not measured on the rig, so Task.air is never called here and the reference flies in calm air
         self.q5[self.free] = self.sensors.angles[0]
         self.qd5[self.free] = self.sensors.rates[0]
         self.task.advance(self.t_arr, self.q5[None], self.qd5[None])
