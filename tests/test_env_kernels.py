@@ -228,7 +228,7 @@ def test_stop_flags_and_control_cost_equal_the_numpy_formulas():
             a = rng.uniform(-1.2, 1.2, (n, k))
             sat = np.maximum(np.abs(a) - tb.SAT_KNEE, 0.0) / (1.0 - tb.SAT_KNEE)
             m = m + (dt / tb.RATE_TAU) * (np.sum(((a - a_prev) / (tb.RATE_SCALE * dt)) ** 2, axis=1) - m)
-            expected = np.sum(0.05 * a**2 + 0.3 * sat**2, axis=1) + tb.RATE_WEIGHT * m
+            expected = np.sum(0.25 * a**2 + 0.3 * sat**2, axis=1) + tb.RATE_WEIGHT * m  # the docstring's weights
             np.testing.assert_allclose(task._control_cost(a, a_prev), expected, rtol=1e-12, atol=1e-14)
             a_prev = a
 

@@ -29,28 +29,28 @@ def _state(n: int, roll: float = 0.0, rate: float = 0.0) -> tuple[np.ndarray, np
 
 def test_control_rate_cost_by_hand():
     """a = (0.5, 0, 0) after (0.3, 0, 0), tracking exact, a fresh episode (activity 0): rate 0.2 / 0.0125 s
-    = 16 /s = 4 units of 4 /s, squared 16; the activity m = 0 + (0.0125 / 0.25)(16 - 0) = 0.8; c_u = 0.05 * 0.25
-    + 0.2 * 0.8 = 0.1725, r = exp(-0.1725) = 0.841558.  The same action again (rate 0): m = 0.8 * 0.95 = 0.76,
-    c_u = 0.0125 + 0.152 = 0.1645, r = 0.848318; a new episode (conditions) starts from m = 0 again."""
+    = 16 /s = 4 units of 4 /s, squared 16; the activity m = 0 + (0.0125 / 0.25)(16 - 0) = 0.8; c_u = 0.25 * 0.25
+    + 0.2 * 0.8 = 0.2225, r = exp(-0.2225) = 0.800515.  The same action again (rate 0): m = 0.8 * 0.95 = 0.76,
+    c_u = 0.0625 + 0.152 = 0.2145, r = 0.806945; a new episode (conditions) starts from m = 0 again."""
     task = _vvr()
     q, qd = _state(1)
     ref, a, a0 = np.zeros((1, 2)), np.array([[0.5, 0.0, 0.0]]), np.array([[0.3, 0.0, 0.0]])
-    assert task.reward(q, qd, ref, a, a0)[0] == pytest.approx(0.841558, abs=1e-6)
-    assert task.reward(q, qd, ref, a, a)[0] == pytest.approx(0.848318, abs=1e-6)
+    assert task.reward(q, qd, ref, a, a0)[0] == pytest.approx(0.800515, abs=1e-6)
+    assert task.reward(q, qd, ref, a, a)[0] == pytest.approx(0.806945, abs=1e-6)
     from rig_env.physics import layout
 
     task.conditions(np.array([0]), np.array([20.0]), np.ones((1, layout.N_PARAMS)))
-    assert task.reward(q, qd, ref, a, a0)[0] == pytest.approx(0.841558, abs=1e-6)
+    assert task.reward(q, qd, ref, a, a0)[0] == pytest.approx(0.800515, abs=1e-6)
 
 
 def test_saturation_cost_by_hand():
-    """A surface held at full deflection (a = 1, unchanged): c_u = 0.05 + 0.3 * ((1 - 0.9) / 0.1)^2 = 0.35;
-    at 0.95: 0.05 * 0.9025 + 0.3 * 0.25 = 0.120125; at 0.9 and below no saturation charge."""
+    """A surface held at full deflection (a = 1, unchanged): c_u = 0.25 + 0.3 * ((1 - 0.9) / 0.1)^2 = 0.55;
+    at 0.95: 0.25 * 0.9025 + 0.3 * 0.25 = 0.300625; at 0.9 and below no saturation charge (0.25 * 0.81)."""
     task = _vvr(3)
     q, qd = _state(3)
     a = np.array([[1.0, 0, 0], [0.95, 0, 0], [0.9, 0, 0]])
     r = task.reward(q, qd, np.zeros((3, 2)), a, a)
-    np.testing.assert_allclose(r, np.exp(-np.array([0.35, 0.120125, 0.0405])), rtol=1e-12)
+    np.testing.assert_allclose(r, np.exp(-np.array([0.55, 0.300625, 0.2025])), rtol=1e-12)
 
 
 def test_chatter_earns_less_than_a_smooth_command_with_equal_tracking():
@@ -58,8 +58,8 @@ def test_chatter_earns_less_than_a_smooth_command_with_equal_tracking():
     chatter) earns less than half of what holding still earns, a +-0.75 square wave (bang-bang, the same
     frequency) far less than that.  By hand: the rate's amplitude is 0.75 * 2 pi 2.5 = 11.78 /s = 2.945
     units, its square averages 4.337, which the 0.25 s activity average holds to within 2 % of its mean
-    after the first second (a 2.5 Hz ripple at 5 Hz through a 0.64 Hz low pass); with 0.05 * 0.75^2 / 2 for
-    the size: c_u = 0.0141 + 0.2 * 4.337 = 0.8815 and exp(-0.8815) = 0.4142."""
+    after the first second (a 2.5 Hz ripple at 5 Hz through a 0.64 Hz low pass); with 0.25 * 0.75^2 / 2 for
+    the size: c_u = 0.0703 + 0.2 * 4.337 = 0.9377 and exp(-0.9377) = 0.3915."""
     task = _vvr()
     q, qd = _state(1)
     ref = np.zeros((1, 2))
@@ -75,7 +75,7 @@ def test_chatter_earns_less_than_a_smooth_command_with_equal_tracking():
     still, smooth, chatter = total(np.zeros_like(t)), total(sine), total(square)
     assert still == 1.0
     # the discrete rate (per 12.5 ms step) of a sine is its derivative to within 1 %, the ripple about 2 %
-    assert smooth == pytest.approx(0.4142, rel=0.03)
+    assert smooth == pytest.approx(0.3915, rel=0.03)
     assert chatter < 0.1 * smooth
 
 

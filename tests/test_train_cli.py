@@ -141,6 +141,7 @@ activation_fn = "relu"
     ("[bank_to_bank]\nerror_reset = { entry = \"roll_error\" }\n", "error_reset: needs both 'entry' and 'bound'"),
     ("[bank_too_bank]\nnum_envs = 8\n", "table(s) ['bank_too_bank']: not a task"),
     ("[bank_to_bank\n", "not valid TOML"),
+    ("[bank_to_bank]\nacting_surfaces = \"yes\"\n", "[bank_to_bank].acting_surfaces = 'yes': must be true or false"),
 ])
 def test_bad_settings_are_refused_by_name(tmp_path, extra, message):
     from controllers.design.rl_hyperparams import HyperparamError, settings

@@ -44,6 +44,38 @@ class SuccessInfo(VecEnvWrapper):
         return obs, rew, done, infos
 
 
+class ActionSubset(VecEnvWrapper):
+    """The policy commands only the actions ``keep`` (indices); the others are held at 0 (neutral).
+
+    ``rig train`` keeps the compensator surfaces that move a free rig joint
+    (:func:`controllers.laws.axes.acting_surfaces`): a surface on a locked axis does nothing for the task,
+    and a squashed (tanh) policy left to explore it drifts to a large deflection.  The exported policy
+    commands every action, with zero weights for the held ones (:func:`controllers.design.rl_export.export_sb3`).
+    """
+
+    def __init__(self, venv: VecEnv, keep: tuple[int, ...]) -> None:
+        from gymnasium import spaces
+
+        full = venv.action_space
+        if not keep or min(keep) < 0 or max(keep) >= full.shape[0] or len(set(keep)) != len(keep):
+            raise ValueError(f"ActionSubset: keep = {keep!r}: distinct indices in [0, {full.shape[0]})")
+        self.keep = tuple(int(i) for i in keep)
+        self.n_full = int(full.shape[0])
+        space = spaces.Box(full.low[list(self.keep)], full.high[list(self.keep)], dtype=full.dtype)
+        super().__init__(venv, action_space=space)
+
+    def reset(self) -> Any:
+        return self.venv.reset()
+
+    def step_async(self, actions: np.ndarray) -> None:
+        a = np.zeros((actions.shape[0], self.n_full), dtype=np.float32)
+        a[:, list(self.keep)] = actions
+        self.venv.step_async(a)
+
+    def step_wait(self) -> Any:
+        return self.venv.step_wait()
+
+
 class ErrorReset(VecEnvWrapper):
     """Training curriculum: end an episode early once ``|o[label]| > limit`` (a lost track), as a failure.
 

@@ -54,6 +54,7 @@ def export_sb3(
     vecnormalize: Any | None = None,
     env_overrides: dict[str, Any] | None = None,
     provenance: dict[str, Any] | None = None,
+    action_index: tuple[int, ...] | None = None,
 ) -> Artefact:
     """The policy of a trained SB3 PPO/SAC ``model`` as a rig-law artefact of kind "ppo" / "sac".
 
@@ -61,6 +62,9 @@ def export_sb3(
     env_overrides: the environment settings it was trained with (recorded in the provenance; the
     sensor layout and output limits are those of ``RigVectorEnv(1, task=spec.task, **env_overrides)``).
     provenance: the training record (merged over the default provenance).
+    action_index: the loop's actions the model commands, when it was trained on a subset
+    (:class:`controllers.design.rl_callbacks.ActionSubset`); the others get zero rows in the output layer, so
+    the artefact commands them at exactly 0 (tanh(0) and clip(0) are 0 on the symmetric +-1 range).
     Write it with :func:`controllers.laws.artefact.save`.
     """
     from stable_baselines3 import PPO, SAC
@@ -96,14 +100,26 @@ def export_sb3(
         raise ValueError(f"{kind} export: output module {out!r} is not a Linear layer")
     if len(acts) > 1:
         raise ValueError(f"{kind} export: mixed activations {sorted(acts)}")
-    layers = hidden + [(out.weight.detach().cpu().numpy(), out.bias.detach().cpu().numpy())]
+    W_out, b_out = out.weight.detach().cpu().numpy(), out.bias.detach().cpu().numpy()
     space = model.action_space
-    if tuple(space.shape) != (spec.n_actions,) or tuple(model.observation_space.shape) != (spec.obs_dim,):
+    low, high = np.asarray(space.low, dtype=np.float64), np.asarray(space.high, dtype=np.float64)
+    if action_index is not None:
+        idx = list(action_index)
+        if len(idx) != space.shape[0] or len(set(idx)) != len(idx) or min(idx) < 0 or max(idx) >= spec.n_actions:
+            raise ValueError(f"{kind} export: action_index {action_index!r}: {space.shape[0]} distinct indices in [0, {spec.n_actions})")
+        W = np.zeros((spec.n_actions, W_out.shape[1]), dtype=W_out.dtype)
+        b = np.zeros(spec.n_actions, dtype=b_out.dtype)
+        W[idx], b[idx] = W_out, b_out
+        W_out, b_out = W, b
+        low, high = -np.ones(spec.n_actions), np.ones(spec.n_actions)
+        low[idx], high[idx] = np.asarray(space.low), np.asarray(space.high)
+    layers = hidden + [(W_out, b_out)]
+    if W_out.shape[0] != spec.n_actions or tuple(model.observation_space.shape) != (spec.obs_dim,):
         raise ValueError(f"{kind} export: model spaces {model.observation_space.shape} -> {space.shape} do not match the loop spec")
 
     overrides = dict(env_overrides or {})
     data: dict[str, Any] = {"activation": acts.pop() if acts else "tanh", "postprocess": post, "obs_norm": None,
-                            "action_low": _f64(space.low), "action_high": _f64(space.high)}
+                            "action_low": _f64(low), "action_high": _f64(high)}
     for i, (W, b) in enumerate(layers):
         data[f"weight_{i}"], data[f"bias_{i}"] = _f64(W), _f64(b)
     if vecnormalize is not None and vecnormalize.norm_obs:

@@ -84,6 +84,7 @@ RUN_FIELDS: dict[str, Check] = {
     "eval_every": (_pos_int, "a positive integer"),
     "normalize": (_bool, "true or false"),
     "clip_obs": (_pos, "a positive number"),
+    "acting_surfaces": (_bool, "true or false"),
     "error_reset": (lambda v: isinstance(v, dict), "a table {entry = OBSERVATION_LABEL, bound = POSITIVE_NUMBER}"),
     "env": (lambda v: isinstance(v, dict), "a table of RigEnvConfig fields"),
     "algo": (lambda v: isinstance(v, dict), "a table of the algorithm's keyword arguments"),
@@ -143,6 +144,7 @@ class RunSettings:
     normalize: bool
     clip_obs: float
     error_reset: tuple[str, float] | None = None
+    acting_surfaces: bool = False
     env: Mapping[str, Any] = field(default_factory=dict)
     algo_kwargs: Mapping[str, Any] = field(default_factory=dict)
 
@@ -160,7 +162,7 @@ class RunSettings:
         """JSON-able, for the policy's provenance."""
         return {"file": self.file, "source": self.source, "num_envs": self.num_envs, "timesteps": self.timesteps,
                 "eval_every": self.eval_every, "normalize": self.normalize, "clip_obs": self.clip_obs,
-                "error_reset": list(self.error_reset) if self.error_reset else None, "env": dict(self.env),
+                "acting_surfaces": self.acting_surfaces, "error_reset": list(self.error_reset) if self.error_reset else None, "env": dict(self.env),
                 "algo_kwargs": _plain(self.algo_kwargs)}
 
 
@@ -231,7 +233,7 @@ def settings(algo: str, task: str, path: Path | None = None) -> RunSettings:
         algo=algo, task=task, file=str(path), source=str(merged.get("source", "")), num_envs=merged["num_envs"],
         timesteps=merged["timesteps"], eval_every=merged["eval_every"], normalize=merged["normalize"],
         clip_obs=float(merged["clip_obs"]), error_reset=(er["entry"], float(er["bound"])) if er else None,
-        env=dict(merged.get("env", {})), algo_kwargs=algo_kw,
+        acting_surfaces=bool(merged.get("acting_surfaces", False)), env=dict(merged.get("env", {})), algo_kwargs=algo_kw,
     )
 
 

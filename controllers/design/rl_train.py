@@ -281,8 +281,11 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
     from controllers.laws.rl import policy_path
     from controllers.design.rl_export import evaluate, export_sb3
     from controllers.design.rl_hyperparams import HyperparamError, settings
+    from rig_env.envs import RigVectorEnv
     from rig_env.envs.sb3 import RigSB3VecEnv
+    from controllers.laws.axes import acting_surfaces
     from controllers.design.rl_callbacks import (
+        ActionSubset,
         EnvTimer,
         ErrorReset,
         SuccessInfo,
@@ -306,6 +309,13 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
     kwargs = hp.sb3_kwargs()
     timer: list[EnvTimer] = []
 
+    probe = RigVectorEnv(1, task=args.task, **overrides)
+    # the policy flies the surfaces that move a free rig joint (the settings' acting_surfaces; not with the
+    # Hawk's surfaces in the action): the others stay neutral and export as zero rows
+    keep = acting_surfaces(probe.free_dofs) if hp.acting_surfaces and len(probe.action_names) == 3 else None
+    if keep is not None and len(keep) == 3:
+        keep = None
+
     def make_env(n: int, seed: int, training: bool) -> tuple[Any, Any]:
         base = RigSB3VecEnv(n, task=args.task, **overrides)
         base.seed(seed)
@@ -315,7 +325,10 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
         if reset_at is not None and reset_at[0] not in base.vec.obs_labels:
             raise SystemExit(f"rig train: settings {hp.file} [{args.task}].error_reset.entry = {reset_at[0]!r}: not an "
                              f"observation entry; entries: {list(base.vec.obs_labels)}")
-        env = EnvTimer(SuccessInfo(VecMonitor(ErrorReset(base, *(reset_at or (None, np.inf))))))
+        inner: Any = ErrorReset(base, *(reset_at or (None, np.inf)))
+        if keep is not None:
+            inner = ActionSubset(inner, keep)
+        env = EnvTimer(SuccessInfo(VecMonitor(inner)))
         if training:
             timer.append(env)
         return base, env
@@ -369,7 +382,7 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
     wall = time.perf_counter() - t0 + wall_before
 
     # export, load the file back, and measure what ships (numpy runtime, not the torch model)
-    art = export_sb3(model, spec, env if hp.normalize else None, env_overrides=overrides)
+    art = export_sb3(model, spec, env if hp.normalize else None, env_overrides=overrides, action_index=keep)
     path = out / "policy.json"
     save(art, path)
     law = make_controller(args.algo, spec, args.final_episodes, path=path)

@@ -27,6 +27,23 @@ def axes_of(free_dofs: tuple[str, ...]) -> list[str]:
     return [j for j in sorted(AXIS_OF, key=AXIS_OF.get) if j in free_dofs]
 
 
+SURFACES = ("comp_aileron", "comp_elevator", "comp_rudder")
+"""The compensator's surfaces, in the order of the environments' first three actions."""
+
+
+def acting_surfaces(free_dofs: tuple[str, ...]) -> tuple[int, ...]:
+    """Indices (into :data:`SURFACES`) of the compensator surfaces that move a free rig joint.
+
+    The ailerons roll the rig (rig_roll); heave and sway come from the elevator and rudder through the
+    roll angle (:func:`resolve`): with rig_roll locked at 0 the elevator moves rig_pitch only and the rudder
+    rig_yaw only; with rig_roll free, either moves either joint once the rig has rolled.  A surface that
+    moves no free joint only costs drag and hinge load.
+    """
+    roll, heave, sway = ("rig_roll" in free_dofs), ("rig_pitch" in free_dofs), ("rig_yaw" in free_dofs)
+    use = (roll, heave or (roll and sway), sway or (roll and heave))
+    return tuple(i for i, u in enumerate(use) if u)
+
+
 def resolve(phi: np.ndarray, v: np.ndarray) -> np.ndarray:
     """(n, 3) compensator (aileron, elevator, rudder) from virtual (roll, heave, sway) v (n, 3) at roll phi (n,), rad."""
     c, s = np.cos(phi), np.sin(phi)

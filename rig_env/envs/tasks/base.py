@@ -19,7 +19,7 @@ Every reward has one form (:meth:`Task.shaped_reward`), from the task's tracking
 errors over their scales, in each task's docstring) and the control cost ``c_u >= 0``:
 
     r = (0.7 exp(-c) + 0.3 exp(-sqrt(c) / 6)) exp(-c_u)                         in (0, 1]
-    c_u = sum_j [0.05 a_j^2 + 0.3 (max(|a_j| - 0.9, 0) / 0.1)^2] + 0.2 m
+    c_u = sum_j [0.25 a_j^2 + 0.3 (max(|a_j| - 0.9, 0) / 0.1)^2] + 0.2 m
     m' = (sum_j (da_j/dt / 4 s^-1)^2 - m) / 0.25 s                             (command activity, m = 0 at reset)
 
 with ``a`` the normalised actions (+-1 full deflection), ``da/dt`` their change per control period over
@@ -44,6 +44,11 @@ task, zeroed in :meth:`Task.conditions`).  Why each part:
   chatter on one is not diluted by the others at rest);
 - the saturation term charges commands beyond 90 % of full deflection (a surface held at its stop costs
   30 % of the reward), so holding a stop is never free.
+- the deflection term ``0.25 a_j^2`` makes a surface the manoeuvre does not need cost something (half
+  deflection 6 % of the reward): a flap held over is drag, hinge load and authority lost for the next
+  disturbance.  At 0.05 it was too cheap against a squashed (tanh) exploration policy's incentive to
+  park its mean where tanh is flat and its own noise is small: PPO policies held the unused elevator and
+  rudder at 25-30 deg (RMS command 24-29 deg against the PID's 7-11 deg).
 
 A step that ends the episode by failure (blow-up or a joint beyond its stop margin) earns 0 (the
 environment does that).  Episodes
@@ -98,11 +103,13 @@ FINE_SHARE = 0.7
 """Share of the fine term in the tracking reward; the wide term has the rest."""
 SAT_KNEE = 0.9
 """|a| above this (normalised) is charged as saturation."""
+EFFORT_WEIGHT = 0.25
+"""Weight of the squared deflection sum_j a_j^2 in the control cost."""
 
 
 @kernel(**_JIT)
 def _control_cost_kernel(a, a_prev, rate_step, alpha, knee, w_rate, activity, out):
-    """out (n,) = sum_j [0.05 a_j^2 + 0.3 (max(|a_j| - knee, 0) / (1 - knee))^2] + w_rate m, where the command
+    """out (n,) = sum_j [EFFORT_WEIGHT a_j^2 + 0.3 (max(|a_j| - knee, 0) / (1 - knee))^2] + w_rate m, where the command
     activity m (n,) (in/out) is first advanced m += alpha (sum_j ((a_j - a_prev_j) / rate_step)^2 - m).
 
     a, a_prev (n, k) normalised actions; rate_step = RATE_SCALE * dt, the change per control step that counts as
@@ -116,7 +123,7 @@ def _control_cost_kernel(a, a_prev, rate_step, alpha, knee, w_rate, activity, ou
             d = (x - a_prev[i, j]) / rate_step
             ax = x if x >= 0.0 else -x
             sat = (ax - knee) / (1.0 - knee) if ax > knee else 0.0
-            s += 0.05 * x * x + 0.3 * sat * sat
+            s += EFFORT_WEIGHT * x * x + 0.3 * sat * sat
             r2 += d * d
         activity[i] += alpha * (r2 - activity[i])
         out[i] = s + w_rate * activity[i]
