@@ -88,7 +88,8 @@ def document(cmp: Comparison) -> dict[str, Any]:
     present = {k for r in cmp.rows for k in r["metrics"]}
     settings = {k: v for k, v in cmp.settings.items() if k != "machine"}
     timing = {"seconds": cmp.seconds, "machine": cmp.settings.get("machine", ""),
-              "batches": [{"task": r.task, "mode": r.conditions, "seconds": r.seconds, "build_seconds": r.build_seconds} for r in cmp.results]}
+              "batches": [{"task": r.task, "mode": r.conditions, "seconds": r.seconds, "build_seconds": r.build_seconds} for r in cmp.results],
+              "backend": cmp.backend or {"backend": "local"}}
     return json_safe({
         "schema_version": SCHEMA_VERSION,
         "settings": {**settings, "score": cmp.rule.to_dict()},
