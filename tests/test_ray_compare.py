@@ -79,7 +79,7 @@ def test_ray_summary_equals_local(ray_cluster: Any, local: tuple[Path, Any], tmp
 def test_node_lost_mid_comparison_every_episode_accounted(ray_cluster: Any, local: tuple[Path, Any], tmp_path: Path) -> None:
     import ray
 
-    victim = ray_cluster.worker_nodes[-1]
+    victim = next(iter(ray_cluster.worker_nodes))
     box: dict[str, Any] = {}
 
     def run() -> None:
@@ -97,7 +97,7 @@ def test_node_lost_mid_comparison_every_episode_accounted(ray_cluster: Any, loca
         except (ValueError, ray.exceptions.RayError):
             time.sleep(0.2)
             continue
-        busy = [k for k, starts in snap["attempts"].items() if starts[-1]["node"] == victim.unique_id]
+        busy = [k for k, starts in snap["attempts"].items() if starts[-1]["node"] == victim.node_id]
         if busy and snap["done"] < snap["total"]:
             time.sleep(0.5)  # mid-chunk
             ray_cluster.remove_node(victim, allow_graceful=False)
@@ -111,8 +111,8 @@ def test_node_lost_mid_comparison_every_episode_accounted(ray_cluster: Any, loca
     assert cmp.backend["retries"] >= 1
     (batch,) = cmp.backend["batches"]
     retried = [c for c in batch["chunks"] if len(c["attempts"]) > 1]
-    assert retried and all(c["attempts"][0]["node"] == victim.unique_id for c in retried)
-    assert all(c["finished_on"]["node"] != victim.unique_id for c in retried)
+    assert retried and all(c["attempts"][0]["node"] == victim.node_id for c in retried)
+    assert all(c["finished_on"]["node"] != victim.node_id for c in retried)
     assert sorted(c["first"] for c in batch["chunks"]) == list(range(0, EPISODES, 2))  # every episode, once
     assert (tmp_path / "ray" / "summary.csv").read_text() == (local[0] / "summary.csv").read_text()
     _same_metrics(local[1], cmp)
