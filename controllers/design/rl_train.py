@@ -46,6 +46,9 @@ final evaluation runs under it.
 ``--seeds S1 S2 ...`` trains one run per seed (``OUT/s<seed>/``, default ``OUT = runs/<task>_<algo>_seeds``)
 and writes ``OUT/seeds.json`` (each seed's final metrics, their mean and standard deviation) and
 ``OUT/seeds.png`` (every seed's evaluation curve): one seed is an anecdote.
+``--backend ray [--address ADDR]`` trains the seeds as a Ray Tune sweep instead (:mod:`controllers.design.sweep`:
+one trial per seed on the cluster, checkpointed under ``OUT``, a lost trial resumed from its last checkpoint),
+then writes ``OUT/s<seed>/policy.json`` and ``OUT/seeds.json`` as above.
 
 The final metrics are those of the exported file, loaded back and run by numpy
 (:func:`controllers.design.rl_export.evaluate`, ``--final-episodes`` episodes seeded ``seed + 20000``).

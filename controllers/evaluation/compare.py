@@ -184,9 +184,9 @@ def _compare(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes:
                     cmp.margins.setdefault(task, {})[law_name] = plain(law.describe())
             for mode in modes:
                 if backend == "ray":
-                    from controllers.evaluation.ray_backend import KindFactory, evaluate_ray
+                    from controllers.evaluation.ray_backend import evaluate_ray, factory_of
 
-                    factories = {name: (KindFactory(name, params) if isinstance(law, Controller) else law) for name, law in laws.items()}
+                    factories = {name: factory_of(law, name, params) for name, law in laws.items()}
                     res, run = evaluate_ray(factories, task, n_episodes=n, seed=seed, conditions=conditions[mode], record=record,
                                             env_overrides=env_params, chunk_size=chunk_size, progress=prog, ledger_name=f"{task}-{mode}")
                     cmp.backend.setdefault("backend", "ray")

@@ -7,9 +7,8 @@ metrics in episode order.  Episode ``i`` is seeded by its index alone (``seed + 
 :mod:`controllers.evaluation.evaluate`), so the joined result is the local one, number for number, whatever the
 chunk size, the order in which chunks finish or the worker that ran them.
 
-* Laws travel as factories ``(spec, n) -> Controller`` (a law kind with the comparison's parameter file, or a
-  law artefact's loader) and are built in the task for the chunk's size; a designed law is designed again in
-  each chunk, from the same inputs (deterministic).
+* Laws travel as factories ``(spec, n) -> Controller`` built in the task for the chunk's size: a designed law as
+  its plain data (:class:`DataFactory`, designed once on the driver), a law artefact as its loader.
 * Lost work: a worker process or a whole node that dies mid-chunk is a system failure; Ray runs the chunk again
   elsewhere (``max_retries``, :data:`rig_env.distributed.MAX_RETRIES`).  Every start of a chunk is recorded in a
   :class:`rig_env.distributed.Ledger` actor on the driver's node, so the retries are counted and reported
@@ -55,6 +54,30 @@ class KindFactory:
     def __call__(self, spec: LoopSpec, n: int) -> Controller:
         designed = self.params is not None and law_for(self.kind, spec) in DESIGNS
         return make_controller(self.kind, spec, n, params=self.params) if designed else make_controller(self.kind, spec, n)
+
+
+@dataclass(frozen=True)
+class DataFactory:
+    """A built law as a picklable factory ``(spec, n) -> Controller``: its class and plain data (``law.to_data()``,
+    what its artefact stores), rebuilt for ``n`` environments by ``from_data`` without designing it again (the
+    design runs once, on the driver; a chunk builds the same runtime a deployed artefact does)."""
+
+    cls: type[Controller]
+    data: dict[str, Any]
+
+    def __call__(self, spec: LoopSpec, n: int) -> Controller:
+        return self.cls.from_data(self.data, spec, n)
+
+
+def factory_of(law: Controller | LawFactory, kind: str, params: RigParams | None = None) -> LawFactory:
+    """What travels to the tasks for ``law``: a factory as it is, a built law as its data (:class:`DataFactory`),
+    or, for a law with no plain-data form, its kind to design again in each chunk (:class:`KindFactory`)."""
+    if not isinstance(law, Controller):
+        return law
+    try:
+        return DataFactory(type(law), law.to_data())
+    except NotImplementedError:
+        return KindFactory(kind, params)
 
 
 @dataclass
