@@ -36,6 +36,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")  # loopback only (before ray is imported)
+# one CPU for the local run as for each Ray task (their workers get the same settings, distributed.worker_env):
+# before numpy and numba load.  Left at the defaults, the local run's two BLAS and numba threads fight the
+# shared host's other jobs and the same batch took 3x as long as in a one-thread Ray worker (measured).
+for _v in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_v] = "1"
 
 from controllers.design.conditions import NOMINAL  # noqa: E402
 from controllers.evaluation.evaluate import evaluate  # noqa: E402
@@ -63,71 +68,98 @@ def _local(task: str, n: int, first: int = 0) -> float:
     return time.perf_counter() - t0
 
 
-def _ray(task: str, n: int, chunk: int | None) -> tuple[float, int]:
+def _ray(task: str, n: int, chunk: int | None) -> tuple[float, int, float]:
+    """Wall time, tasks, and the tasks' own time summed (inside the task: set-up, books, the evaluation)."""
     laws = _laws(task)
     t0 = time.perf_counter()
     _, run = evaluate_ray(laws, task, n_episodes=n, seed=0, conditions=NOMINAL, record=3, chunk_size=chunk)
-    return time.perf_counter() - t0, len(run.chunks)
+    return time.perf_counter() - t0, len(run.chunks), sum(c["task_s"] for c in run.chunks)
 
 
 def main(argv: list[str] | None = None) -> dict[str, object]:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--task", default="bank_to_bank")
     ap.add_argument("--episodes", type=int, default=64)
-    ap.add_argument("--chunks", type=int, nargs="+", default=[8, 16, 32, 64])
+    ap.add_argument("--chunks", type=int, nargs="+", default=[8, 16, 64])
+    ap.add_argument("--rounds", type=int, default=3, help="rounds; in each, every contender runs once, in turn")
     a = ap.parse_args(argv)
     ray = distributed.require_ray()
     n = a.episodes
-    _local(a.task, 4)  # kernels compiled / loaded
-    t_local = min(_local(a.task, n) for _ in range(2))
     sizes = sorted({m for c in a.chunks for _, m in chunks_of(n, c)} | {n})
-    t_of = {m: min(_local(a.task, m) for _ in range(2)) for m in sizes}
-    ms = np.array(sorted(t_of), dtype=float)
-    b, a0 = np.polyfit(ms, [t_of[int(m)] for m in ms], 1)
-    print(f"local: {n} episodes x {len(LAWS)} laws in {t_local:.2f} s; one batch of m episodes t(m) = {a0:.3f} + {b * 1e3:.2f} ms m")
-
+    _local(a.task, 4)  # kernels compiled / loaded
     t0 = time.perf_counter()
     ray.init(num_cpus=1, include_dashboard=False, logging_level="ERROR", log_to_driver=False,
              runtime_env={"env_vars": distributed.worker_env()})
     start_s = time.perf_counter() - t0
     _ray(a.task, n, n)  # warm-up: the worker process, imports, numba cache
+    # the host is shared (other jobs come and go): every contender runs once per round, in turn; medians over rounds
+    loc: dict[int, list[float]] = {m: [] for m in sizes}
+    rt: dict[int, list[float]] = {c: [] for c in a.chunks}
+    inside: dict[int, list[float]] = {c: [] for c in a.chunks}
+    for r in range(a.rounds):
+        for m in sizes:
+            loc[m].append(_local(a.task, m))
+        for c in a.chunks:
+            wall, _, own = _ray(a.task, n, c)
+            rt[c].append(wall)
+            inside[c].append(own)
+        print(f"round {r + 1}: local {n}: {loc[n][-1]:.2f} s; ray " + ", ".join(f"chunk {c}: {rt[c][-1]:.2f} s" for c in a.chunks), flush=True)
+    ray.shutdown()
+    med = {m: float(np.median(v)) for m, v in loc.items()}
+    t_local = med[n]
+    ms = np.array(sorted(med), dtype=float)
+    b, a0 = np.polyfit(ms, [med[int(m)] for m in ms], 1)
     rows = []
     for c in a.chunks:
-        t, k = _ray(a.task, n, c)
-        work = sum(t_of[m] for _, m in chunks_of(n, c))
+        k = len(chunks_of(n, c))
+        # the same chunks run locally one after another, round by round (same load), then the median
+        work = float(np.median([sum(loc[m][r] for _, m in chunks_of(n, c)) for r in range(a.rounds)]))
+        t = float(np.median(rt[c]))
+        per_task = float(np.median([(rt[c][r] - sum(loc[m][r] for _, m in chunks_of(n, c))) / k for r in range(a.rounds)]))
         rows.append({"chunk": c, "chunks": k, "ray_s": round(t, 3), "local_same_chunks_s": round(work, 3),
-                     "overhead_vs_local_s": round(t - t_local, 3), "ray_per_task_s": round((t - work) / k, 4)})
-    ray.shutdown()
+                     "inside_tasks_s": round(float(np.median(inside[c])), 3),
+                     "overhead_vs_local_s": round(t - t_local, 3), "ray_per_task_s": round(per_task, 4),
+                     "ray_runs_s": [round(x, 2) for x in rt[c]]})
     t0 = time.perf_counter()
     ray.init(num_cpus=2, include_dashboard=False, logging_level="ERROR", log_to_driver=False,
              runtime_env={"env_vars": distributed.worker_env()})
     start2 = time.perf_counter() - t0
     _ray(a.task, n, None)
-    t2, k2 = min(_ray(a.task, n, None) for _ in range(2))
+    two, one = [], []
+    for _ in range(a.rounds):
+        two.append(_ray(a.task, n, None)[0])
+        one.append(_local(a.task, n))
     ray.shutdown()
+    t2 = float(np.median(two))
+    t1 = float(np.median(one))
 
-    o = float(np.median([r["ray_per_task_s"] for r in rows]))
-    m_big = 64
+    o = max(0.0, float(np.median([r["ray_per_task_s"] for r in rows])))
+    m_big = max(a.chunks)
     per_chunk = a0 + b * m_big + o
     paper = {}
     for K in (1, 2, 10, 100):
         rate = K * m_big / per_chunk
-        # smallest n (multiple of 16) where a cluster of K one-CPU nodes beats the local run, start-up included
+        # smallest batch (a multiple of 16 episodes) a cluster of K one-CPU nodes runs faster than one local
+        # process, Ray's start-up included
         pay = next((nn for nn in range(16, 10**7, 16)
                     if start_s + math.ceil(nn / (K * m_big)) * (a0 + b * min(m_big, nn) + o) < a0 + b * nn), None)
         paper[K] = {"episodes_per_s": round(rate, 1), "pays_from_episodes": pay}
-    out = {"task": a.task, "laws": list(LAWS), "episodes": n, "local_s": round(t_local, 3),
+    out = {"task": a.task, "laws": list(LAWS), "episodes": n, "rounds": a.rounds, "local_s": round(t_local, 3),
+           "local_runs_s": [round(x, 2) for x in loc[n]],
            "local_fit": {"fixed_s": round(a0, 4), "per_episode_s": round(b, 5)}, "ray_start_s": round(start_s, 2),
-           "one_cpu": rows, "two_cpus": {"chunk": default_chunk_size(n, 2), "chunks": k2, "ray_s": round(t2, 3),
-                                         "speedup_vs_local": round(t_local / t2, 2), "start_s": round(start2, 2)},
+           "one_cpu": rows, "two_cpus": {"chunk": default_chunk_size(n, 2), "ray_s": round(t2, 3), "local_s": round(t1, 3),
+                                         "speedup_vs_local": round(t1 / t2, 2), "start_s": round(start2, 2)},
            "per_task_overhead_s": round(o, 4), "paper_chunk": m_big, "paper": paper,
            "load_average": [round(x, 2) for x in os.getloadavg()]}
-    print("\n| chunk | chunks | Ray, 1 CPU, s | the same chunks locally, s | Ray - local whole batch, s | Ray's cost per task, s |")
-    print("|---|---|---|---|---|---|")
+    print(f"\nlocal: {n} episodes x {len(LAWS)} laws {t_local:.2f} s (median of {a.rounds}); a batch of m episodes "
+          f"t(m) = {a0:.2f} s + {b * 1e3:.1f} ms m; Ray start-up {start_s:.1f} s")
+    print("\n| chunk | tasks | Ray, 1 CPU, s | inside the tasks, s | the same chunks locally, s | Ray - local whole batch, s | Ray's cost per task, s |")
+    print("|---|---|---|---|---|---|---|")
     for r in rows:
-        print(f"| {r['chunk']} | {r['chunks']} | {r['ray_s']:.2f} | {r['local_same_chunks_s']:.2f} | {r['overhead_vs_local_s']:+.2f} | {r['ray_per_task_s']:.3f} |")
-    print(f"\ntwo CPUs, chunk {out['two_cpus']['chunk']}: {t2:.2f} s ({t_local / t2:.2f}x the local {t_local:.2f} s)")
-    print(f"\non paper, chunks of {m_big}: | nodes | episodes/s | Ray pays from (episodes per batch) |")
+        print(f"| {r['chunk']} | {r['chunks']} | {r['ray_s']:.2f} | {r['inside_tasks_s']:.2f} | {r['local_same_chunks_s']:.2f} | "
+              f"{r['overhead_vs_local_s']:+.2f} | {r['ray_per_task_s']:+.3f} |")
+    print(f"\ntwo CPUs, chunk {out['two_cpus']['chunk']}: {t2:.2f} s against {t1:.2f} s locally ({t1 / t2:.2f}x)")
+    print(f"\non paper, chunks of {m_big}, Ray's cost {o:.3f} s per task:\n| one-CPU nodes | episodes/s | Ray pays from (episodes per batch) |")
     for K, p in paper.items():
         print(f"| {K} | {p['episodes_per_s']} | {p['pays_from_episodes']} |")
     print(json.dumps(out))

@@ -173,7 +173,7 @@ def parse(path: str | Path) -> SweepConfig:
     for k in ("algo", "tasks"):
         if k not in data:
             raise SweepError(f"{p}: {k} is required")
-    kinds = {"algo": str, "tasks": list, "seeds": list, "grid": dict, "hyperparams": str, "conditions": str, "env": dict,
+    kinds: dict[str, type | tuple[type, ...]] = {"algo": str, "tasks": list, "seeds": list, "grid": dict, "hyperparams": str, "conditions": str, "env": dict,
              "storage": str, "name": str, "metric": str, "stop_at_target": bool, "target_success": (int, float)}
     for k, t in kinds.items():
         if k in data and not isinstance(data[k], t):

@@ -135,6 +135,7 @@ def _warm(task: str, fields: dict[str, Any], n: int) -> Callable[[], None]:
 def run_chunk(ledger: Any, key: str, laws: Mapping[str, LawFactory], task: str, first: int, m: int, seed: int,
               conditions: Conditions, record: int, env_overrides: Mapping[str, Any] | None) -> dict[str, Any]:
     """One chunk, in a Ray task: episodes ``first .. first + m - 1`` of every law (the body of the remote function)."""
+    t0 = time.perf_counter()
     where = distributed.node_setup()
     import ray
 
@@ -144,7 +145,7 @@ def run_chunk(ledger: Any, key: str, laws: Mapping[str, LawFactory], task: str, 
     res = evaluate(dict(laws), task, n_episodes=m, seed=seed, conditions=conditions, record=record,
                    env_overrides=env_overrides, first_episode=first)
     ray.get(ledger.finish.remote(key, m))
-    return {"result": res, "attempt": attempt, "first": first, "n": m, "warm_s": warm_s, **where}
+    return {"result": res, "attempt": attempt, "first": first, "n": m, "warm_s": warm_s, "task_s": time.perf_counter() - t0, **where}
 
 
 _remote: Any = None
@@ -222,7 +223,7 @@ def evaluate_ray(
         key = f"{o['first']}+{o['n']}"
         run.chunks.append({"first": o["first"], "episodes": o["n"], "attempts": snap["attempts"].get(key, []),
                            "finished_on": {"node": o["node"], "pid": o["pid"], "attempt": o["attempt"]},
-                           "warm_s": round(o["warm_s"], 3), "cache_dir": o["cache_dir"]})
+                           "warm_s": round(o["warm_s"], 3), "task_s": round(o["task_s"], 3), "cache_dir": o["cache_dir"]})
     if progress is not None:
         nodes = len({c["finished_on"]["node"] for c in run.chunks})
         progress.write(f"  ray {label}: {n_episodes} episodes in {len(parts)} chunks of {size} on {nodes} node(s), "

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping, Sequence, TextIO
+from typing import Any, Mapping, Sequence, TextIO
 
 import numpy as np
 
@@ -126,7 +126,7 @@ def monte_carlo(
                       time.perf_counter() - t0, info)
 
 
-_remote: list[Callable[..., Any]] = []
+_remote: list[Any] = []  # the remote function, made at first use (Ray imported only then)
 
 
 def _on_ray(record: FlightRecord, params: RigParams, estimate: Sequence[str], noise_std_rad: float | Sequence[float],
