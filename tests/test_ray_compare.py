@@ -117,3 +117,28 @@ def test_node_lost_mid_comparison_every_episode_accounted(ray_cluster: Any, loca
     assert (tmp_path / "ray" / "summary.csv").read_text() == (local[0] / "summary.csv").read_text()
     _same_metrics(local[1], cmp)
     assert f"{cmp.backend['retries']} retried" in (tmp_path / "ray.log").read_text()  # the retries reported
+
+
+@pytest.mark.parametrize("text, needle", [
+    ('backend = "spark"\n', "backend = 'spark': allowed ['local', 'ray']"),
+    ("chunk_size = 0\n", "chunk_size = 0: must be an integer in [1, 100000] episodes"),
+    ('address = ""\n', "address = '': must be a Ray address"),
+])
+def test_config_file_backend_keys_are_checked(text: str, needle: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "c.toml").write_text(text)
+    rc = main(["compare", "--config", str(tmp_path / "c.toml"), "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert rc == 2 and needle in err, err
+
+
+def test_kernels_warm_once_per_process(ray_cluster: Any, tmp_path: Path) -> None:
+    """Every chunk sets its node's numba cache; a worker process warms a batch's kernels once, not once per task."""
+    cmp = compare(tasks=[TASK], kinds=["pid"], episodes=12, seed=1, modes=["nominal"], out_dir=None, progress=False,
+                  stream=open(tmp_path / "log", "w"), backend="ray", chunk_size=2)
+    chunks = cmp.backend["batches"][0]["chunks"]
+    by_pid: dict[int, list[float]] = {}
+    for c in sorted(chunks, key=lambda c: c["first"]):
+        by_pid.setdefault(c["finished_on"]["pid"], []).append(c["warm_s"])
+    assert sum(len(v) for v in by_pid.values()) == 6
+    for warms in by_pid.values():
+        assert sum(w > 0 for w in warms) <= 1  # the process's first chunk warmed (or an earlier run did), no later one

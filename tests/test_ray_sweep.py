@@ -171,3 +171,19 @@ def test_sweep_stopped_and_resumed_loses_no_finished_trial(ray_cluster: Any, tmp
     cmp = compare(tasks=["bank_to_bank"], kinds=[], policies=[best], episodes=2, modes=["nominal"], out_dir=None,
                   progress=False, stream=open(tmp_path / "cmp.log", "w"))
     assert {r["law"] for r in cmp.rows} == {"best_policy"}
+
+
+@pytest.mark.slow
+def test_rig_train_seeds_on_ray_writes_each_seed_and_their_spread(ray_cluster: Any, tmp_path: Path) -> None:
+    from controllers.design.rl_train import main
+
+    out = tmp_path / "seeds"
+    rc = main(["--algo", "ppo", "--task", "bank_to_bank", "--seeds", "3", "4", "--backend", "ray", "--out", str(out),
+               "--timesteps", "1024", "--num-envs", "16", "--checkpoint-every", "512", "--eval-every", "1024",
+               "--eval-episodes", "2", "--final-episodes", "2", "--no-progress"])
+    assert rc == 0
+    seeds = json.loads((out / "seeds.json").read_text())
+    assert sorted(r["seed"] for r in seeds["runs"]) == [3, 4]
+    for s in (3, 4):
+        prov = json.loads((out / f"s{s}" / "policy.json").read_text())["provenance"]
+        assert prov["seed"] == s and prov["timesteps"] >= 1024  # every trial seeded by its own seed

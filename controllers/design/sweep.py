@@ -1,7 +1,9 @@
 """Training sweeps on Ray Tune: ``rig sweep CONFIG.toml`` and ``rig train --seeds ... --backend ray``.
 
 Every trial is one ``rig train`` run (:func:`controllers.design.rl_train._train`, the same code as a local run)
-of one (task, seed, hyperparameter point) of the grid, seeded by its own seed; Tune schedules the trials on the
+of one (task, seed, hyperparameter point) of the grid, seeded by its own seed (its row names it; no two trials
+share task, point and seed; the grid's points share the listed seeds on purpose, so that two settings are
+compared on the same seeds' randomness), never by the worker or the order it ran in; Tune schedules the trials on the
 cluster (one CPU each), keeps their checkpoints under the storage path, restarts a lost trial from its last
 checkpoint (``FailureConfig(max_failures)``) and resumes a stopped sweep (``rig sweep CONFIG --resume``:
 ``Tuner.restore``; finished trials are kept, unfinished ones continue from their checkpoints).  The results are
