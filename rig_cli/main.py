@@ -345,9 +345,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         return train(argv[1:])
     if argv[:1] == ["sweep"]:  # its own parser too (controllers.design.sweep)
+        from controllers.design.rl_train import train_trial
         from controllers.design.sweep import main as sweep
 
-        return sweep(argv[1:])
+        return sweep(argv[1:], train=train_trial)
     args = _parser().parse_args(argv)
     try:
         if args.command == "compare":

@@ -20,7 +20,9 @@ from typing import Any
 
 import pytest
 
-from controllers.design.sweep import SweepConfig, main as sweep_main, parse, run_sweep
+from controllers.design.rl_train import train_trial
+from controllers.design.sweep import SweepConfig, parse, run_sweep
+from rig_cli.main import main as rig
 
 TINY = """algo = "ppo"
 tasks = ["bank_to_bank"]
@@ -70,7 +72,7 @@ def _results(folder: Path) -> dict[str, list[dict[str, Any]]]:
 ])
 def test_bad_sweep_file_is_a_one_line_error(text: str, needle: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     (tmp_path / "s.toml").write_text(text)
-    rc = sweep_main([str(tmp_path / "s.toml")])
+    rc = rig(["sweep", str(tmp_path / "s.toml")])
     err = capsys.readouterr().err
     assert rc == 2 and needle in err and "Traceback" not in err, err
 
@@ -94,7 +96,7 @@ def test_node_lost_mid_sweep_every_trial_done_and_retries_reported(ray_cluster: 
 
     def run() -> None:
         try:
-            box["result"] = run_sweep(cfg, stream=log)
+            box["result"] = run_sweep(cfg, train=train_trial, stream=log)
         except BaseException as exc:  # noqa: BLE001
             box["error"] = exc
 
@@ -153,7 +155,7 @@ def test_sweep_stopped_and_resumed_loses_no_finished_trial(ray_cluster: Any, tmp
     time.sleep(1.0)
     finished_before = {k: v for k, v in _results(cfg.folder).items() if v and v[-1].get("final")}
     assert 0 < len(finished_before) < 4, (tmp_path / "first.log").read_text()[-3000:]
-    res = run_sweep(cfg, resume=True, stream=open(tmp_path / "second.log", "w"))
+    res = run_sweep(cfg, train=train_trial, resume=True, stream=open(tmp_path / "second.log", "w"))
     assert res["trials"] == 4 and res["done"] == 4
     after = _results(cfg.folder)
     for name, lines in finished_before.items():

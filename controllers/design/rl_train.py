@@ -204,6 +204,19 @@ def main(argv: list[str] | None = None) -> int:
         torch.set_num_threads(saved[1])
 
 
+def train_trial(argv: list[str], hp_overrides: dict[str, Any], resume: Path | None, extra_callbacks: Any) -> None:
+    """One trial of a sweep (:mod:`controllers.design.sweep`, which is handed this function: it never imports this
+    module): the run ``argv`` describes, with the grid point's settings ``hp_overrides`` over the settings file's,
+    continued from the checkpoint in ``resume`` if given; ``extra_callbacks(out, checkpoint_freq)``: SB3 callbacks
+    after the checkpoint's (the trial's report to Tune)."""
+    args = parse_args(argv)
+    args.hp_overrides = dict(hp_overrides)
+    if resume is not None:
+        args.resume = resume
+    args.extra_callbacks = extra_callbacks
+    _train(args, argv)
+
+
 def _train_on_ray(args: argparse.Namespace) -> int:
     """``--backend ray``: the seeds as a Ray Tune sweep (:mod:`controllers.design.sweep`) in OUT (default
     ``runs/<task>_<algo>_seeds``), each seed's policy then in ``OUT/s<seed>/policy.json`` and their spread in
@@ -220,7 +233,7 @@ def _train_on_ray(args: argparse.Namespace) -> int:
             conditions=args.conditions, env=dict(args.env_kv), storage=str(root.parent), name=root.name,
             checkpoint_every=args.checkpoint_every, eval_every=args.eval_every, eval_episodes=args.eval_episodes,
             final_episodes=args.final_episodes, stop_at_target=not args.no_stop, target_success=args.target_success), "rig train")
-        result = run_sweep(cfg, address=args.address, overwrite=args.overwrite, progress=not args.no_progress)
+        result = run_sweep(cfg, train=train_trial, address=args.address, overwrite=args.overwrite, progress=not args.no_progress)
     except (SweepError, ValueError) as exc:  # a bad setting, Ray missing (BackendError names the extra): exit 2
         print(f"rig train: error: {exc}", file=sys.stderr)
         raise SystemExit(2) from None

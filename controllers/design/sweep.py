@@ -63,7 +63,7 @@ import time
 import tomllib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Sequence, TextIO
+from typing import Any, Callable, Sequence, TextIO
 
 from controllers.design.rl_hyperparams import ALGOS, HyperparamError, settings
 from rig_env import distributed
@@ -227,13 +227,17 @@ def _copy_checkpoint(run: Path, dest: Path, n: int) -> None:
             shutil.copy2(run / name, dest / name)
 
 
-def trial(config: dict[str, Any], sweep: dict[str, Any]) -> None:
+TrainTrial = Callable[[list[str], dict[str, Any], "Path | None", Any], None]
+"""``(argv, hp_overrides, resume_dir, extra_callbacks) -> None``: one ``rig train`` run
+(:func:`controllers.design.rl_train.train_trial`; handed in, so that this module never imports the trainer, which
+imports this one for ``--backend ray``)."""
+
+
+def trial(config: dict[str, Any], sweep: dict[str, Any], train: TrainTrial) -> None:
     """One Tune trial: ``rig train`` of ``config`` (task, seed, hp) resumed from Tune's checkpoint if any."""
     where = distributed.node_setup()
     import torch
     from ray import tune
-
-    from controllers.design.rl_train import _train, parse_args
 
     torch.set_num_threads(1)  # one CPU per trial
 
@@ -246,10 +250,6 @@ def trial(config: dict[str, Any], sweep: dict[str, Any]) -> None:
         book = json.loads((run / "trial.json").read_text())
         attempt, resumed = int(book["attempt"]) + 1, int(book["timesteps"])
     argv = _argv(cfg, config["task"], int(config["seed"]), run)
-    args = parse_args(argv)
-    args.hp_overrides = dict(config["hp"])
-    if resumed is not None:
-        args.resume = run
     who = {"attempt": attempt, "resumed_from": resumed, "node": where["node"], "pid": where["pid"]}
 
     def report(n: int) -> None:
@@ -258,9 +258,8 @@ def trial(config: dict[str, Any], sweep: dict[str, Any]) -> None:
             (Path(d) / "trial.json").write_text(json.dumps({"attempt": attempt, "timesteps": n, **where}))
             tune.report({"timesteps": n, "final": False, **who}, checkpoint=tune.Checkpoint.from_directory(d))
 
-    args.extra_callbacks = lambda out, freq: [_report_callback(freq, report)]
     t0 = time.perf_counter()
-    _train(args, argv)
+    train(argv, dict(config["hp"]), run if resumed is not None else None, lambda out, freq: [_report_callback(freq, report)])
     prov = json.loads((run / "policy.json").read_text())["provenance"]
     fe = prov["final_eval"]
     with tempfile.TemporaryDirectory() as d:
@@ -335,10 +334,11 @@ def read_books(folder: Path) -> list[dict[str, Any]]:
 
 
 # ----------------------------------------------------------------- the sweep (on the driver)
-def run_sweep(cfg: SweepConfig, *, address: str | None = None, resume: bool = False, overwrite: bool = False,
+def run_sweep(cfg: SweepConfig, *, train: TrainTrial, address: str | None = None, resume: bool = False, overwrite: bool = False,
               stream: TextIO | None = None, progress: bool = True) -> dict[str, Any]:
     """Run (or with ``resume`` continue) the sweep ``cfg`` on the Ray cluster at ``address`` (default: a local one,
     or the session already connected); fold the results (module docstring) and return ``sweep.json``'s content.
+    ``train``: one trial's run (:func:`controllers.design.rl_train.train_trial`).
     ``stream``: the notes and the table (default stdout); ``progress``: a line on stderr every few seconds."""
     out = stream if stream is not None else sys.stdout
     distributed.require_ray()
@@ -352,7 +352,7 @@ def run_sweep(cfg: SweepConfig, *, address: str | None = None, resume: bool = Fa
         if not overwrite:
             raise SweepError(f"{folder}: holds a sweep; --resume continues it, --overwrite replaces it, or choose another name")
         shutil.rmtree(folder)
-    trainable = tune.with_resources(tune.with_parameters(trial, sweep=asdict(cfg)), {"cpu": 1})
+    trainable = tune.with_resources(tune.with_parameters(trial, sweep=asdict(cfg), train=train), {"cpu": 1})
     books = make_books(cfg.n_trials(), folder, quiet=progress is False)
     with distributed.session(address):
         if resume:
@@ -485,8 +485,9 @@ def _plot(rows: list[dict[str, Any]], keys: list[str], path: Path, title: str) -
 
 
 # ----------------------------------------------------------------- command line
-def main(argv: Sequence[str] | None = None) -> int:
-    """``rig sweep CONFIG.toml [--address ADDR] [--resume] [--overwrite]``; exit 2 with one line on a bad input."""
+def main(argv: Sequence[str] | None, train: TrainTrial) -> int:
+    """``rig sweep CONFIG.toml [--address ADDR] [--resume] [--overwrite]`` (``rig_cli.main`` hands in ``train``,
+    :func:`controllers.design.rl_train.train_trial`); exit 2 with one line on a bad input."""
     p = argparse.ArgumentParser(prog="rig sweep", description=__doc__.split("\n")[0])
     p.add_argument("config", metavar="CONFIG.toml", help="the sweep (controllers.design.sweep: algo, tasks, seeds, [grid], storage, name ...)")
     p.add_argument("--address", default=None, metavar="ADDR", help="the Ray cluster (auto, HOST:PORT; default: a local cluster)")
@@ -495,7 +496,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     a = p.parse_args(list(sys.argv[1:] if argv is None else argv))
     try:
         cfg = parse(a.config)
-        run_sweep(cfg, address=a.address, resume=a.resume, overwrite=a.overwrite)
+        run_sweep(cfg, train=train, address=a.address, resume=a.resume, overwrite=a.overwrite)
     except ValueError as exc:  # SweepError, BackendError: one line
         print(f"rig sweep: error: {exc}", file=sys.stderr)
         return 2
