@@ -2,6 +2,7 @@
 
     rig compare [--quick] [--out DIR] [--episodes N] [--seed S] [--tasks T ...] [--controllers K ...] [--modes M ...]
                 [--params FILE] [--policy FILE ...] [--config FILE.toml] [--overwrite]
+                [--backend local|ray] [--address ADDR] [--chunk-size N]
         every control law on every task, nominal and robust (controllers.evaluation.compare): prints the
         tables and the recommendation per task, writes summary.json, summary.csv, plots and report.md into
         DIR (default out/compare); --params: a parameter file (an identified one) for the laws' design and
@@ -19,7 +20,11 @@
         writes DIR/report.md with its figures and DIR/identified.toml, a parameter file for --params
     rig train --algo ppo|sac --task NAME [...]
         train a PPO or SAC law on the native batch and export it as a law artefact
-        (controllers.design.rl_train; ``rig train --help`` lists the options)
+        (controllers.design.rl_train; ``rig train --help`` lists the options); ``--seeds S ... --backend ray``:
+        the seeds as a Ray Tune sweep
+    rig sweep CONFIG.toml [--address ADDR] [--resume]
+        Ray Tune over hyperparameters x seeds x tasks: one table, a plot, the best policy exported
+        (controllers.design.sweep)
 
 This package sits above both ``rig_env`` (the model and environments) and ``controllers`` (the laws,
 their design, the comparison); neither imports it.  ``scripts/compare.py``, ``scripts/train.py`` and
@@ -272,6 +277,13 @@ def _parser() -> argparse.ArgumentParser:
                    help="the comparison as a file: tasks, laws, policies, episodes, seed, modes, params, [conditions], [score] "
                         "(controllers.evaluation.config); options on the command line win")
     c.add_argument("--overwrite", action="store_true", help="replace files in DIR that an earlier rig compare did not write")
+    c.add_argument("--backend", default=None, metavar="B",
+                   help="local (one process, default) or ray: the episodes in chunks as Ray tasks, the same numbers "
+                        "(pip install -e \".[ray]\"; controllers.evaluation.ray_backend)")
+    c.add_argument("--address", default=None, metavar="ADDR",
+                   help="with --backend ray: the cluster (auto, HOST:PORT, ray://HOST:PORT; default: a local cluster on this machine)")
+    c.add_argument("--chunk-size", type=int, default=None, metavar="N",
+                   help="with --backend ray: episodes per Ray task, 1..100000 (default: about two chunks per cluster CPU)")
     d = sub.add_parser("demo", help="velocity-vector roll at 20 m/s with the compensator ailerons (paper Fig. 7)")
     d.add_argument("--out", default="out", metavar="DIR", help="directory for demo_roll.png (default: out)")
     d.add_argument("--t-final", type=float, default=25.0, metavar="S", help="simulated time, s (default 25)")
@@ -289,6 +301,7 @@ def _parser() -> argparse.ArgumentParser:
     i.add_argument("--out", required=True, metavar="DIR", help="folder for report.md, its figures and identified.toml")
     i.add_argument("--overwrite", action="store_true", help="replace report.md and identified.toml if DIR holds them")
     sub.add_parser("train", help="train PPO or SAC on a task and export the law (rig train --help)", add_help=False)
+    sub.add_parser("sweep", help="Ray Tune sweep of rig train over hyperparameters x seeds x tasks (rig sweep --help)", add_help=False)
     return ap
 
 
@@ -306,7 +319,9 @@ def run_compare(args: argparse.Namespace, argv: Sequence[str]) -> None:
     compare(tasks=pick(args.tasks, cfg.tasks, None), kinds=pick(args.controllers, cfg.laws, None), episodes=pick(args.episodes, cfg.episodes, None),
             seed=pick(args.seed, cfg.seed, 0), quick=bool(pick(args.quick, cfg.quick, False)), modes=pick(args.modes, cfg.modes, ["nominal", "robust"]),
             out_dir=args.out, params_file=pick(args.params, cfg.params, None), policies=pick(args.policy, cfg.policies or None, ()),
-            conditions=cfg.conditions, overwrite=args.overwrite, command=_recorded(argv), **rule)
+            conditions=cfg.conditions, overwrite=args.overwrite, command=_recorded(argv),
+            backend=pick(args.backend, cfg.backend, "local"), address=pick(args.address, cfg.address, None),
+            chunk_size=pick(args.chunk_size, cfg.chunk_size, None), **rule)
 
 
 def _recorded(argv: Sequence[str]) -> str:
@@ -329,6 +344,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         from controllers.design.rl_train import main as train
 
         return train(argv[1:])
+    if argv[:1] == ["sweep"]:  # its own parser too (controllers.design.sweep)
+        from controllers.design.rl_train import train_trial
+        from controllers.design.sweep import main as sweep
+
+        return sweep(argv[1:], train=train_trial)
     args = _parser().parse_args(argv)
     try:
         if args.command == "compare":

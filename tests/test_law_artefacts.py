@@ -174,8 +174,9 @@ def test_old_format_policy_converts_exactly(tmp_path):
     obs = np.random.default_rng(1).uniform(-3, 3, (4, 2))
     n = payload["obs_norm"]
     h = np.clip((obs.astype(np.float32) - np.array(n["mean"])) / np.sqrt(np.array(n["var"]) + n["epsilon"]), -10, 10).astype(np.float32).astype(np.float64)
-    h = np.tanh(h @ np.array(layers[0]["weight"]).T + np.array(layers[0]["bias"]))
-    want = np.clip(h @ np.array(layers[1]["weight"]).T + np.array(layers[1]["bias"]), -1, 1)
+    # each row's product on its own, as the runtime computes it (controllers.laws.rl.rowwise: batch-independent rounding)
+    h = np.tanh((h[:, None, :] @ np.array(layers[0]["weight"]).T)[:, 0, :] + np.array(layers[0]["bias"]))
+    want = np.clip((h[:, None, :] @ np.array(layers[1]["weight"]).T)[:, 0, :] + np.array(layers[1]["bias"]), -1, 1)
     np.testing.assert_array_equal(law.act(obs), want)
     payload["network"]["layers"][0]["bias"][0] = 0.5  # edited without its checksum
     old.write_text(json.dumps(payload))

@@ -201,8 +201,31 @@ def load_file(path: Path) -> dict[str, Any]:
         raise HyperparamError(f"{path}: not valid TOML: {exc}") from None
 
 
-def settings(algo: str, task: str, path: Path | None = None) -> RunSettings:
-    """The checked settings of ``task`` for ``algo`` from ``path`` (default: the shipped file)."""
+def nested(overrides: Mapping[str, Any]) -> dict[str, Any]:
+    """Dotted keys as tables: ``{"algo.learning_rate": 1e-3, "num_envs": 16}`` -> ``{"algo": {"learning_rate": 1e-3}, "num_envs": 16}``."""
+    out: dict[str, Any] = {}
+    for key, v in overrides.items():
+        *path, last = str(key).split(".")
+        node = out
+        for p in path:
+            node = node.setdefault(p, {})
+            if not isinstance(node, dict):
+                raise HyperparamError(f"override {key!r}: {p!r} is a value, not a table")
+        node[last] = v
+    return out
+
+
+def _merge(a: Mapping[str, Any], b: Mapping[str, Any]) -> dict[str, Any]:
+    out = dict(a)
+    for k, v in b.items():
+        out[k] = _merge(out[k], v) if isinstance(v, Mapping) and isinstance(out.get(k), Mapping) else v
+    return out
+
+
+def settings(algo: str, task: str, path: Path | None = None, overrides: Mapping[str, Any] | None = None) -> RunSettings:
+    """The checked settings of ``task`` for ``algo`` from ``path`` (default: the shipped file); ``overrides``:
+    fields over the task's table, dotted keys for nested ones (``"algo.learning_rate"``; a sweep's grid point),
+    checked like the file's (a :class:`HyperparamError` names the field)."""
     path = Path(path) if path is not None else default_file(algo)
     if algo not in ALGOS:
         raise HyperparamError(f"algo {algo!r}: allowed {list(ALGOS)}")
@@ -220,6 +243,10 @@ def settings(algo: str, task: str, path: Path | None = None) -> RunSettings:
     if own is None:
         print(f"note: {path.name} has no [{task}] table: its [defaults]", flush=True)
         own = {"source": f"[defaults] of {path.name}, untuned for {task}"}
+    if overrides:
+        extra = nested(overrides)
+        _check_table(algo, extra, f"{path} [{task}] overrides")
+        own = _merge(own, extra)
     merged = {**base, **own}
     algo_kw = {**base.get("algo", {}), **own.get("algo", {})}
     pk = {**base.get("algo", {}).get("policy_kwargs", {}), **own.get("algo", {}).get("policy_kwargs", {})}

@@ -46,6 +46,9 @@ final evaluation runs under it.
 ``--seeds S1 S2 ...`` trains one run per seed (``OUT/s<seed>/``, default ``OUT = runs/<task>_<algo>_seeds``)
 and writes ``OUT/seeds.json`` (each seed's final metrics, their mean and standard deviation) and
 ``OUT/seeds.png`` (every seed's evaluation curve): one seed is an anecdote.
+``--backend ray [--address ADDR]`` trains the seeds as a Ray Tune sweep instead (:mod:`controllers.design.sweep`:
+one trial per seed on the cluster, checkpointed under ``OUT``, a lost trial resumed from its last checkpoint),
+then writes ``OUT/s<seed>/policy.json`` and ``OUT/seeds.json`` as above.
 
 The final metrics are those of the exported file, loaded back and run by numpy
 (:func:`controllers.design.rl_export.evaluate`, ``--final-episodes`` episodes seeded ``seed + 20000``).
@@ -103,6 +106,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--checkpoint-every", type=int, default=200_000, help="timesteps between checkpoints")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (a line every 10 s instead)")
     p.add_argument("--ship", action="store_true", help="copy policy.json and curve.png into controllers/policies/")
+    p.add_argument("--backend", choices=["local", "ray"], default="local",
+                   help="local (one process, seed after seed) or ray: the seeds as a Ray Tune sweep, one trial per seed, "
+                        "checkpointed under OUT (controllers.design.sweep; pip install -e \".[ray]\")")
+    p.add_argument("--address", default=None, metavar="ADDR", help="with --backend ray: the cluster (auto, HOST:PORT; default: a local one)")
     a = p.parse_args(argv)
     if a.resume is None:
         for name in ("algo", "task"):
@@ -120,6 +127,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         p.error(f"--seeds = {a.seeds}: repeated seed")
     if a.seeds is not None and a.ship:
         p.error("--ship takes one --seed: pick the seed to ship from seeds.json and train it with --seed")
+    if a.address is not None and a.backend != "ray":
+        p.error(f"--address {a.address}: only with --backend ray")
+    if a.backend == "ray" and (a.resume is not None or a.ship or a.no_error_reset):
+        p.error("--backend ray trains --seeds as a sweep: no --resume (rig sweep --resume continues a sweep), --ship or --no-error-reset")
     a.env_kv = {}
     for item in a.env:
         key, sep, value = item.partition("=")
@@ -170,6 +181,8 @@ def main(argv: list[str] | None = None) -> int:
     numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
     torch.set_num_threads(args.threads)
     try:
+        if args.backend == "ray":
+            return _train_on_ray(args)
         if args.seeds is None:
             return _train(args, argv)
         from controllers.design.rl_seeds import summarise
@@ -189,6 +202,56 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         numba.set_num_threads(saved[0])
         torch.set_num_threads(saved[1])
+
+
+def train_trial(argv: list[str], hp_overrides: dict[str, Any], resume: Path | None, extra_callbacks: Any) -> None:
+    """One trial of a sweep (:mod:`controllers.design.sweep`, which is handed this function: it never imports this
+    module): the run ``argv`` describes, with the grid point's settings ``hp_overrides`` over the settings file's,
+    continued from the checkpoint in ``resume`` if given; ``extra_callbacks(out, checkpoint_freq)``: SB3 callbacks
+    after the checkpoint's (the trial's report to Tune)."""
+    args = parse_args(argv)
+    args.hp_overrides = dict(hp_overrides)
+    if resume is not None:
+        args.resume = resume
+    args.extra_callbacks = extra_callbacks
+    _train(args, argv)
+
+
+def _train_on_ray(args: argparse.Namespace) -> int:
+    """``--backend ray``: the seeds as a Ray Tune sweep (:mod:`controllers.design.sweep`) in OUT (default
+    ``runs/<task>_<algo>_seeds``), each seed's policy then in ``OUT/s<seed>/policy.json`` and their spread in
+    ``OUT/seeds.json`` as a local ``--seeds`` run writes them."""
+    from controllers.design.rl_seeds import summarise
+    from controllers.design.sweep import SweepConfig, SweepError, check, run_sweep
+
+    root = (args.out or Path("runs") / f"{args.task}_{args.algo}_seeds").resolve()
+    seeds = args.seeds if args.seeds is not None else [args.seed]
+    try:
+        cfg = check(SweepConfig(
+            algo=args.algo, tasks=[args.task], seeds=list(seeds), grid={"num_envs": [args.num_envs]} if args.num_envs else {},
+            timesteps=args.timesteps, hyperparams=str(args.hyperparams.resolve()) if args.hyperparams else None,
+            conditions=args.conditions, env=dict(args.env_kv), storage=str(root.parent), name=root.name,
+            checkpoint_every=args.checkpoint_every, eval_every=args.eval_every, eval_episodes=args.eval_episodes,
+            final_episodes=args.final_episodes, stop_at_target=not args.no_stop, target_success=args.target_success), "rig train")
+        result = run_sweep(cfg, train=train_trial, address=args.address, overwrite=args.overwrite, progress=not args.no_progress)
+    except (SweepError, ValueError) as exc:  # a bad setting, Ray missing (BackendError names the extra): exit 2
+        print(f"rig train: error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None
+    import shutil
+
+    runs = []
+    for row in result["rows"]:
+        src = root / row["trial"]
+        policy = sorted(src.glob("checkpoint_*/policy.json"))
+        if row["status"] != "done" or not policy:
+            continue
+        dest = root / f"s{row['seed']}" / "policy.json"
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(policy[-1], dest)
+        runs.append(dest)
+    if runs:
+        summarise(runs, root, f"{args.algo.upper()} on {args.task}", args.target_success)
+    return 0 if len(runs) == len(seeds) else 1
 
 
 def _without_seeds(argv: list[str]) -> list[str]:
@@ -294,7 +357,7 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
     )
 
     try:
-        hp = settings(args.algo, args.task, args.hyperparams)
+        hp = settings(args.algo, args.task, args.hyperparams, getattr(args, "hp_overrides", None))
     except HyperparamError as exc:
         raise SystemExit(f"rig train: {exc}") from None
     timesteps = args.timesteps or hp.timesteps
@@ -371,6 +434,11 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
         target=None if args.no_stop else args.target_success, total=timesteps, env_timer=timer[0], bar=have_bar,
         save_replay_buffer=args.algo == "sac", points=points, wall_offset=wall_before,
     )
+    extra = getattr(args, "extra_callbacks", None)  # a sweep's: (out, checkpoint_freq) -> callbacks after the checkpoint's
+    if extra is not None:
+        from stable_baselines3.common.callbacks import CallbackList
+
+        callbacks = CallbackList([callbacks, *extra(out, max(args.checkpoint_every // num_envs, 1))])
     print(f"training {args.algo} on {args.task}: {num_envs} envs, up to {timesteps} timesteps, seed {args.seed}, "
           f"{args.threads} thread(s), load average {os.getloadavg()[0]:.1f}, settings {hp.file}, out {out}", flush=True)
     if overrides:

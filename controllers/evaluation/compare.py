@@ -13,6 +13,11 @@ the trained (RL) laws fly it as they were trained.  Laws are the registered kind
 shipped policy raises ``FileNotFoundError``; a law that cannot fly the task raises
 ``controllers.laws.base.UnsupportedTask``) is skipped with a printed note.  Law artefacts join as
 contenders named after their files (``policies``, :mod:`controllers.evaluation.contenders`).
+
+``backend="ray"`` (``rig compare --backend ray [--address ADDR] [--chunk-size N]``) runs each batch's episodes
+in chunks on a Ray cluster (:mod:`controllers.evaluation.ray_backend`; a local one on this machine unless
+``address``): the same numbers as ``backend="local"`` for the same seed; the chunks, nodes and retries are in
+``summary.json`` (``timing.backend``).
 """
 
 from __future__ import annotations
@@ -82,6 +87,9 @@ def compare(
     rule: ScoreRule = DEFAULT_RULE,
     overwrite: bool = False,
     command: str | None = None,
+    backend: str = "local",
+    address: str | None = None,
+    chunk_size: int | None = None,
 ) -> Comparison:
     """Run the comparison and write its files (none when ``out_dir`` is None); returns the numbers.
 
@@ -92,8 +100,30 @@ def compare(
     (:mod:`controllers.evaluation.contenders`); ``conditions``: overrides of every mode's
     conditions (:data:`controllers.evaluation.config.CONDITION_FIELDS`); ``rule``: the score and the
     criterion; ``overwrite``: replace files in ``out_dir`` that an earlier comparison did not write
-    (see :func:`check_out_dir`); ``command``: the command line to record (default: built from the arguments).
+    (see :func:`check_out_dir`); ``command``: the command line to record (default: built from the arguments);
+    ``backend``: "local" (one process) or "ray" (chunks of ``chunk_size`` episodes as Ray tasks on the cluster at
+    ``address``, default a local one; :mod:`controllers.evaluation.ray_backend`), the same numbers either way.
     """
+    from rig_env import distributed
+
+    distributed.check_backend(backend, address)
+    distributed.check_chunk_size(chunk_size)
+    if chunk_size == 1:
+        raise ValueError("--chunk-size = 1: must be an integer in [2, 100000] (a batch of one rounds differently from the local run's)")
+    if chunk_size is not None and backend != "ray":
+        raise ValueError(f"--chunk-size {chunk_size}: only with --backend ray")
+    if backend == "ray":
+        with distributed.session(address):
+            return _compare(tasks, kinds, episodes, seed, quick, modes, out_dir, record, stream, progress, params_file,
+                            policies, conditions, rule, overwrite, command, backend, chunk_size)
+    return _compare(tasks, kinds, episodes, seed, quick, modes, out_dir, record, stream, progress, params_file,
+                    policies, conditions, rule, overwrite, command, backend, chunk_size)
+
+
+def _compare(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes: int | None, seed: int, quick: bool,
+             modes: Sequence[str], out_dir: str | Path | None, record: int, stream: TextIO | None, progress: bool | TextIO,
+             params_file: str | Path | None, policies: Sequence[str | Path], conditions: Mapping[str, Any] | None,
+             rule: ScoreRule, overwrite: bool, command: str | None, backend: str, chunk_size: int | None) -> Comparison:
     stream = stream if stream is not None else sys.stdout
     prog: TextIO | None = sys.stderr if progress is True else (None if progress is False else progress)
     tasks = list(tasks) if tasks else list(TASKS)
@@ -153,8 +183,18 @@ def compare(
                 if hasattr(law, "describe"):
                     cmp.margins.setdefault(task, {})[law_name] = plain(law.describe())
             for mode in modes:
-                res = evaluate(laws, task, n_episodes=n, seed=seed, conditions=conditions[mode], record=record, env_overrides=env_params,
-                               progress=prog)
+                if backend == "ray":
+                    from controllers.evaluation.ray_backend import evaluate_ray, factory_of
+
+                    factories = {name: factory_of(law, name, params) for name, law in laws.items()}
+                    res, run = evaluate_ray(factories, task, n_episodes=n, seed=seed, conditions=conditions[mode], record=record,
+                                            env_overrides=env_params, chunk_size=chunk_size, progress=prog, ledger_name=f"{task}-{mode}")
+                    cmp.backend.setdefault("backend", "ray")
+                    cmp.backend.setdefault("batches", []).append(run.to_dict())
+                    cmp.backend["retries"] = cmp.backend.get("retries", 0) + run.retries
+                else:
+                    res = evaluate(laws, task, n_episodes=n, seed=seed, conditions=conditions[mode], record=record, env_overrides=env_params,
+                                   progress=prog)
                 cmp.results.append(res)
                 rows = rows_of(res, rule)
                 cmp.rows += rows
@@ -165,6 +205,11 @@ def compare(
         stream.write("\n" + format_table(rows, f"{mode}: {n} episodes per law and task, seed {seed} ({_mode_note(mode)})") + "\n")
     stream.write("\n" + "\n".join(report.verdict(cmp)) + "\n")
     stream.write(f"\ncompared in {cmp.seconds:.0f} s\n")
+    if cmp.backend:
+        nodes = sorted({n for b in cmp.backend["batches"] for n in b["nodes"]})
+        chunks = sum(len(b["chunks"]) for b in cmp.backend["batches"])
+        stream.write(f"ray backend: {chunks} chunks on {len(nodes)} node(s), {cmp.backend['retries']} retried "
+                     "(a lost worker or node; every episode accounted for)\n")
     if out_dir is not None:
         write_files(cmp, Path(out_dir), stream)
     stream.flush()

@@ -12,6 +12,9 @@ seed = 0                                           # >= 0
 quick = false
 modes = ["nominal", "robust", "gusty"]             # default nominal and robust
 params = "identified.toml"                         # a rig parameter file (rig compare --params)
+backend = "ray"                                    # "local" (default) or "ray" (rig compare --backend)
+address = "auto"                                   # the Ray cluster (default: a local one)
+chunk_size = 16                                    # episodes per Ray task, 1..100000
 
 [conditions]          # overrides of every mode's conditions
 airspeed = [15.0, 25.0]   # m/s, low and high of the uniform draw, 0..40
@@ -62,6 +65,12 @@ class CompareConfig:
     params: str | None = None
     conditions: dict[str, Any] = field(default_factory=dict)
     score: ScoreRule | None = None
+    backend: str | None = None
+    address: str | None = None
+    chunk_size: int | None = None
+
+
+BACKENDS = ("local", "ray")
 
 
 def _names(where: str, v: Any, allowed: list[str] | None) -> list[str]:
@@ -116,6 +125,16 @@ def parse(path: str | Path, tasks: list[str], kinds: list[str], modes: list[str]
         if not isinstance(data["params"], str):
             raise ValueError(f"{w('params')} = {data['params']!r}: must be a path (string)")
         out["params"] = str(p.parent / data["params"])
+    if "backend" in data:
+        if data["backend"] not in BACKENDS:
+            raise ValueError(f"{w('backend')} = {data['backend']!r}: allowed {list(BACKENDS)}")
+        out["backend"] = data["backend"]
+    if "address" in data:
+        if not isinstance(data["address"], str) or not data["address"].strip():
+            raise ValueError(f"{w('address')} = {data['address']!r}: must be a Ray address (auto, HOST:PORT, ray://HOST:PORT)")
+        out["address"] = data["address"]
+    if "chunk_size" in data:
+        out["chunk_size"] = int(_number(w("chunk_size"), data["chunk_size"], 1, MAX_EPISODES, "episodes", integer=True))
     if "conditions" in data:
         out["conditions"] = _conditions(w("conditions"), data["conditions"])
     if "score" in data:

@@ -10,6 +10,12 @@ Paired conditions: every block sees the same episodes (airspeed, references, par
 gusts, sensor noise), so the laws are compared on identical conditions: the batch is reset with
 ``options={"env_seeds": ...}`` giving environment ``i`` of every block the stream of seed ``s + i``.
 
+Episodes are keyed by their index, never by their place in a batch: episode ``i`` of a comparison seeded
+``s`` is the stream of seed ``s + i`` and every draw in it is a function of that stream alone
+(:mod:`rig_env.envs.streams`), so ``evaluate(..., n_episodes=m, first_episode=i)`` runs exactly episodes
+``i .. i + m - 1`` of the full run: the Ray backend's chunks (:mod:`controllers.evaluation.ray_backend`)
+reproduce the local numbers.
+
 Conditions (:class:`Conditions`; :data:`NOMINAL` and :data:`ROBUST`; defined in
 :mod:`controllers.design.conditions`, where training finds them too):
 
@@ -90,16 +96,19 @@ def evaluate(
     record: int = 3,
     env_overrides: Mapping[str, Any] | None = None,
     progress: TextIO | None = None,
+    first_episode: int = 0,
 ) -> EvalResult:
     """Run every law of ``laws`` on ``task`` over ``n_episodes`` episodes each, paired across laws.
 
     A law is given as a kind for :func:`make_controller`, a factory ``(spec, n) -> Controller``, or a
     built :class:`Controller` for ``n_episodes`` environments and this task's loop (it is reset here).
     ``env_overrides``: further :class:`rig_env.envs.RigEnvConfig` fields; ``progress``: a stream for a
-    progress display (None: silent).  See the module docstring.
+    progress display (None: silent); ``first_episode``: the index of the first episode run (episodes
+    ``first_episode .. first_episode + n_episodes - 1`` of the comparison seeded ``seed``: a chunk of it).
+    See the module docstring.
     """
     with compile_watch(progress):  # a fresh installation's first batch compiles its kernels: say so while it does
-        return _evaluate(laws, task, n_episodes, seed, conditions, record, env_overrides, progress)
+        return _evaluate(laws, task, n_episodes, seed, conditions, record, env_overrides, progress, first_episode)
 
 
 def _evaluate(
@@ -111,6 +120,7 @@ def _evaluate(
     record: int,
     env_overrides: Mapping[str, Any] | None,
     progress: TextIO | None,
+    first_episode: int = 0,
 ) -> EvalResult:
     if not laws:
         raise ValueError("laws: give at least one law")
@@ -118,6 +128,8 @@ def _evaluate(
         raise ValueError(f"n_episodes = {n_episodes!r}: must be a positive integer")
     if not isinstance(seed, int) or seed < 0:
         raise ValueError(f"seed = {seed!r}: must be a non-negative integer")
+    if isinstance(first_episode, bool) or not isinstance(first_episode, int) or first_episode < 0:
+        raise ValueError(f"first_episode = {first_episode!r}: must be a non-negative integer")
     names = list(laws)
     n, C = n_episodes, len(names)
     fields = {**conditions.env_fields(), **dict(env_overrides or {})}
@@ -136,8 +148,8 @@ def _evaluate(
             built[name] = make_controller(how, spec, n) if isinstance(how, str) else how(spec, n)
         build_s[name] = time.perf_counter() - t0
     t_start = time.perf_counter()
-    # every block on the streams of seed, seed + 1, ..., seed + n - 1
-    obs, _ = env.reset(options={"env_seeds": np.tile(seed + np.arange(n), C)})
+    # every block on the streams of its episodes' indices: seed + first_episode, ..., seed + first_episode + n - 1
+    obs, _ = env.reset(options={"env_seeds": np.tile(seed + first_episode + np.arange(n), C)})
     paired = True
     for law in built.values():
         law.reset()

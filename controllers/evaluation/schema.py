@@ -13,7 +13,7 @@ it).  Undefined numbers (a rise time where nothing rose) are ``null``; every int
 | ``results`` | object | task -> mode -> ``{"laws": {law: LAW}, "recommendation": REC}`` |
 | ``margins`` | object | task -> law -> the designed loop's gain and phase margins (model-based laws) |
 | ``skipped`` | list | ``{task, controller, reason}`` of every law that could not fly a task |
-| ``timing`` | object | ``seconds`` (the whole comparison), ``machine``, ``batches`` (``{task, mode, seconds, build_seconds}``): the only part that differs between two runs of the same command |
+| ``timing`` | object | ``seconds`` (the whole comparison), ``machine``, ``batches`` (``{task, mode, seconds, build_seconds}``), ``backend`` (``{"backend": "local"}``, or with ``--backend ray`` per batch its chunks, each chunk's attempts (node, pid) and the ``retries``: :class:`controllers.evaluation.ray_backend.RayRun`): the only part that differs between two runs of the same command |
 
 LAW, one law on one task in one mode (a law is named by its kind, a ``--policy`` artefact by its file's stem):
 
@@ -88,7 +88,8 @@ def document(cmp: Comparison) -> dict[str, Any]:
     present = {k for r in cmp.rows for k in r["metrics"]}
     settings = {k: v for k, v in cmp.settings.items() if k != "machine"}
     timing = {"seconds": cmp.seconds, "machine": cmp.settings.get("machine", ""),
-              "batches": [{"task": r.task, "mode": r.conditions, "seconds": r.seconds, "build_seconds": r.build_seconds} for r in cmp.results]}
+              "batches": [{"task": r.task, "mode": r.conditions, "seconds": r.seconds, "build_seconds": r.build_seconds} for r in cmp.results],
+              "backend": cmp.backend or {"backend": "local"}}
     return json_safe({
         "schema_version": SCHEMA_VERSION,
         "settings": {**settings, "score": cmp.rule.to_dict()},

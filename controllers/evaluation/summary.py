@@ -73,6 +73,9 @@ class Comparison:
     results: list[EvalResult] = field(default_factory=list)
     seconds: float = 0.0
     rule: ScoreRule = DEFAULT_RULE
+    backend: dict[str, Any] = field(default_factory=dict)
+    """How it ran (``summary.json`` timing.backend): ``{"backend": "local"}`` or the Ray backend's chunks, nodes
+    and retries per batch (:class:`controllers.evaluation.ray_backend.RayRun`)."""
 
 
 def stream_seed(seed: int, *names: str) -> int:

@@ -29,6 +29,7 @@ from rig_env.sysid.smoothing import lowess
 
 if TYPE_CHECKING:  # what a type checker sees of the lazy names below (their real signatures)
     from rig_env.sysid.friction import fig4_setup, free_decay_estimates, friction_first_estimates, simulate_friction_test
+    from rig_env.sysid.montecarlo import MonteCarlo, monte_carlo
     from rig_env.sysid.paramfile import save_fit_params, write_params
     from rig_env.sysid.report import write_report
 
@@ -40,11 +41,13 @@ _LAZY = {  # imported at first use (matplotlib, scipy, the model's kernels)
     "save_fit_params": "rig_env.sysid.paramfile",
     "write_params": "rig_env.sysid.paramfile",
     "write_report": "rig_env.sysid.report",
+    "monte_carlo": "rig_env.sysid.montecarlo",  # many noisy fits, locally or on Ray
+    "MonteCarlo": "rig_env.sysid.montecarlo",
 }
 __getattr__, __dir__ = lazy_attributes("rig_env.sysid", _LAZY, globals())
 
 __all__ = [
-    "GAP_FACTOR", "MAX_UPSAMPLE", "METHODS", "ColumnMap", "Fit", "FlightRecord", "RecordError", "check_sampling", "doublet",
-    "fig4_setup", "fit", "free_decay_estimates", "friction_first_estimates", "lowess", "simulate_friction_test", "multisine", "peak_factors", "read_frame_log", "save_fit_params", "three_two_one_one", "write_params",
+    "GAP_FACTOR", "MAX_UPSAMPLE", "METHODS", "ColumnMap", "Fit", "FlightRecord", "MonteCarlo", "RecordError", "check_sampling", "doublet",
+    "fig4_setup", "fit", "monte_carlo", "free_decay_estimates", "friction_first_estimates", "lowess", "simulate_friction_test", "multisine", "peak_factors", "read_frame_log", "save_fit_params", "three_two_one_one", "write_params",
     "write_report",
 ]

@@ -1,0 +1,191 @@
+"""``rig sweep`` and ``rig train --seeds ... --backend ray`` on Ray Tune: every trial seeded, a node lost mid-sweep
+and a sweep stopped and resumed lose no trial, the results in one table and the best policy exported.
+
+Trials are tiny (2048 environment steps, 16 environments, checkpoints every 512 steps) on the local multi-node
+cluster of tests/conftest.py (``ray_cluster``).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from controllers.design.rl_train import train_trial
+from controllers.design.sweep import SweepConfig, parse, run_sweep
+from rig_cli.main import main as rig
+
+TINY = """algo = "ppo"
+tasks = ["bank_to_bank"]
+seeds = [0, 1]
+timesteps = 2048
+storage = "store"
+name = "{name}"
+checkpoint_every = 512
+eval_every = 1024
+eval_episodes = 2
+final_episodes = 2
+max_failures = 3
+[grid]
+num_envs = [16]
+"algo.batch_size" = [256]
+"algo.learning_rate" = [3e-4, 1e-3]
+"""
+
+
+def _config(tmp: Path, name: str) -> tuple[Path, SweepConfig]:
+    path = tmp / f"{name}.toml"
+    path.write_text(TINY.format(name=name))
+    return path, parse(path)
+
+
+def _results(folder: Path) -> dict[str, list[dict[str, Any]]]:
+    """Every trial folder's reported results (result.json lines), by trial folder name."""
+    out = {}
+    for f in folder.glob("trial_*/result.json"):
+        try:
+            lines = [json.loads(x) for x in f.read_text().splitlines() if x.strip()]
+        except ValueError:  # a line being written
+            continue
+        if lines:
+            out[f.parent.name] = lines
+    return out
+
+
+@pytest.mark.parametrize("text, needle", [
+    ('algo = "ppo"\ntasks = ["bank_to_bank"]\nwarp = 9\n', "unknown key(s) ['warp']"),
+    ('algo = "ppo"\ntasks = ["nowhere"]\n', "tasks = ['nowhere']: distinct names from"),
+    ('algo = "ppo"\ntasks = ["bank_to_bank"]\nseeds = [1, 1]\n', "seeds = [1, 1]: a non-empty list of distinct integers"),
+    ('algo = "ppo"\ntasks = ["bank_to_bank"]\n[grid]\n"algo.learning_rate" = [-1.0]\n', "learning_rate = -1.0: must be a positive number"),
+    ('algo = "ppo"\ntasks = ["bank_to_bank"]\n[grid]\n"algo.warp" = [1]\n', "algo.warp: unknown field"),
+    ('algo = "ppo"\ntasks = ["bank_to_bank"]\nmax_failures = -1\n', "max_failures = -1: must be an integer in [0, 100]"),
+    ('algo = "ppo"\ntasks = ["bank_to_bank"]\nmetric = "luck"\n', "metric = 'luck': allowed"),
+])
+def test_bad_sweep_file_is_a_one_line_error(text: str, needle: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "s.toml").write_text(text)
+    rc = rig(["sweep", str(tmp_path / "s.toml")])
+    err = capsys.readouterr().err
+    assert rc == 2 and needle in err and "Traceback" not in err, err
+
+
+def test_rig_train_backend_ray_without_ray_names_the_extra(monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
+                                                           capsys: pytest.CaptureFixture[str]) -> None:
+    from controllers.design.rl_train import main
+
+    monkeypatch.setitem(sys.modules, "ray", None)
+    with pytest.raises(SystemExit) as ex:
+        main(["--algo", "ppo", "--task", "bank_to_bank", "--seeds", "0", "1", "--backend", "ray", "--out", str(tmp_path / "r")])
+    assert ex.value.code == 2 and 'pip install -e ".[ray]"' in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_node_lost_mid_sweep_every_trial_done_and_retries_reported(ray_cluster: Any, tmp_path: Path) -> None:
+    _, cfg = _config(tmp_path, "lost")
+    victim = next(iter(ray_cluster.worker_nodes))
+    box: dict[str, Any] = {}
+    log = open(tmp_path / "sweep.log", "w")
+
+    def run() -> None:
+        try:
+            box["result"] = run_sweep(cfg, train=train_trial, stream=log)
+        except BaseException as exc:  # noqa: BLE001
+            box["error"] = exc
+
+    th = threading.Thread(target=run, daemon=True)
+    th.start()
+    removed, t0 = False, time.perf_counter()
+    while not removed and th.is_alive() and time.perf_counter() - t0 < 240:
+        for name, lines in _results(cfg.folder).items():
+            last = lines[-1]
+            if last.get("node") == victim.node_id and not last.get("final") and last["timesteps"] < 2048:
+                ray_cluster.remove_node(victim, allow_graceful=False)  # mid-trial: after a checkpoint, before the end
+                removed = True
+                box["victim_trial"] = name
+                break
+        time.sleep(0.2)
+    th.join(timeout=400)
+    ray_cluster.add_node(num_cpus=1, node_ip_address="127.0.0.1")
+    assert removed, "no trial ran on the node to remove"
+    assert not th.is_alive() and "error" not in box, box.get("error")
+    res = box["result"]
+    assert res["trials"] == 4 and res["done"] == 4  # every trial accounted for
+    assert len(res["retries"]) >= 1  # and the retries reported
+    rows = {r["trial"]: r for r in res["rows"]}
+    victim_row = rows[box["victim_trial"]]
+    assert victim_row["attempt"] >= 2  # restarted ...
+    resumed = [x for x in _results(cfg.folder)[box["victim_trial"]] if x.get("attempt", 1) >= 2]
+    assert resumed and resumed[0]["resumed_from"] is not None and resumed[0]["resumed_from"] >= 512  # ... from its checkpoint
+    assert {(r["seed"], r["algo.learning_rate"]) for r in res["rows"]} == {(s, lr) for s in (0, 1) for lr in (3e-4, 1e-3)}
+    assert "retried" in (tmp_path / "sweep.log").read_text()
+    table = list(csv.DictReader(open(cfg.folder / "summary" / "sweep.csv")))
+    assert len(table) == 4 and {"success_rate", "rms_error_deg", "wall_time_s"} <= set(table[0])
+    assert (cfg.folder / "summary" / "sweep.png").stat().st_size > 1000
+
+
+@pytest.mark.slow
+def test_sweep_stopped_and_resumed_loses_no_finished_trial(ray_cluster: Any, tmp_path: Path) -> None:
+    path, cfg = _config(tmp_path, "stopped")
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen([sys.executable, "-m", "rig_cli", "sweep", str(path), "--address", ray_cluster.address],
+                            cwd=tmp_path, env=env, stdout=open(tmp_path / "first.log", "w"), stderr=subprocess.STDOUT,
+                            start_new_session=True)
+    finished_before: dict[str, list[dict[str, Any]]] = {}
+    try:
+        t0 = time.perf_counter()
+        while proc.poll() is None and time.perf_counter() - t0 < 240:
+            res = _results(cfg.folder)
+            done = {k: v for k, v in res.items() if v and v[-1].get("final")}
+            if done and len(done) < 4:
+                proc.send_signal(signal.SIGINT)  # Ctrl-C: Tune saves its state and stops
+                break
+            time.sleep(0.2)
+        proc.wait(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    time.sleep(1.0)
+    finished_before = {k: v for k, v in _results(cfg.folder).items() if v and v[-1].get("final")}
+    assert 0 < len(finished_before) < 4, (tmp_path / "first.log").read_text()[-3000:]
+    res = run_sweep(cfg, train=train_trial, resume=True, stream=open(tmp_path / "second.log", "w"))
+    assert res["trials"] == 4 and res["done"] == 4
+    after = _results(cfg.folder)
+    for name, lines in finished_before.items():
+        assert after[name] == lines  # a finished trial is kept as it was: not run again, nothing appended
+    rows = {r["trial"]: r for r in res["rows"]}
+    assert all(rows[name]["success_rate"] == lines[-1]["success_rate"] for name, lines in finished_before.items())
+    best = Path(res["best"]["policy"])
+    from controllers.laws.artefact import load
+
+    art = load(best)
+    assert art.kind == "ppo" and art.spec.task == "bank_to_bank"
+    # the best policy flies in rig compare --policy (a contender named after its file)
+    from controllers.evaluation.compare import compare
+
+    cmp = compare(tasks=["bank_to_bank"], kinds=[], policies=[best], episodes=2, modes=["nominal"], out_dir=None,
+                  progress=False, stream=open(tmp_path / "cmp.log", "w"))
+    assert {r["law"] for r in cmp.rows} == {"best_policy"}
+
+
+@pytest.mark.slow
+def test_rig_train_seeds_on_ray_writes_each_seed_and_their_spread(ray_cluster: Any, tmp_path: Path) -> None:
+    from controllers.design.rl_train import main
+
+    out = tmp_path / "seeds"
+    rc = main(["--algo", "ppo", "--task", "bank_to_bank", "--seeds", "3", "4", "--backend", "ray", "--out", str(out),
+               "--timesteps", "1024", "--num-envs", "16", "--checkpoint-every", "512", "--eval-every", "1024",
+               "--eval-episodes", "2", "--final-episodes", "2", "--no-progress"])
+    assert rc == 0
+    seeds = json.loads((out / "seeds.json").read_text())
+    assert sorted(r["seed"] for r in seeds["runs"]) == [3, 4]
+    for s in (3, 4):
+        prov = json.loads((out / f"s{s}" / "policy.json").read_text())["provenance"]
+        assert prov["seed"] == s and prov["timesteps"] >= 1024  # every trial seeded by its own seed

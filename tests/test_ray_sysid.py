@@ -1,0 +1,50 @@
+"""Identification Monte-Carlo (``sysid.monte_carlo``): the Ray backend gives the local estimates, draw for draw."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pytest
+
+import rig_env
+from rig_env import sysid
+from rig_env.params import PARAM_INDEX
+
+D = math.pi / 180.0
+NAMES = ["hawk_aero.CMalpha", "hawk_aero.CMq"]
+
+
+@pytest.fixture(scope="module")
+def clean() -> sysid.FlightRecord:
+    p = rig_env.RigParams.default()
+    test = sysid.three_two_one_one("hawk_elevator", -1.5)
+    res = rig_env.simulate(p, [0.126], [0.0], 4.0, free_dofs=("model_pitch",), controls=test.controls())
+    return sysid.FlightRecord.from_sim(res, surfaces=test.controls(), airspeed=20.0, name="pitch_3211")
+
+
+def test_bad_options_name_themselves(clean: sysid.FlightRecord) -> None:
+    p = rig_env.RigParams.default()
+    with pytest.raises(ValueError, match=r"--backend 'dask': allowed \['local', 'ray'\]"):
+        sysid.monte_carlo(clean, p, NAMES, noise_std_rad=0.1 * D, seeds=[0], backend="dask")
+    with pytest.raises(ValueError, match="seeds = \\[1, 1\\]: a non-empty list of distinct integers"):
+        sysid.monte_carlo(clean, p, NAMES, noise_std_rad=0.1 * D, seeds=[1, 1])
+    with pytest.raises(ValueError, match=r"--chunk-size = 0: must be an integer in \[1, 100000\]"):
+        sysid.monte_carlo(clean, p, NAMES, noise_std_rad=0.1 * D, seeds=[0], backend="ray", chunk_size=0)
+
+
+def test_ray_monte_carlo_equals_local(ray_cluster: Any, clean: sysid.FlightRecord) -> None:
+    p = rig_env.RigParams.default()
+    seeds = [11, 3, 7, 5, 2]  # any order: the result keeps it
+    local = sysid.monte_carlo(clean, p, NAMES, noise_std_rad=0.1 * D, seeds=seeds, fit_kwargs={"max_iter": 8})
+    ray_mc = sysid.monte_carlo(clean, p, NAMES, noise_std_rad=0.1 * D, seeds=seeds, fit_kwargs={"max_iter": 8},
+                               backend="ray", chunk_size=2)
+    assert ray_mc.seeds == local.seeds == tuple(seeds)
+    for n in NAMES:
+        np.testing.assert_array_equal(ray_mc.estimates[n], local.estimates[n])
+        np.testing.assert_array_equal(ray_mc.std[n], local.std[n])
+    assert ray_mc.backend["chunks"] == 3 and ray_mc.backend["retries"] == 0
+    assert local.estimates["hawk_aero.CMq"].std() > 0  # the draws differ (the noise is the seed's)
+    s = local.summary({n: float(p.to_vector()[PARAM_INDEX[n]]) for n in NAMES})
+    assert set(s["hawk_aero.CMq"]) == {"mean", "scatter", "mean_std", "ratio", "bias", "within_2std"}
