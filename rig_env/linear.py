@@ -32,8 +32,9 @@ COMP_INPUTS = ("comp_aileron", "comp_elevator", "comp_rudder")
 
 
 @njit(cache=True, error_model="numpy")
-def joint_accelerations(q, qd, u, p, flags, free_idx, tabs):
-    """qdd (5,) for ideal servos (flaps = limited mixed demands of u), bristle states zero."""
+def joint_accelerations(q, qd, u, p, flags, free_idx, tabs, xsep=1.0):
+    """qdd (5,) for ideal servos (flaps = limited mixed demands of u), bristle states zero; xsep: the Hawk's
+    flow-separation state (flags' F_UNSTEADY only)."""
     flaps = np.empty(7)
     for k in range(7):
         flaps[k] = sv.limited(p, k, sv.demand(u, k))
@@ -43,7 +44,7 @@ def joint_accelerations(q, qd, u, p, flags, free_idx, tabs):
     Q = np.empty(5)
     jv = np.empty(45)
     qdd = np.empty(5)
-    accelerations(q, qd, z, flaps, u, p, flags, free_idx, free_idx.shape[0], tabs, M, h, Q, jv, qdd)
+    accelerations(q, qd, z, xsep, flaps, u, p, flags, free_idx, free_idx.shape[0], tabs, M, h, Q, jv, qdd)
     return qdd
 
 

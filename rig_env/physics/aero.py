@@ -83,7 +83,7 @@ def blanking(alpha, p):
 
 
 @inlined(**_JIT)
-def hawk_aero_full(p, A, v_cg, omega, v_air, a_bias, de, da, dr, nonlinear, tab_alpha, tab_cl, tab_cm):
+def hawk_aero_full(p, A, v_cg, omega, v_air, a_bias, de, da, dr, nonlinear, tab_alpha, tab_cl, tab_cm, unsteady, xsep):
     """Hawk force and moment about its c.g. (N, N m), and their alpha-dot parts, in the caller's axes.
 
     p: parameter vector; A: aircraft rotation (body to the caller's axes); v_cg, omega: c.g. velocity and
@@ -95,6 +95,9 @@ def hawk_aero_full(p, A, v_cg, omega, v_air, a_bias, de, da, dr, nonlinear, tab_
     CL = CL(alpha) + (1 - f) CLq q^ + f CLq alphadot^ + CLde de, CD = CD0 + CL_v^2/(pi e AR),
     CM = CM(alpha) + (1 - f) CMq q^ + f CMq alphadot^ + CMde de, with x^ = x c/2V; plus CY, Cl, Cn in beta,
     p, r, da, dr, the fin's terms times the blanking factor and Clbeta + Clbeta_CL CL(alpha).
+
+    unsteady (with nonlinear): CL(alpha) and CM(alpha) are :func:`separated_coefficients` at the flow-separation
+    state xsep (1 attached, 0 separated), which equal the tables at xsep = x0(alpha); otherwise xsep is unused.
 
     alpha-dot: alpha = atan2(w, u) of v_b = A^T (v_cg - v_air), whose body-axis rate is
     v_b' = A^T a_cg - w_b x v_b, so
@@ -130,7 +133,9 @@ def hawk_aero_full(p, A, v_cg, omega, v_air, a_bias, de, da, dr, nonlinear, tab_
     adot = wb[1] - vb[1] * (wb[0] * vb[0] + wb[2] * vb[2]) * ixz2 + dot(n, a_bias)
     adh = adot * c * (0.5 * iV)
     a0 = p[L.P_HAWK_AERO_ALPHA0]
-    if nonlinear:
+    if nonlinear and unsteady:
+        cl_static, cm_static = separated_coefficients(p, alpha, xsep, tab_alpha, tab_cl, tab_cm)
+    elif nonlinear:
         cl_static = interp(alpha, tab_alpha, tab_cl)
         cm_static = interp(alpha, tab_alpha, tab_cm)
     else:
@@ -187,8 +192,109 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
     """Hawk force and moment about its c.g. (:func:`hawk_aero_full`) for a caller that does not have the
     accelerations (the MuJoCo peer): alphadot from the velocities alone, q - v (p u + r w) / (u^2 + w^2),
     which is alphadot wherever the c.g. does not accelerate (the model pitching about a gimbal at its c.g.)."""
-    f, m, fd, md, n = hawk_aero_full(p, A, v_cg, omega, v_air, (0.0, 0.0, 0.0), de, da, dr, nonlinear, tab_alpha, tab_cl, tab_cm)
+    f, m, fd, md, n = hawk_aero_full(p, A, v_cg, omega, v_air, (0.0, 0.0, 0.0), de, da, dr, nonlinear, tab_alpha, tab_cl, tab_cm, False, 1.0)
     return f, m
+
+
+# ---------------------------------------------------------------------- flow separation (aero_model="unsteady")
+# Goman & Khrabrov, J. Aircraft 31(5) 1994: one internal variable x per lifting surface, the chordwise
+# position of the separation point (1 attached, 0 fully separated), with Kirchhoff's thin-aerofoil relation
+# for its lift, CN = CN_att ((1 + sqrt(x)) / 2)^2, and first-order dynamics
+#
+#     tau1 dx/dt + x = x0(alpha - tau2 alphadot),      tau1, tau2 in units of c / V.
+#
+# Static x0(alpha) is the table's lift inverted through that relation against the attached-flow lift
+# CL_att = CLalpha sin(alpha - alpha_zl), alpha_zl = alpha0 - CL0 / CLalpha (Kirchhoff's sin alpha at the
+# attached slope): F0 = CL_tab / CL_att clipped to [1/4, 1] (1/4 is x = 0), x0 = (2 sqrt(F0) - 1)^2, with
+# a lift deficit CL_att - CL_tab below SEP_LIFT_TOL taken as attached flow (continuously: F0 = 1 - max(deficit
+# - SEP_LIFT_TOL, 0) / |CL_att|), so that the tables' rounding near the zero-lift angle, where the ratio
+# of two small numbers means nothing, does not read as separation.
+
+SEP_LIFT_TOL = 0.01
+"""Lift-coefficient deficit below which the flow counts as attached: the tables' agreement with the
+attached slope over their linear range (0.887 against 0.881 at 8 deg, three decimals given)."""
+
+
+@inlined(**_JIT)
+def kirchhoff(x):
+    """Kirchhoff's lift factor F(x) = ((1 + sqrt(x)) / 2)^2 of separation state x (clipped to [0, 1])."""
+    r = 0.5 * (1.0 + math.sqrt(min(max(x, 0.0), 1.0)))
+    return r * r
+
+
+@inlined(**_JIT)
+def attached_lift(p, alpha):
+    """The attached-flow lift CLalpha sin(alpha - alpha_zl) of the Hawk (the linear model's slope at alpha_zl)."""
+    cla = p[L.P_HAWK_AERO_CLALPHA]
+    a_zl = p[L.P_HAWK_AERO_ALPHA0] - p[L.P_HAWK_AERO_CL0] / cla
+    return cla * vmath.sincos(alpha - a_zl)[0]
+
+
+@inlined(**_JIT)
+def static_factor(p, alpha, cl_tab):
+    """F(x0(alpha)): the table's lift over the attached-flow lift (a deficit below SEP_LIFT_TOL taken as
+    none), clipped to Kirchhoff's range [1/4, 1]."""
+    cl_att = attached_lift(p, alpha)
+    mag = abs(cl_att)
+    deficit = mag - (cl_tab if cl_att >= 0.0 else -cl_tab)  # |CL_att| - CL_tab sign(CL_att)
+    r = 1.0 - max(deficit - SEP_LIFT_TOL, 0.0) / max(mag, SEP_LIFT_TOL)
+    return min(max(r, 0.25), 1.0)
+
+
+@inlined(**_JIT)
+def separation_static(p, alpha, tab_alpha, tab_cl):
+    """The static separation state x0(alpha) = (2 sqrt(F0) - 1)^2 of the Hawk (:func:`static_factor`)."""
+    s = 2.0 * math.sqrt(static_factor(p, alpha, interp(alpha, tab_alpha, tab_cl))) - 1.0
+    return s * s
+
+
+@inlined(**_JIT)
+def separated_coefficients(p, alpha, x, tab_alpha, tab_cl, tab_cm):
+    """The Hawk's CL and CM at angle of attack alpha and separation state x:
+
+        CL = CL_tab(alpha) + CL_att(alpha) (F(x) - F(x0(alpha))),
+        CM = CM_tab(alpha) + (CMalpha / CLalpha) (CL - CL_tab(alpha)),
+
+    so both equal the tables whenever x = x0(alpha) (whatever the clipping of F0), and away from it the
+    lift that separation takes away or gives back acts at the attached flow's aerodynamic centre (the
+    static margin -CMalpha / CLalpha behind the c.g.)."""
+    cl_tab = interp(alpha, tab_alpha, tab_cl)
+    cm_tab = interp(alpha, tab_alpha, tab_cm)
+    dcl = attached_lift(p, alpha) * (kirchhoff(x) - static_factor(p, alpha, cl_tab))
+    return cl_tab + dcl, cm_tab + (p[L.P_HAWK_AERO_CMALPHA] / p[L.P_HAWK_AERO_CLALPHA]) * dcl
+
+
+@inlined(**_JIT)
+def hawk_flow(A, v_cg, omega, v_air):
+    """The Hawk's angle of attack alpha (rad), airspeed V (m/s) and alpha-dot from the velocities (rad/s),
+    q - v (p u + r w) / (u^2 + w^2) (:func:`hawk_aero_full`; the c.g. acceleration's part left out)."""
+    vb = mtv(A, sub(v_cg, v_air))
+    wb = mtv(A, omega)
+    vxz2 = vb[0] * vb[0] + vb[2] * vb[2]
+    ixz2 = 1.0 / vxz2 if vxz2 > 0.0 else 0.0
+    V = math.sqrt(vxz2 + vb[1] * vb[1])
+    return vmath.atan2(vb[2], vb[0]), V, wb[1] - vb[1] * (wb[0] * vb[0] + wb[2] * vb[2]) * ixz2
+
+
+@inlined(**_JIT)
+def separation_target(p, alpha, V, adot, tab_alpha, tab_cl):
+    """The right-hand side x0(alpha - tau2 alphadot) of the separation state's equation (tau2 in seconds:
+    the parameter times c / V), the state's steady value at constant alpha-dot."""
+    c = p[L.P_HAWK_AERO_C]
+    return separation_static(p, alpha - p[L.P_HAWK_AERO_SEP_TAU2] * (c / max(V, MIN_AIRSPEED)) * adot, tab_alpha, tab_cl)
+
+
+@inlined(**_JIT)
+def separation_relax(p, alpha, V, adot, x, dt, tab_alpha, tab_cl):
+    """The separation state x after dt seconds of tau1 dx/dt + x = x0(alpha - tau2 alphadot) with its
+    right-hand side held: x0_d + (x - x0_d) exp(-dt V / (tau1 c)), x0_d the delayed static state
+    (:func:`separation_target`) and tau1 in seconds the parameter times c / V.  Below MIN_AIRSPEED x is held."""
+    c = p[L.P_HAWK_AERO_C]
+    Vs = max(V, MIN_AIRSPEED)
+    target = separation_target(p, alpha, V, adot, tab_alpha, tab_cl)
+    decay = vmath.exp(-(dt * Vs) / (p[L.P_HAWK_AERO_SEP_TAU1] * c))
+    xn = target + (x - target) * decay
+    return xn if V >= MIN_AIRSPEED else x
 
 
 @inlined(**_JIT)

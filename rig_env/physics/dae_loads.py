@@ -60,15 +60,15 @@ def inertias(p):
 def applied_loads(y, z, flaps, u, p, flags, free_idx, n_free, tabs):
     """Applied loads of state y; see :func:`loads_at`."""
     Aa, As = body_matrices(y)
-    return loads_at(y, Aa, As, z, flaps, u, p, flags, free_idx, n_free, tabs)
+    return loads_at(y, Aa, As, z, 1.0, flaps, u, p, flags, free_idx, n_free, tabs)
 
 
 @njit(**_JIT)
-def loads_at(y, Aa, As, z, flaps, u, p, flags, free_idx, n_free, tabs):
+def loads_at(y, Aa, As, z, xsep, flaps, u, p, flags, free_idx, n_free, tabs):
     """Applied loads (world axes): (f_a, n_a, f_s, n_s, f_r, (fd, md, n)), forces at each c.g. (N), moments
     (N m), and the Hawk's alpha-dot terms (aero.hawk_aero_full, with no acceleration known: the whole c.g.
     acceleration goes through them): force and moment per unit of n . a_a, the Hawk c.g.'s acceleration
-    along n (zero without aerodynamics).
+    along n (zero without aerodynamics).  xsep: the Hawk's flow-separation state (F_UNSTEADY).
 
     Gravity on every body; Hawk aero at its c.g.; compensator aero force at the arm point
     A_s [comp_aero_x 0 0]^T plus its moment, on the arm; friction and stop torques of the free joints
@@ -88,7 +88,8 @@ def loads_at(y, Aa, As, z, flaps, u, p, flags, free_idx, n_free, tabs):
         v_air = air_velocity(u)
         nonlin = (flags & L.F_NONLINEAR) != 0
         fa, ta, fd, md, n = hawk_aero_full(
-            p, Aa, vec3(y, Y_VA), w_a, v_air, zero, flaps[4], flaps[5], flaps[6], nonlin, tabs[0], tabs[1], tabs[2]
+            p, Aa, vec3(y, Y_VA), w_a, v_air, zero, flaps[4], flaps[5], flaps[6], nonlin, tabs[0], tabs[1], tabs[2],
+            (flags & L.F_UNSTEADY) != 0, xsep,
         )
         ad = (fd, md, n)
         f_a = add(f_a, fa)

@@ -40,7 +40,7 @@ from numba import njit
 from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import vmath
-from rig_env.physics.aero import comp_aero_arm, hawk_aero_full
+from rig_env.physics.aero import MIN_AIRSPEED, comp_aero_arm, hawk_aero_full, hawk_flow, separation_relax, separation_target
 from rig_env.physics.llvm_inline import inlined
 from rig_env.physics.vec import FASTMATH, add, col, cross, dot, inertia_world, mm, mtv, mv, rot_zy, rot_zyx, scale, sub
 
@@ -391,7 +391,57 @@ def joint_projection(t_pivot, t_gimbal, cs, a2, sc):
 
 
 @inlined(**_JIT)
-def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
+def hawk_air(q, u, p, kin):
+    """The air velocity (inputs u: tunnel flow and gust) and the Hawk c.g.'s velocity, both in arm axes
+    (kin: :func:`arm_kinematics` or :func:`mass_matrix_terms`' kinematics)."""
+    B, cs, a2, sc, rho, w_s, w_a, b_s, b_a, ts = kin[:10]
+    v_air = air_velocity(u)  # world; into arm axes: A_s^T = Rx(phi)^T Ry(theta)^T Rz(psi)^T
+    sp, cp = vmath.sincos(q[L.J_RIG_YAW])
+    cf, sf = cs
+    ct, st = ts
+    v1 = (cp * v_air[0] + sp * v_air[1], cp * v_air[1] - sp * v_air[0], v_air[2])
+    v2 = (ct * v1[0] - st * v1[2], v1[1], st * v1[0] + ct * v1[2])
+    v_air_s = (v2[0], cf * v2[1] + sf * v2[2], cf * v2[2] - sf * v2[1])
+    return v_air_s, add(cross_x(w_s, p[L.P_GEOMETRY_ARM_LENGTH]), cross(w_a, rho))
+
+
+@inlined(**_JIT)
+def separation_step(q, qd, u, p, x, dt, tabs):
+    """The Hawk's flow-separation state x after dt seconds at joint state (q, qd) and inputs u, its
+    target held (:func:`rig_env.physics.aero.separation_relax`; alpha and the velocity part of alpha-dot
+    from the joint state)."""
+    kin = arm_kinematics(q, qd, p)
+    v_air_s, v_a = hawk_air(q, u, p, kin)
+    alpha, V, adot = hawk_flow(kin[0], v_a, kin[6], v_air_s)
+    return separation_relax(p, alpha, V, adot, x, dt, tabs[0], tabs[1])
+
+
+@njit(**_JIT)
+def separation_rate(q, qd, u, p, x, tabs):
+    """dx/dt = (x0(alpha - tau2 alphadot) - x) / tau1 (1/s; tau1, tau2 in seconds: the parameters times c / V)
+    of the Hawk's flow-separation state x at joint state (q, qd) and inputs u; 0 below MIN_AIRSPEED.  The
+    integrators relax x exactly over half steps (:func:`separation_step`); this is the same equation for
+    continuation and linearisation."""
+    kin = arm_kinematics(q, qd, p)
+    v_air_s, v_a = hawk_air(q, u, p, kin)
+    alpha, V, adot = hawk_flow(kin[0], v_a, kin[6], v_air_s)
+    target = separation_target(p, alpha, V, adot, tabs[0], tabs[1])
+    rate = (target - x) * V / (p[L.P_HAWK_AERO_SEP_TAU1] * p[L.P_HAWK_AERO_C])
+    return rate if V >= MIN_AIRSPEED else 0.0
+
+
+@njit(**_JIT)
+def separation_steady(q, qd, u, p, tabs):
+    """The Hawk's flow-separation state in steady flow at joint state (q, qd) and inputs u: its target
+    x0(alpha - tau2 alphadot) (:func:`separation_step`'s, without the relaxation)."""
+    kin = arm_kinematics(q, qd, p)
+    v_air_s, v_a = hawk_air(q, u, p, kin)
+    alpha, V, adot = hawk_flow(kin[0], v_a, kin[6], v_air_s)
+    return separation_target(p, alpha, V, adot, tabs[0], tabs[1])
+
+
+@inlined(**_JIT)
+def forces(q, qd, fric, xsep, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
     """Generalised forces (Q, D, G), three 5-tuples: Q (N m) of gravity, aerodynamics, stops and the joint
     torques ``fric``, with the Hawk's alpha-dot at its velocity part (aero.hawk_aero_full); D (N m s/rad)
     the generalised force per unit of the rest of alpha-dot (rad/s) and G (s) that rest per unit joint
@@ -405,6 +455,7 @@ def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
 
     fric: the joints' friction and test-fixture torques (:func:`applied_torques`; the lane kernel
     computes them in loops of their own, for the free joints only, so that a locked joint costs nothing).
+    xsep: the Hawk's flow-separation state (used with flags' F_UNSTEADY and nonlinear only).
 
     nonlinear: the stall tables (flags' F_NONLINEAR), unrolled: the compensator's panels written out
     (the lane kernel) rather than looped over (the per-environment kernel vectorises that loop); both
@@ -431,15 +482,11 @@ def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
     D = zero
     Gv = zero
     if flags & L.F_AERO:
-        v_air = air_velocity(u)  # world; into arm axes: A_s^T = Rx(phi)^T Ry(theta)^T Rz(psi)^T
-        sp, cp = vmath.sincos(q[L.J_RIG_YAW])
-        cf, sf = cs
-        ct, st = ts
-        v1 = (cp * v_air[0] + sp * v_air[1], cp * v_air[1] - sp * v_air[0], v_air[2])
-        v2 = (ct * v1[0] - st * v1[2], v1[1], st * v1[0] + ct * v1[2])
-        v_air_s = (v2[0], cf * v2[1] + sf * v2[2], cf * v2[2] - sf * v2[1])
-        v_a = add(cross_x(w_s, lf), cross(w_a, rho))
-        fa, ta, fd, md, n = hawk_aero_full(p, B, v_a, w_a, v_air_s, a_bias, flaps[4], flaps[5], flaps[6], nonlinear, tabs[0], tabs[1], tabs[2])
+        v_air_s, v_a = hawk_air(q, u, p, kin)
+        unsteady = (flags & L.F_UNSTEADY) != 0
+        fa, ta, fd, md, n = hawk_aero_full(
+            p, B, v_a, w_a, v_air_s, a_bias, flaps[4], flaps[5], flaps[6], nonlinear, tabs[0], tabs[1], tabs[2], unsteady, xsep
+        )
         f_a = add(f_a, fa)
         t_a = ta
         D = joint_projection(add(cross(r_a, fd), md), add(cross(rho, fd), md), cs, a2, sc)
@@ -460,9 +507,9 @@ def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
 
 
 @inlined(**_JIT)
-def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q):
-    """Fill Q (5) with :func:`forces`' Q (alpha-dot at its velocity part)."""
-    Qt, D, Gv = forces(q, qd, applied_torques(q, qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
+def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q, xsep=1.0):
+    """Fill Q (5) with :func:`forces`' Q (alpha-dot at its velocity part; xsep: the Hawk's separation state)."""
+    Qt, D, Gv = forces(q, qd, applied_torques(q, qd, z, p, flags), xsep, flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
     for k in range(5):
         Q[k] = Qt[k]
 
@@ -582,12 +629,12 @@ def ldl_solve(fac, r, free):
 
 
 @inlined(**_JIT)
-def accelerations(q, qd, z, flaps, u, p, flags, free_idx, n_free, tabs, M, hvec, Q, jv, qdd):
+def accelerations(q, qd, z, xsep, flaps, u, p, flags, free_idx, n_free, tabs, M, hvec, Q, jv, qdd):
     """Joint accelerations qdd (5; zero for locked joints) of the joint-space model, (M - D G^T) qdd + h = Q
     (:func:`forces`, :func:`solve_free_rank1`), with M, h and Q (alpha-dot at its velocity part) written to
-    M, hvec and Q (jv: unused scratch, kept for callers)."""
+    M, hvec and Q (jv: unused scratch, kept for callers); xsep: the Hawk's flow-separation state."""
     Mt, ht, kin = mass_matrix_terms(q, qd, p)
-    Qt, D, Gv = forces(q, qd, applied_torques(q, qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
+    Qt, D, Gv = forces(q, qd, applied_torques(q, qd, z, p, flags), xsep, flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
     r = (Qt[0] - ht[0], Qt[1] - ht[1], Qt[2] - ht[2], Qt[3] - ht[3], Qt[4] - ht[4])
     x = solve_free_rank1(Mt, r, D, Gv, free_mask(free_idx, n_free))
     store_mass_matrix(Mt, ht, M, hvec)
