@@ -25,7 +25,8 @@ from scipy.optimize import least_squares
 from rig_env.params import JOINTS, SURFACES, RigParams
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
-from rig_env.physics.joint_space import accelerations
+from rig_env.physics.joint_space import accelerations, separation_rate, separation_steady
+from rig_env.physics.pipeline import AERO_MODELS, check_aero_model
 from rig_env.simulate import check_controls, check_free_dofs
 
 COMP_INPUTS = ("comp_aileron", "comp_elevator", "comp_rudder")
@@ -54,7 +55,9 @@ class OperatingPoint:
 
     ``controls_deg``: surface deflections, deg (the given ones and those of the mixed inputs);
     ``inputs``: the value of every input of the trim's :class:`InputMix` (given and solved), in its
-    ``unit_deg`` units (empty without a mix).
+    ``unit_deg`` units (empty without a mix).  ``aero_model``: the aerodynamic model it is an equilibrium
+    of (:data:`rig_env.physics.pipeline.AERO_MODELS`); ``separation``: the Hawk's flow-separation state
+    there, x0 at the Hawk's angle of attack (the "unsteady" model's internal state; NaN for the others).
     """
 
     q: np.ndarray
@@ -64,6 +67,8 @@ class OperatingPoint:
     free_dofs: tuple[str, ...]
     residual: float  # max |qdd| of the free joints at the solution, rad/s^2
     inputs: dict[str, float] = field(default_factory=dict)
+    aero_model: str = "linear"
+    separation: float = float("nan")
 
 
 @dataclass(frozen=True)
@@ -108,8 +113,19 @@ def _inputs(controls_deg: Mapping[str, float], airspeed: float) -> np.ndarray:
     return u
 
 
-def _flags(aero: bool, friction: str | bool) -> int:
-    return (L.F_AERO if aero else 0) | (L.F_FRICTION if friction == "viscous" else 0)
+def _flags(aero: bool, friction: str | bool, aero_model: str = "linear") -> int:
+    return (L.F_AERO if aero else 0) | (L.F_FRICTION if friction == "viscous" else 0) | (AERO_MODELS[aero_model] if aero else 0)
+
+
+def _qdd(q: np.ndarray, qd: np.ndarray, u: np.ndarray, p: np.ndarray, flags: int, idx: np.ndarray, tabs: tuple,
+         xsep: float | None = None) -> np.ndarray:
+    """qdd (5,) of the free joints idx; with the unsteady model the Hawk's separation state is xsep, or its
+    steady value x0 at (q, qd) when None (at an equilibrium x = x0: the loads are the tables')."""
+    if not flags & L.F_UNSTEADY:
+        return joint_accelerations(q, qd, u, p, flags, idx, tabs)
+    if xsep is None:
+        xsep = separation_steady(q, qd, u, p, tabs)
+    return joint_accelerations(q, qd, u, p, flags, idx, tabs, float(xsep))
 
 
 def trim(
@@ -124,6 +140,7 @@ def trim(
     unknown_inputs: Sequence[str] = (),
     hold: Mapping[str, float] | None = None,
     aero: bool = True,
+    aero_model: str = "linear",
     tol: float = 1e-10,
     max_residual: float | None = 1e-6,
 ) -> OperatingPoint:
@@ -138,11 +155,14 @@ def trim(
     :class:`InputMix`, values in its ``unit_deg``) whose other inputs take their ``inputs`` value (0 if
     not given); mixed surfaces may not also be in ``controls``.  Unknowns: the inputs (from 0) then the
     free joints not held (from their guess), solved by MINPACK's Levenberg-Marquardt to ``tol``.
+    ``aero_model``: "linear" (default), "tables" or "unsteady" (:data:`rig_env.physics.pipeline.AERO_MODELS`;
+    the unsteady model's equilibria are the tables', with the Hawk's separation state at x0).
     Returns the :class:`OperatingPoint`, with the solved inputs in ``inputs`` (surface names: in
     ``controls_deg``).  RuntimeError when max |qdd| > ``max_residual`` rad/s^2 (None: return the
     solver's point anyway, the caller checks ``residual``).
     """
     free = check_free_dofs(free_dofs)
+    aero_model = check_aero_model(aero_model)
     controls = {k: float(v) for k, v in check_controls(controls).items()}
     q0 = np.zeros(5) if q_guess is None else np.array(q_guess, dtype=np.float64)
     if q0.shape != (5,) or not np.all(np.isfinite(q0)):
@@ -180,7 +200,7 @@ def trim(
         v0[names.index(n)] = float(val)
     solved = [names.index(n) for n in unknown_inputs]
     n_in = len(solved)
-    flags = _flags(aero, False)
+    flags = _flags(aero, False, aero_model)
     qd = np.zeros(5)
 
     def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -193,7 +213,7 @@ def trim(
 
     def residual(x: np.ndarray) -> np.ndarray:
         q, u, _ = unpack(x)
-        return joint_accelerations(q, qd, u, p, flags, idx, tabs)[idx]
+        return _qdd(q, qd, u, p, flags, idx, tabs)[idx]
 
     # solved for the change y from the guess, starting at y = 0: MINPACK's Levenberg-Marquardt sizes its
     # first step in proportion to the starting point's norm (100 |x0|, or 100 when x0 = 0), so a guess
@@ -206,8 +226,9 @@ def trim(
     out_controls = dict(controls)
     if mix is not None:
         out_controls.update({n: math.degrees(u[c]) for n, c in zip(mix.surfaces, cols) if u[c] != 0.0})
+    sep = float(separation_steady(q, qd, u, p, tabs)) if flags & L.F_UNSTEADY else float("nan")
     return OperatingPoint(q=q, qd=qd, controls_deg=out_controls, airspeed=float(airspeed), free_dofs=free, residual=res,
-                          inputs={n: float(v[k]) for k, n in enumerate(names)})
+                          inputs={n: float(v[k]) for k, n in enumerate(names)}, aero_model=aero_model, separation=sep)
 
 
 def linearize(
@@ -219,10 +240,11 @@ def linearize(
     friction: str | bool = False,
     eps: float = 1e-6,
 ) -> control.StateSpace:
-    """Continuous-time linear model x' = A x + B u about ``op``; x = (angles, rates) of the free joints.
+    """Continuous-time linear model x' = A x + B u about ``op``; x = (angles, rates) of the free joints, then
+    with ``op``'s aero_model "unsteady" the Hawk's flow-separation state (``hawk_separation``, about x0).
 
     States are named ``<joint>`` and ``<joint>_rate``; inputs are the named surfaces in rad; the
-    outputs are the states.
+    outputs are the states.  The aerodynamic model is the operating point's (:func:`trim`'s ``aero_model``).
     """
     unknown = [n for n in inputs if n not in SURFACES]
     if unknown:
@@ -235,13 +257,18 @@ def linearize(
     idx = np.array([JOINTS.index(j) for j in free], dtype=np.int64)
     n = len(idx)
     u0 = _inputs(op.controls_deg, op.airspeed)
-    flags = _flags(aero, friction)
+    flags = _flags(aero, friction, op.aero_model)
+    unsteady = bool(flags & L.F_UNSTEADY)
+    x_op = float(separation_steady(op.q, op.qd, u0, p, tabs)) if unsteady else 1.0
+    m = 2 * n + (1 if unsteady else 0)
 
-    def f(q: np.ndarray, qd: np.ndarray, u: np.ndarray) -> np.ndarray:
-        return joint_accelerations(q, qd, u, p, flags, idx, tabs)[idx]
+    def f(q: np.ndarray, qd: np.ndarray, u: np.ndarray, xs: float = x_op) -> np.ndarray:
+        """(free accelerations, separation rate if unsteady) at (q, qd, u) and separation state xs."""
+        acc = _qdd(q, qd, u, p, flags, idx, tabs, xs)[idx]
+        return np.append(acc, separation_rate(q, qd, u, p, xs, tabs)) if unsteady else acc
 
-    A = np.zeros((2 * n, 2 * n))
-    A[:n, n:] = np.eye(n)
+    A = np.zeros((m, m))
+    A[:n, n:2 * n] = np.eye(n)
     for a, j in enumerate(idx):
         for which in (0, 1):
             dq = np.zeros(5)
@@ -252,10 +279,12 @@ def linearize(
             else:
                 col = (f(op.q, op.qd + dq, u0) - f(op.q, op.qd - dq, u0)) / (2 * eps)
                 A[n:, n + a] = col
-    B = np.zeros((2 * n, len(inputs)))
+    if unsteady:
+        A[n:, 2 * n] = (f(op.q, op.qd, u0, x_op + eps) - f(op.q, op.qd, u0, x_op - eps)) / (2 * eps)
+    B = np.zeros((m, len(inputs)))
     for b, name in enumerate(inputs):
         du = np.zeros(L.N_INPUTS)
         du[SURFACES.index(name)] = eps
         B[n:, b] = (f(op.q, op.qd, u0 + du) - f(op.q, op.qd, u0 - du)) / (2 * eps)
-    states = [*free, *(f"{j}_rate" for j in free)]
-    return control.ss(A, B, np.eye(2 * n), np.zeros((2 * n, len(inputs))), states=states, inputs=list(inputs), outputs=states)
+    states = [*free, *(f"{j}_rate" for j in free), *(("hawk_separation",) if unsteady else ())]
+    return control.ss(A, B, np.eye(m), np.zeros((m, len(inputs))), states=states, inputs=list(inputs), outputs=states)

@@ -48,7 +48,7 @@ E_X = np.array([1.0, 0.0, 0.0])
 E_Y = np.array([0.0, 1.0, 0.0])
 E_Z = np.array([0.0, 0.0, 1.0])
 MIN_AIRSPEED = 0.5  # m/s: below this local airspeed a body or strip carries no aerodynamic load
-SEP_LIFT_TOL = 0.01  # lift-coefficient deficit counted as attached flow (docs/MODEL.md 3.2)
+SEP_LIFT_TOL = 0.01  # lift-coefficient deficit counted as attached flow (docs/MODEL.md 3.1.1)
 # compensator panels (docs/MODEL.md sec. 1): roll positions of flaps 1-4 and their mixing signs
 PANEL_GAMMA = np.radians([135.0, 45.0, -45.0, -135.0])
 PANEL_ELEVATOR_SIGN = np.array([1.0, -1.0, -1.0, 1.0])
@@ -196,7 +196,7 @@ def fin_factor(alpha: float, p: np.ndarray) -> float:
 def separation_factor(p: np.ndarray, alpha: float, cl_table: float) -> tuple[float, float]:
     """(CL_att, F0): the attached-flow lift CLalpha sin(alpha - alpha_zl), alpha_zl = alpha0 - CL0 / CLalpha,
     and Kirchhoff's factor F0 = F(x0(alpha)) of the table's lift, CL_table / CL_att in [1/4, 1] with a lift
-    deficit below SEP_LIFT_TOL counted as attached flow (docs/MODEL.md 3.2)."""
+    deficit below SEP_LIFT_TOL counted as attached flow (docs/MODEL.md 3.1.1)."""
     cla = p[L.P_HAWK_AERO_CLALPHA]
     cl_att = cla * math.sin(alpha - (p[L.P_HAWK_AERO_ALPHA0] - p[L.P_HAWK_AERO_CL0] / cla))
     deficit = abs(cl_att) - math.copysign(1.0, cl_att) * cl_table
@@ -220,7 +220,7 @@ def hawk_loads(p: np.ndarray, Aa: np.ndarray, v_rel: np.ndarray, w: np.ndarray, 
     ``alpha_dot``.  The fin's derivatives (CYbeta, Cnbeta and the rudder's) are scaled by
     :func:`fin_factor`; Clbeta grows with the static lift by Clbeta_CL.  sep (with nonlinear): the flow-separation
     state x; the tables' lift and moment then move by the Kirchhoff lift CL_att (F(x) - F0) and that lift times
-    CMalpha / CLalpha (docs/MODEL.md 3.2).
+    CMalpha / CLalpha (docs/MODEL.md 3.1.1).
     """
     u, v, wz = Aa.T @ v_rel
     V = math.sqrt(u * u + v * v + wz * wz)

@@ -152,7 +152,7 @@ class HawkAero:
     blanking_width_deg: float = _f(0.1, 45.0, "deg")  # blanking complete this far above the onset
     blanked_fraction: float = _f(0.0, 1.0, "-")  # fin derivatives' share left when fully blanked
     Clbeta_CL: float = _f(-1.0, 1.0, "1/rad")  # d(Clbeta)/d(CL), the swept wing's share
-    # issue 21 item 1 (docs/MODEL.md 3.2): the flow-separation state's time constants (Goman & Khrabrov 1994),
+    # issue 21 item 1 (docs/MODEL.md 3.1.1): the flow-separation state's time constants (Goman & Khrabrov 1994),
     # in chord lengths of travel c/V; used by aero_model="unsteady" only
     sep_tau1: float = _f(0.5, 100.0, "c/V")  # relaxation time of the separation point
     sep_tau2: float = _f(0.0, 50.0, "c/V")  # delay of the static separation point behind alpha

@@ -225,7 +225,7 @@ def simulate(
     velocity added to the tunnel flow, m/s, shape (3,) or (n_envs, 3) or a function of time.
     aero_model: "linear" (default: the stability derivatives of eq. 23), "tables" (the static high-incidence
     tables) or "unsteady" (the tables through the Hawk's flow-separation state, tau1 dx/dt + x = x0(alpha -
-    tau2 alphadot): docs/MODEL.md 3.2); nonlinear_aero=True is the older name of "tables".
+    tau2 alphadot): docs/MODEL.md 3.1.1); nonlinear_aero=True is the older name of "tables".
     formulation: "joint" (fast joint-space model) or "dae" (the paper's body-coordinate DAE).
     control_rate: Hz; physics_dt: s, default the largest step <= 2.5 ms dividing the control step.
     overrides: per-environment parameter overrides (see rig_env.param_batch).

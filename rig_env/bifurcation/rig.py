@@ -202,8 +202,6 @@ class RigField:
 
 
 def _check_options(aero_model: str, friction: str) -> AeroModel:
-    if isinstance(aero_model, bool):
-        raise ValueError(f"aero_model = {aero_model!r}: allowed values: {list(AERO_MODELS)}")
     check_aero_model(aero_model)
     if friction not in ("off", "viscous"):
         raise ValueError(f"friction = {friction!r}: allowed values: 'off', 'viscous' (LuGre's stiction band has no isolated "

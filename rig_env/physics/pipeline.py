@@ -82,14 +82,11 @@ def check_no_fixture(P: np.ndarray) -> None:
 AERO_MODELS: dict[str, int] = {"linear": 0, "tables": L.F_NONLINEAR, "unsteady": L.F_NONLINEAR | L.F_UNSTEADY}
 """The aerodynamic models and their flags: ``"linear"`` the stability derivatives (eq. 23), ``"tables"`` the
 static high-incidence tables (formerly ``nonlinear_aero=True``), ``"unsteady"`` the tables through the Hawk's
-flow-separation state (Goman-Khrabrov; docs/MODEL.md 3.2)."""
+flow-separation state (Goman-Khrabrov; docs/MODEL.md 3.1.1)."""
 
 
 def check_aero_model(aero_model: object, field: str = "aero_model") -> str:
-    """``aero_model`` if it names one of :data:`AERO_MODELS` (True and False, the old ``nonlinear_aero``
-    switch, are taken as "tables" and "linear"); ValueError naming ``field`` and the allowed values otherwise."""
-    if aero_model is True or aero_model is False:
-        return "tables" if aero_model else "linear"
+    """``aero_model`` if it names one of :data:`AERO_MODELS`; ValueError naming ``field`` and the allowed values otherwise."""
     if not isinstance(aero_model, str) or aero_model not in AERO_MODELS:
         raise ValueError(f"{field} = {aero_model!r}: allowed values: {list(AERO_MODELS)}")
     return aero_model
@@ -104,8 +101,8 @@ def resolve_aero_model(aero_model: str | None, nonlinear_aero: bool | None, defa
     if aero_model is None:
         return alias if alias is not None else check_aero_model(default)
     model = check_aero_model(aero_model)
-    if alias is not None and alias != model and nonlinear_aero:
-        raise ValueError(f"nonlinear_aero = True (aero_model 'tables') contradicts aero_model = {model!r}: give one")
+    if alias is not None and alias != model:
+        raise ValueError(f"nonlinear_aero = {nonlinear_aero} (aero_model {alias!r}) contradicts aero_model = {model!r}: give one")
     return model
 
 
@@ -117,6 +114,8 @@ def flags_of(aero: bool, friction: bool, stops: bool, servo: bool, aero_model: s
     older keyword ``nonlinear_aero``)."""
     if nonlinear_aero is not None:
         aero_model = resolve_aero_model(None if aero_model == "linear" else aero_model, nonlinear_aero)
+    elif isinstance(aero_model, bool):
+        aero_model = "tables" if aero_model else "linear"
     return (
         (L.F_AERO if aero else 0)
         | (L.F_FRICTION if friction else 0)
