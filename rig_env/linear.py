@@ -25,7 +25,7 @@ from scipy.optimize import least_squares
 from rig_env.params import JOINTS, SURFACES, RigParams
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
-from rig_env.physics.joint_space import accelerations, separation_rate, separation_steady
+from rig_env.physics.joint_space import accelerations, separation_rates, separation_steady
 from rig_env.physics.pipeline import AERO_MODELS, check_aero_model
 from rig_env.simulate import check_controls, check_free_dofs
 
@@ -33,9 +33,9 @@ COMP_INPUTS = ("comp_aileron", "comp_elevator", "comp_rudder")
 
 
 @njit(cache=True, error_model="numpy")
-def joint_accelerations(q, qd, u, p, flags, free_idx, tabs, xsep=1.0):
-    """qdd (5,) for ideal servos (flaps = limited mixed demands of u), bristle states zero; xsep: the Hawk's
-    flow-separation state (flags' F_UNSTEADY only)."""
+def joint_accelerations(q, qd, u, p, flags, free_idx, tabs, xs=(1.0, 1.0, 1.0, 1.0, 1.0)):
+    """qdd (5,) for ideal servos (flaps = limited mixed demands of u), bristle states zero; xs: the
+    flow-separation states (5-tuple: the Hawk, flaps 1-4's panels; flags' F_UNSTEADY only)."""
     flaps = np.empty(7)
     for k in range(7):
         flaps[k] = sv.limited(p, k, sv.demand(u, k))
@@ -45,8 +45,12 @@ def joint_accelerations(q, qd, u, p, flags, free_idx, tabs, xsep=1.0):
     Q = np.empty(5)
     jv = np.empty(45)
     qdd = np.empty(5)
-    accelerations(q, qd, z, xsep, flaps, u, p, flags, free_idx, free_idx.shape[0], tabs, M, h, Q, jv, qdd)
+    accelerations(q, qd, z, xs, flaps, u, p, flags, free_idx, free_idx.shape[0], tabs, M, h, Q, jv, qdd)
     return qdd
+
+
+SEPARATION_STATES = ("hawk_separation", "flap1_separation", "flap2_separation", "flap3_separation", "flap4_separation")
+"""Names of the unsteady model's flow-separation states (layout.X_SEP order: the Hawk, the compensator's panels)."""
 
 
 @dataclass(frozen=True)
@@ -56,8 +60,9 @@ class OperatingPoint:
     ``controls_deg``: surface deflections, deg (the given ones and those of the mixed inputs);
     ``inputs``: the value of every input of the trim's :class:`InputMix` (given and solved), in its
     ``unit_deg`` units (empty without a mix).  ``aero_model``: the aerodynamic model it is an equilibrium
-    of (:data:`rig_env.physics.pipeline.AERO_MODELS`); ``separation``: the Hawk's flow-separation state
-    there, x0 at the Hawk's angle of attack (the "unsteady" model's internal state; NaN for the others).
+    of (:data:`rig_env.physics.pipeline.AERO_MODELS`); ``separation``: the flow-separation states there
+    (the Hawk, flaps 1-4's panels), x0 at each one's angle of attack (the "unsteady" model's internal
+    states, :data:`SEPARATION_STATES`; empty for the others).
     """
 
     q: np.ndarray
@@ -68,7 +73,7 @@ class OperatingPoint:
     residual: float  # max |qdd| of the free joints at the solution, rad/s^2
     inputs: dict[str, float] = field(default_factory=dict)
     aero_model: str = "linear"
-    separation: float = float("nan")
+    separation: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -118,14 +123,14 @@ def _flags(aero: bool, friction: str | bool, aero_model: str = "linear") -> int:
 
 
 def _qdd(q: np.ndarray, qd: np.ndarray, u: np.ndarray, p: np.ndarray, flags: int, idx: np.ndarray, tabs: tuple,
-         xsep: float | None = None) -> np.ndarray:
-    """qdd (5,) of the free joints idx; with the unsteady model the Hawk's separation state is xsep, or its
-    steady value x0 at (q, qd) when None (at an equilibrium x = x0: the loads are the tables')."""
+         xs: tuple | None = None) -> np.ndarray:
+    """qdd (5,) of the free joints idx; with the unsteady model the separation states are xs (5), or their
+    steady values x0 at (q, qd) when None (at an equilibrium x = x0: the loads are the tables')."""
     if not flags & L.F_UNSTEADY:
         return joint_accelerations(q, qd, u, p, flags, idx, tabs)
-    if xsep is None:
-        xsep = separation_steady(q, qd, u, p, tabs)
-    return joint_accelerations(q, qd, u, p, flags, idx, tabs, float(xsep))
+    if xs is None:
+        xs = separation_steady(q, qd, u, p, tabs)
+    return joint_accelerations(q, qd, u, p, flags, idx, tabs, tuple(float(v) for v in xs))
 
 
 def trim(
@@ -226,7 +231,7 @@ def trim(
     out_controls = dict(controls)
     if mix is not None:
         out_controls.update({n: math.degrees(u[c]) for n, c in zip(mix.surfaces, cols) if u[c] != 0.0})
-    sep = float(separation_steady(q, qd, u, p, tabs)) if flags & L.F_UNSTEADY else float("nan")
+    sep = tuple(float(v) for v in separation_steady(q, qd, u, p, tabs)) if flags & L.F_UNSTEADY else ()
     return OperatingPoint(q=q, qd=qd, controls_deg=out_controls, airspeed=float(airspeed), free_dofs=free, residual=res,
                           inputs={n: float(v[k]) for k, n in enumerate(names)}, aero_model=aero_model, separation=sep)
 
@@ -241,7 +246,7 @@ def linearize(
     eps: float = 1e-6,
 ) -> control.StateSpace:
     """Continuous-time linear model x' = A x + B u about ``op``; x = (angles, rates) of the free joints, then
-    with ``op``'s aero_model "unsteady" the Hawk's flow-separation state (``hawk_separation``, about x0).
+    with ``op``'s aero_model "unsteady" the flow-separation states (:data:`SEPARATION_STATES`, about x0).
 
     States are named ``<joint>`` and ``<joint>_rate``; inputs are the named surfaces in rad; the
     outputs are the states.  The aerodynamic model is the operating point's (:func:`trim`'s ``aero_model``).
@@ -259,13 +264,15 @@ def linearize(
     u0 = _inputs(op.controls_deg, op.airspeed)
     flags = _flags(aero, friction, op.aero_model)
     unsteady = bool(flags & L.F_UNSTEADY)
-    x_op = float(separation_steady(op.q, op.qd, u0, p, tabs)) if unsteady else 1.0
-    m = 2 * n + (1 if unsteady else 0)
+    x_op = np.array(separation_steady(op.q, op.qd, u0, p, tabs)) if unsteady else np.ones(L.N_SEP)
+    ns = L.N_SEP if unsteady else 0
+    m = 2 * n + ns
 
-    def f(q: np.ndarray, qd: np.ndarray, u: np.ndarray, xs: float = x_op) -> np.ndarray:
-        """(free accelerations, separation rate if unsteady) at (q, qd, u) and separation state xs."""
-        acc = _qdd(q, qd, u, p, flags, idx, tabs, xs)[idx]
-        return np.append(acc, separation_rate(q, qd, u, p, xs, tabs)) if unsteady else acc
+    def f(q: np.ndarray, qd: np.ndarray, u: np.ndarray, xs: np.ndarray = x_op) -> np.ndarray:
+        """(free accelerations, separation rates if unsteady) at (q, qd, u) and separation states xs (5,)."""
+        t = tuple(float(v) for v in xs)
+        acc = _qdd(q, qd, u, p, flags, idx, tabs, t)[idx]
+        return np.append(acc, separation_rates(q, qd, u, p, t, tabs)) if unsteady else acc
 
     A = np.zeros((m, m))
     A[:n, n:2 * n] = np.eye(n)
@@ -279,12 +286,14 @@ def linearize(
             else:
                 col = (f(op.q, op.qd + dq, u0) - f(op.q, op.qd - dq, u0)) / (2 * eps)
                 A[n:, n + a] = col
-    if unsteady:
-        A[n:, 2 * n] = (f(op.q, op.qd, u0, x_op + eps) - f(op.q, op.qd, u0, x_op - eps)) / (2 * eps)
+    for k in range(ns):
+        dx = np.zeros(L.N_SEP)
+        dx[k] = eps
+        A[n:, 2 * n + k] = (f(op.q, op.qd, u0, x_op + dx) - f(op.q, op.qd, u0, x_op - dx)) / (2 * eps)
     B = np.zeros((m, len(inputs)))
     for b, name in enumerate(inputs):
         du = np.zeros(L.N_INPUTS)
         du[SURFACES.index(name)] = eps
         B[n:, b] = (f(op.q, op.qd, u0 + du) - f(op.q, op.qd, u0 - du)) / (2 * eps)
-    states = [*free, *(f"{j}_rate" for j in free), *(("hawk_separation",) if unsteady else ())]
+    states = [*free, *(f"{j}_rate" for j in free), *(SEPARATION_STATES if unsteady else ())]
     return control.ss(A, B, np.eye(m), np.zeros((m, len(inputs))), states=states, inputs=list(inputs), outputs=states)

@@ -57,6 +57,8 @@ NEUTRAL_DEFAULTS: dict[str, tuple[float, str]] = {
     "hawk_aero.Clbeta_CL": (0.0, "not in the file: 0, Clbeta independent of lift, as before issue 21"),
     "hawk_aero.sep_tau1": (10.0, "not in the file: 10 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
     "hawk_aero.sep_tau2": (3.0, "not in the file: 3 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
+    "comp_aero.sep_tau1": (10.0, "not in the file: 10 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
+    "comp_aero.sep_tau2": (3.0, "not in the file: 3 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
 }
 """Parameters added after the file format was first used: a file without them loads with these values
 (source ``estimate``), which switch the added terms off, so that an older file keeps its model exactly."""
@@ -175,6 +177,10 @@ class CompensatorAero:
     CMalpha: float = _f(-10.0, 2.0, "1/rad")
     CMq: float = _f(-200.0, 10.0, "1/rad")
     CMde: float = _f(-10.0, 10.0, "1/rad")
+    # the panels' flow-separation time constants (docs/MODEL.md 3.1.1), in their chord S / span over V;
+    # used by aero_model="unsteady" only
+    sep_tau1: float = _f(0.5, 100.0, "c/V")
+    sep_tau2: float = _f(0.0, 50.0, "c/V")
 
 
 @dataclass(frozen=True)

@@ -32,8 +32,8 @@ class SimResult:
     t: (n_t,) s.  q, qd: (n_t, n_free) or (n_envs, n_t, n_free), rad and rad/s, free joints in
     ``free_dofs`` order.  q_all: the same for all five joints (JOINTS order).  energy: kinetic +
     potential (gravity, and a test fixture's spring and weight), J.  flaps: servo positions (deg, rig_env.SERVOS order).  z: LuGre bristle states
-    (rad).  separation: the Hawk's flow-separation state x (1 attached, 0 separated; aero_model "unsteady"
-    only, else None).  constraint_residual: max |C| per sample (DAE only, else None).  status: per-environment
+    (rad).  separation: the flow-separation states x (1 attached, 0 separated; the Hawk, then the
+    compensator's panels of flaps 1-4: (n_t, 5); aero_model "unsteady" only, else None).  constraint_residual: max |C| per sample (DAE only, else None).  status: per-environment
     code (0 ok; see ``status_text``); fail_time: time of the detected blow-up (s) or NaN.  After a
     blow-up an environment's samples hold its last finite state.
     """
@@ -303,7 +303,7 @@ def simulate(
         energy=E,
         flaps=np.degrees(Xs[:, :, L.X_SERVO : L.X_SERVO + 7]),
         z=Xs[:, :, L.X_Z : L.X_Z + 5],
-        separation=Xs[:, :, L.X_SEP] if flags & L.F_UNSTEADY else None,
+        separation=Xs[:, :, L.X_SEP : L.X_SEP + L.N_SEP] if flags & L.F_UNSTEADY else None,
         constraint_residual=None if R is None else R.T,
     )
     if not batched:

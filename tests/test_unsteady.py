@@ -21,7 +21,9 @@ from rig_env import JOINTS, RigParams
 from rig_env import numpy_model as nm
 from rig_env.linear import joint_accelerations
 from rig_env.physics import layout as L
-from rig_env.physics.joint_space import separation_rate
+from rig_env.linear import SEPARATION_STATES
+from rig_env.physics.dae_layout import Y_SEP as DAE_Y_SEP
+from rig_env.physics.joint_space import separation_rates
 from rig_env.physics.pipeline import PhysicsBatch, flags_of
 from rig_env.reference import _flaps
 
@@ -41,9 +43,11 @@ def alpha_of_gust(p: np.ndarray, q: np.ndarray, gz: float) -> float:
     return math.atan2(w, u)
 
 
-def locked_run(params: RigParams, q: np.ndarray, gusts: np.ndarray, x_start: float | None, control_rate: float, kind: str = "joint") -> np.ndarray:
-    """x after every control step with every joint locked at q and the vertical gust gusts[k] held over step k
-    (x_start: the separation state at t = 0, None: the kernel's steady value)."""
+def locked_run(params: RigParams, q: np.ndarray, gusts: np.ndarray, x_start: float | None, control_rate: float, kind: str = "joint",
+               hawk_only: bool = True) -> tuple[np.ndarray, float]:
+    """The Hawk's x (or, hawk_only False, all five separation states) after every control step with every joint
+    locked at q and the vertical gust gusts[k] held over step k (x_start: every separation state at t = 0,
+    None: the kernel's steady values), and the control step (s)."""
     control_dt, h, n_sub = rig_env.simulate.__globals__["rates"](control_rate, None)
     P = params.to_vector()[None, :]
     batch = PhysicsBatch(P.copy(), params.tables(), np.zeros(0, dtype=np.int64), UNSTEADY, h, n_sub, kind=kind)
@@ -51,16 +55,16 @@ def locked_run(params: RigParams, q: np.ndarray, gusts: np.ndarray, x_start: flo
     batch.U[:, L.U_GUST + 2] = gusts[0]
     batch.reset(np.arange(1), q[None, :], np.zeros((1, 5)))
     if x_start is not None:
-        batch.X[0, L.X_SEP] = x_start
+        batch.X[0, L.X_SEP : L.X_SEP + L.N_SEP] = x_start
         if batch.Y is not None:
-            batch.Y[0, -1] = x_start
-    out = np.empty(len(gusts) + 1)
-    out[0] = batch.X[0, L.X_SEP]
+            batch.Y[0, DAE_Y_SEP : DAE_Y_SEP + L.N_SEP] = x_start
+    out = np.empty((len(gusts) + 1, L.N_SEP))
+    out[0] = batch.X[0, L.X_SEP : L.X_SEP + L.N_SEP]
     for k, g in enumerate(gusts):
         batch.U[:, L.U_GUST + 2] = g
         batch.step()
-        out[k + 1] = batch.X[0, L.X_SEP]
-    return out, control_dt
+        out[k + 1] = batch.X[0, L.X_SEP : L.X_SEP + L.N_SEP]
+    return (out[:, 0] if hawk_only else out), control_dt
 
 
 def q_at_alpha(deg: float) -> np.ndarray:
@@ -99,7 +103,7 @@ def test_simulate_unsteady_equals_tables_in_steady_flight(params):
     kw = dict(free_dofs=("model_pitch",), controls={"hawk_elevator": -3.0}, airspeed=V, friction=False)
     r_t = rig_env.simulate(params, [0.3], [0.0], 20.0, aero_model="tables", **kw)
     r_u = rig_env.simulate(params, [0.3], [0.0], 20.0, aero_model="unsteady", **kw)
-    assert r_t.separation is None and r_u.separation.shape == r_u.t.shape
+    assert r_t.separation is None and r_u.separation.shape == (r_u.t.size, 5)
     # the start is not at rest: the two differ while the model swings (past the stall, 21 deg, the lagging
     # separation damps the swing: the unsteady model settles faster), and both settle at the table's trim
     assert abs(r_u.q[-1, 0] - r_t.q[-1, 0]) < 1e-6 and abs(r_u.qd[-1, 0]) < 1e-5
@@ -125,6 +129,25 @@ def test_step_response_is_first_order_with_tau1(params, kind):
     t = dt * np.arange(x.size)
     np.testing.assert_allclose(x, x0 + (1.0 - x0) * np.exp(-t / tau), rtol=0, atol=1e-9)
     assert x0 < 0.5 and abs(x[-1] - x0) < 1e-3  # settled after 8 time constants
+
+
+@pytest.mark.parametrize("kind", ["joint", "dae"])
+def test_compensator_panels_step_response_is_first_order(params, kind):
+    """The compensator's panels, locked in a vertical gust that stalls them (about 18 deg of incidence on each
+    45 deg panel): from x = 1 each relaxes to its x0 with time constant tau1 (S / span) / V_panel, V_panel its
+    in-plane airspeed (both from the numpy model: the rate is linear in x, so x0 = x + tau dx/dt)."""
+    p, tabs = params.to_vector(), params.tables()
+    q = q_at_alpha(0.0)
+    g = 9.2  # m/s
+    x, dt = locked_run(params, q, np.full(40, g), 1.0, 80.0, kind, hawk_only=False)
+    kin, _ = nm.bodies(q, np.zeros(5), p)
+    v_air = np.array([-V, 0.0, g])
+    alpha, Vp, _ = nm.compensator_panel_flow(p, kin, np.zeros(5), v_air)
+    tau = params.comp_aero.sep_tau1 * params.comp_aero.S / params.comp_aero.span / Vp
+    x0 = 1.0 + tau * nm.compensator_separation_rates(p, kin, np.zeros(5), v_air, np.ones(4), tabs)
+    t = dt * np.arange(x.shape[0])[:, None]
+    np.testing.assert_allclose(x[:, 1:], x0 + (1.0 - x0) * np.exp(-t / tau), rtol=0, atol=1e-9)
+    assert np.all(np.abs(np.degrees(alpha)) > 15.0) and np.all(x0 < 0.6)  # every panel past its 12 deg stall
 
 
 def test_held_gust_steps_follow_the_exact_discrete_lag(params):
@@ -217,6 +240,7 @@ def test_kernel_equals_the_numpy_model_with_the_separation_state(params):
     numpy model, at random states, separation states, gusts and both delay settings."""
     rng = np.random.default_rng(7)
     tabs = params.tables()
+    moves = np.zeros(5, dtype=int)
     for tau2 in (0.0, 3.0):
         p = params.replace(**{"hawk_aero.sep_tau2": tau2}).to_vector()
         for free in (JOINTS, ("model_pitch",), ("rig_roll", "model_pitch", "model_yaw")):
@@ -229,16 +253,21 @@ def test_kernel_equals_the_numpy_model_with_the_separation_state(params):
                 u[L.U_AIRSPEED] = rng.uniform(10.0, 30.0)
                 u[L.U_GUST : L.U_GUST + 3] = rng.uniform(-3.0, 3.0, 3)
                 u[L.U_HAWK_ELEVATOR] = rng.uniform(-0.2, 0.2)
-                xs = rng.uniform(0.0, 1.0)
-                y = np.concatenate([q, qd, np.zeros(5), [xs]])
+                u[L.U_GUST : L.U_GUST + 3] = rng.uniform(-8.0, 8.0, 3)  # the compensator's panels past their stall too
+                xs = rng.uniform(0.0, 1.0, 5)
+                y = np.concatenate([q, qd, np.zeros(5), xs])
                 ref = nm.rhs(0.0, y, _flaps(u, p), u, p, UNSTEADY, idx, tabs)
-                qdd = joint_accelerations(q, qd, u, p, UNSTEADY, idx, tabs, xs)
+                qdd = joint_accelerations(q, qd, u, p, UNSTEADY, idx, tabs, tuple(xs))
                 scale = np.abs(ref[5:10]).max()
                 np.testing.assert_allclose(qdd, ref[5:10], rtol=0, atol=1e-9 * scale)
-                assert separation_rate(q, qd, u, p, xs, tabs) == pytest.approx(ref[15], rel=1e-9, abs=1e-9)
-                # the separation state moves the loads (the comparison covers its terms)
-                qdd1 = joint_accelerations(q, qd, u, p, UNSTEADY, idx, tabs, 1.0 - xs)
-                assert np.max(np.abs(qdd1 - qdd)) > 0.0 or ref[15] == 0.0
+                np.testing.assert_allclose(separation_rates(q, qd, u, p, tuple(xs), tabs), ref[15:20], rtol=1e-9, atol=1e-9)
+                # every separation state moves the loads where its body is separated (the comparison covers its terms)
+                for k in range(5):
+                    other = xs.copy()
+                    other[k] = 1.0 - xs[k]
+                    moved = np.max(np.abs(joint_accelerations(q, qd, u, p, UNSTEADY, idx, tabs, tuple(other)) - qdd)) > 0.0
+                    moves[k] += moved
+    assert np.all(moves > 0), moves
 
 
 # ------------------------------------------------------------------ continuation, linearisation, options
@@ -252,7 +281,7 @@ def test_continuation_unsteady_equilibria_are_the_tables_and_the_lag_damps_the_s
     kw = dict(free_dofs=("model_pitch",), parameter="hawk_elevator", values=np.linspace(-15, 15, 61), airspeed=20.0, periodic=False)
     br_t = rig_env.continuation(params, aero_model="tables", **kw)
     br_u = rig_env.continuation(params, aero_model="unsteady", **kw)
-    assert br_u.states.shape[1] == 3 and br_t.states.shape[1] == 2
+    assert br_u.states.shape[1] == 7 and br_t.states.shape[1] == 2
     np.testing.assert_allclose(br_u.states[:, :2], br_t.states, atol=1e-8)
     assert br_u.hopf.size == 0
     p, tabs = params.to_vector(), params.tables()
@@ -274,17 +303,19 @@ def test_continuation_unsteady_equilibria_are_the_tables_and_the_lag_damps_the_s
 
 
 def test_linearize_unsteady_has_the_separation_state(params):
-    """trim(aero_model="unsteady") is the tables' trim with x = x0; linearize adds hawk_separation, whose own
-    pole is -1 / tau1 (in seconds) where the flow is attached (x0 = 1 does not move with alpha)."""
+    """trim(aero_model="unsteady") is the tables' trim with x = x0; linearize adds the five separation states,
+    each with its own pole -1 / tau1 (in seconds) where the flow is attached (x0 = 1 does not move with alpha)."""
     op_t = rig_env.trim(params, ("model_pitch",), [0, 0, 0, 0.1, 0], controls={"hawk_elevator": 2.0}, aero_model="tables")
     op_u = rig_env.trim(params, ("model_pitch",), [0, 0, 0, 0.1, 0], controls={"hawk_elevator": 2.0}, aero_model="unsteady")
     np.testing.assert_allclose(op_u.q, op_t.q, atol=1e-10)
-    assert op_u.separation == 1.0 and math.isnan(op_t.separation)
+    assert op_u.separation == (1.0,) * 5 and op_t.separation == ()
     sys = rig_env.linearize(params, op_u, inputs=["hawk_elevator"])
-    assert list(sys.state_labels) == ["model_pitch", "model_pitch_rate", "hawk_separation"]
+    assert list(sys.state_labels) == ["model_pitch", "model_pitch_rate", *SEPARATION_STATES]
     A = np.asarray(sys.A)
     assert A[2, 2] == pytest.approx(-V / (params.hawk_aero.sep_tau1 * params.hawk_aero.c), rel=1e-6)
-    assert A[2, 0] == 0.0 and A[2, 1] == 0.0
+    c_comp = params.comp_aero.S / params.comp_aero.span
+    np.testing.assert_allclose(np.diag(A)[3:], -V / (params.comp_aero.sep_tau1 * c_comp), rtol=1e-6)
+    assert np.all(A[2:, :2] == 0.0)
     np.testing.assert_allclose(A[:2, :2], np.asarray(rig_env.linearize(params, op_t, inputs=["hawk_elevator"]).A), rtol=1e-6, atol=1e-6)
     with pytest.raises(ValueError, match=r"aero_model = 'nonlinear': allowed values: \['linear', 'tables', 'unsteady'\]"):
         rig_env.trim(params, ("model_pitch",), aero_model="nonlinear")

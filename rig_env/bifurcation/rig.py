@@ -31,11 +31,11 @@ from rig_env.bifurcation.core import Settings
 from rig_env.bifurcation.equilibria import check_values, equilibria
 from rig_env.bifurcation.periodic import orbits as orbit_branch
 from rig_env.bifurcation.result import Branch
-from rig_env.linear import joint_accelerations
+from rig_env.linear import SEPARATION_STATES, joint_accelerations
 from rig_env.params import JOINTS, PARAM_INDEX, PARAM_NAMES, SURFACES, ParameterError, RigParams, _iter_leaves
 from rig_env.physics import layout as L
 from rig_env.physics.friction import FRICTION_BASE
-from rig_env.physics.joint_space import separation_rate, separation_steady
+from rig_env.physics.joint_space import separation_rates, separation_steady
 from rig_env.physics.pipeline import AERO_MODELS as FLAGS
 from rig_env.physics.pipeline import PhysicsBatch, check_aero_model
 from rig_env.simulate import check_controls, check_free_dofs
@@ -55,12 +55,12 @@ class AeroModel:
 AERO_MODELS: dict[str, AeroModel] = {
     "linear": AeroModel("linear", FLAGS["linear"]),
     "tables": AeroModel("tables", FLAGS["tables"]),
-    "unsteady": AeroModel("unsteady", FLAGS["unsteady"], ("hawk_separation",), ("-",), (L.X_SEP,)),
+    "unsteady": AeroModel("unsteady", FLAGS["unsteady"], SEPARATION_STATES, ("-",) * L.N_SEP, tuple(L.X_SEP + k for k in range(L.N_SEP))),
 }
 """The aerodynamic models continuation knows: the linear derivatives, the high-incidence tables
-(``simulate(aero_model="tables")``) and the unsteady model, whose Hawk flow-separation state x
-(``internal``, with its column of the kernels' state vector) the continuation state carries after the
-joint rates; :meth:`RigField.rates` takes its rate from the model (its equilibria have x = x0(alpha), where
+(``simulate(aero_model="tables")``) and the unsteady model, whose flow-separation states x (the Hawk's and
+the compensator panels', ``internal``, with their columns of the kernels' state vector) the continuation
+state carries after the joint rates; :meth:`RigField.rates` takes its rate from the model (its equilibria have x = x0(alpha), where
 the loads are the tables': the unsteady model's equilibria are the tables', their stability is its own)."""
 
 
@@ -143,9 +143,9 @@ class RigField:
         if not self.aero.internal:
             qdd = joint_accelerations(q, qd, u, p, self.flags, self.idx, self.tabs)
             return np.concatenate([x[self.nf : 2 * self.nf], qdd[self.idx]])
-        xs = float(x[2 * self.nf])
+        xs = tuple(float(v) for v in x[2 * self.nf :])
         qdd = joint_accelerations(q, qd, u, p, self.flags, self.idx, self.tabs, xs)
-        return np.concatenate([x[self.nf : 2 * self.nf], qdd[self.idx], [separation_rate(q, qd, u, p, xs, self.tabs)]])
+        return np.concatenate([x[self.nf : 2 * self.nf], qdd[self.idx], separation_rates(q, qd, u, p, xs, self.tabs)])
 
     def steady_internal(self, x: np.ndarray, value: float) -> np.ndarray:
         """x with its internal states at their steady values for its angles and rates (x = x0 for the unsteady model)."""
@@ -157,7 +157,7 @@ class RigField:
         q[self.idx] = x[: self.nf]
         qd[self.idx] = x[self.nf : 2 * self.nf]
         y = x.copy()
-        y[2 * self.nf] = separation_steady(q, qd, u, p, self.tabs)
+        y[2 * self.nf :] = separation_steady(q, qd, u, p, self.tabs)
         return y
 
     def rates_batch(self, X: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -236,7 +236,8 @@ def continuation(
     output sampling, traced from values[0] towards values[-1]; airspeed: m/s when it is not the parameter
     (default 20); controls: the other surfaces, deg (constant); aero_model: ``"linear"`` (the stability
     derivatives), ``"tables"`` (the high-incidence tables) or ``"unsteady"`` (the tables through the Hawk's
-    flow-separation state, which becomes the last column of ``states``, ``hawk_separation``);
+    flow-separation states, which become the last five columns of ``states``: ``hawk_separation``,
+    ``flap1_separation`` .. ``flap4_separation``);
     q_guess: five joint angles (rad, JOINTS order): the locked joints' angles and the first equilibrium's
     guess (default zeros); friction: ``"off"`` or ``"viscous"``; stops: model the joint stops (see the
     module docstring); periodic: continue the orbits of every Hopf point (single shooting on the kernels,

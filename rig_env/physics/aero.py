@@ -42,6 +42,7 @@ MIX_ELEVATOR = (1.0, -1.0, -1.0, 1.0)
 MIX_ELEVATOR_A = np.array(MIX_ELEVATOR)
 MIX_RUDDER = (-1.0, -1.0, 1.0, 1.0)
 GAUSS = 0.5 / math.sqrt(3.0)  # 2-point Gauss stations at mid +- GAUSS * length
+ATTACHED4 = (1.0, 1.0, 1.0, 1.0)  # the panels' separation states when the model has none
 
 
 @njit(**_JIT)
@@ -232,9 +233,14 @@ def attached_lift(p, alpha):
 
 @inlined(**_JIT)
 def static_factor(p, alpha, cl_tab):
-    """F(x0(alpha)): the table's lift over the attached-flow lift (a deficit below SEP_LIFT_TOL taken as
+    """F(x0(alpha)) of the Hawk: :func:`lift_factor` against its attached-flow lift."""
+    return lift_factor(attached_lift(p, alpha), cl_tab)
+
+
+@inlined(**_JIT)
+def lift_factor(cl_att, cl_tab):
+    """F0 = F(x0): the table's lift over the attached-flow lift (a deficit below SEP_LIFT_TOL taken as
     none), clipped to Kirchhoff's range [1/4, 1]."""
-    cl_att = attached_lift(p, alpha)
     mag = abs(cl_att)
     deficit = mag - (cl_tab if cl_att >= 0.0 else -cl_tab)  # |CL_att| - CL_tab sign(CL_att)
     r = 1.0 - max(deficit - SEP_LIFT_TOL, 0.0) / max(mag, SEP_LIFT_TOL)
@@ -297,15 +303,121 @@ def separation_relax(p, alpha, V, adot, x, dt, tab_alpha, tab_cl):
     return xn if V >= MIN_AIRSPEED else x
 
 
+# the compensator's panels (NACA 0018 sections): one separation state per panel, the same model with the
+# attached-flow normal force CLalpha sin(alpha) of the symmetric section, the panel's flow taken at its
+# mid-span station, and its own time constants (comp_aero.sep_tau1, sep_tau2, in its chord S / span over V)
+
+
 @inlined(**_JIT)
-def strip(u, wn, vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn):
+def panel_flow(vb0, wb, rm, i):
+    """Panel i's angle of attack (rad), in-plane airspeed (m/s) and pitch rate about -e_r (rad/s; the
+    velocity part of its alpha-dot) at radius rm, from the reference point's velocity relative to the air
+    vb0 and the arm's angular velocity wb (arm axes; :func:`panel`'s kinematics)."""
+    ce = PANEL_COS[i]
+    sg = PANEL_SIN[i]
+    u = vb0[0] + rm * (wb[1] * sg - wb[2] * ce)
+    wn = vb0[1] * sg - vb0[2] * ce - rm * wb[0]
+    return vmath.atan2(wn, u), math.sqrt(u * u + wn * wn), -(wb[1] * ce + wb[2] * sg)
+
+
+@inlined(**_JIT)
+def panel_separation_static(cla, alpha, tab_alpha, tab_cn):
+    """x0(alpha) of a compensator panel: the table's CN inverted through Kirchhoff's factor against CLalpha sin(alpha)."""
+    s = 2.0 * math.sqrt(lift_factor(cla * vmath.sincos(alpha)[0], interp(alpha, tab_alpha, tab_cn))) - 1.0
+    return s * s
+
+
+@inlined(**_JIT)
+def comp_separation_relax(p, vb0, wb, xs, dt, tab_alpha, tab_cn):
+    """The four panels' separation states xs (4-tuple) after dt seconds, each relaxed towards its target
+    x0(alpha - tau2 alphadot) held (:func:`separation_relax`'s equation; tau1, tau2 the compensator's times
+    its chord S / span over the panel's in-plane speed at mid-span); a panel below MIN_AIRSPEED holds x."""
+    span = p[L.P_COMP_AERO_SPAN]
+    c = p[L.P_COMP_AERO_S] / span
+    rm = 0.5 * (p[L.P_GEOMETRY_ARM_RADIUS] + 0.5 * span)
+    cla = p[L.P_COMP_AERO_CLALPHA]
+    t1 = p[L.P_COMP_AERO_SEP_TAU1] * c
+    t2 = p[L.P_COMP_AERO_SEP_TAU2] * c
+    a0, v0, r0 = panel_flow(vb0, wb, rm, 0)
+    a1, v1, r1 = panel_flow(vb0, wb, rm, 1)
+    a2, v2, r2 = panel_flow(vb0, wb, rm, 2)
+    a3, v3, r3 = panel_flow(vb0, wb, rm, 3)
+    return (
+        panel_relax(cla, a0, v0, r0, xs[0], dt, t1, t2, tab_alpha, tab_cn),
+        panel_relax(cla, a1, v1, r1, xs[1], dt, t1, t2, tab_alpha, tab_cn),
+        panel_relax(cla, a2, v2, r2, xs[2], dt, t1, t2, tab_alpha, tab_cn),
+        panel_relax(cla, a3, v3, r3, xs[3], dt, t1, t2, tab_alpha, tab_cn),
+    )
+
+
+@inlined(**_JIT)
+def panel_target(cla, alpha, V, adot, t2, tab_alpha, tab_cn):
+    """A panel's x0(alpha - tau2 alphadot), t2 = tau2 c (m)."""
+    return panel_separation_static(cla, alpha - (t2 / max(V, MIN_AIRSPEED)) * adot, tab_alpha, tab_cn)
+
+
+@inlined(**_JIT)
+def panel_relax(cla, alpha, V, adot, x, dt, t1, t2, tab_alpha, tab_cn):
+    """A panel's separation state after dt seconds towards its held target (t1 = tau1 c, t2 = tau2 c, m)."""
+    target = panel_target(cla, alpha, V, adot, t2, tab_alpha, tab_cn)
+    xn = target + (x - target) * vmath.exp(-(dt * max(V, MIN_AIRSPEED)) / t1)
+    return xn if V >= MIN_AIRSPEED else x
+
+
+@inlined(**_JIT)
+def comp_separation_targets(p, vb0, wb, tab_alpha, tab_cn):
+    """The panels' targets x0(alpha - tau2 alphadot) (4-tuple): their separation states in steady flow."""
+    span = p[L.P_COMP_AERO_SPAN]
+    c = p[L.P_COMP_AERO_S] / span
+    rm = 0.5 * (p[L.P_GEOMETRY_ARM_RADIUS] + 0.5 * span)
+    cla = p[L.P_COMP_AERO_CLALPHA]
+    t2 = p[L.P_COMP_AERO_SEP_TAU2] * c
+    a0, v0, r0 = panel_flow(vb0, wb, rm, 0)
+    a1, v1, r1 = panel_flow(vb0, wb, rm, 1)
+    a2, v2, r2 = panel_flow(vb0, wb, rm, 2)
+    a3, v3, r3 = panel_flow(vb0, wb, rm, 3)
+    return (
+        panel_target(cla, a0, v0, r0, t2, tab_alpha, tab_cn), panel_target(cla, a1, v1, r1, t2, tab_alpha, tab_cn),
+        panel_target(cla, a2, v2, r2, t2, tab_alpha, tab_cn), panel_target(cla, a3, v3, r3, t2, tab_alpha, tab_cn),
+    )
+
+
+@inlined(**_JIT)
+def comp_separation_rates(p, vb0, wb, xs, tab_alpha, tab_cn):
+    """dx/dt (4-tuple, 1/s) of the panels' separation states (continuation and linearisation)."""
+    span = p[L.P_COMP_AERO_SPAN]
+    c = p[L.P_COMP_AERO_S] / span
+    rm = 0.5 * (p[L.P_GEOMETRY_ARM_RADIUS] + 0.5 * span)
+    cla = p[L.P_COMP_AERO_CLALPHA]
+    t1 = p[L.P_COMP_AERO_SEP_TAU1] * c
+    t2 = p[L.P_COMP_AERO_SEP_TAU2] * c
+    return (
+        panel_rate(cla, panel_flow(vb0, wb, rm, 0), xs[0], t1, t2, tab_alpha, tab_cn),
+        panel_rate(cla, panel_flow(vb0, wb, rm, 1), xs[1], t1, t2, tab_alpha, tab_cn),
+        panel_rate(cla, panel_flow(vb0, wb, rm, 2), xs[2], t1, t2, tab_alpha, tab_cn),
+        panel_rate(cla, panel_flow(vb0, wb, rm, 3), xs[3], t1, t2, tab_alpha, tab_cn),
+    )
+
+
+@inlined(**_JIT)
+def panel_rate(cla, flow, x, t1, t2, tab_alpha, tab_cn):
+    """A panel's dx/dt (1/s) at its flow (alpha, V, alphadot) (:func:`panel_flow`); 0 below MIN_AIRSPEED."""
+    a, V, r = flow
+    rate = (panel_target(cla, a, V, r, t2, tab_alpha, tab_cn) - x) * V / t1
+    return rate if V >= MIN_AIRSPEED else 0.0
+
+
+@inlined(**_JIT)
+def strip(u, wn, vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn, unsteady, x):
     """Loads of one strip from its velocity relative to the air in the panel's axes (e_x, n, e_r): u along
     x, -wn along the normal n, a spanwise component of square vs2.  Returns (f_x, f_n, dk, mc): the force's
     x and n components, the drag factor dk (the force's spanwise component is -dk times the spanwise
     velocity, the same for both strips of a panel, so the panel applies it once) and the section pitching
     moment mc (about -e_r).  Lift is normal to the in-plane velocity (u e_x - wn n), drag against the full
     strip velocity (so that the panels' drag sums to a force along the free stream, as Table 4's CD does).
-    A strip below MIN_AIRSPEED carries no load (selected, not branched, so that panels vectorise)."""
+    A strip below MIN_AIRSPEED carries no load (selected, not branched, so that panels vectorise).
+    unsteady (with nonlinear): the table's CN moved by CLalpha sin(alpha) (F(x) - F0), x the panel's separation
+    state (:func:`lift_factor`; the table's CN at x = x0), the moment with it as with the table."""
     V2 = u * u + wn * wn
     V = math.sqrt(V2)  # in-plane speed
     vabs = math.sqrt(V2 + vs2)  # full speed, with the spanwise component
@@ -315,6 +427,9 @@ def strip(u, wn, vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, 
     qhat = qp * c * (0.5 * vabs * inv)
     if nonlinear:
         cl_static = interp(alpha, tab_alpha, tab_cn)
+        if unsteady:
+            cn_att = cla * vmath.sincos(alpha)[0]
+            cl_static = cl_static + cn_att * (kirchhoff(x) - lift_factor(cn_att, cl_static))
         cm_static = cl_static * (cma / cla) if cla != 0.0 else cma * alpha
     else:
         cl_static = cla * alpha
@@ -335,7 +450,7 @@ def strip(u, wn, vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, 
 
 
 @inlined(**_JIT)
-def panel(i, vb0, wb, flap, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn):
+def panel(i, vb0, wb, flap, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn, unsteady, x):
     """Force and moment (arm axes, the moment about the reference point) of panel i: its two Gauss strips
     at r = rm -+ dr_g along its span e_r = (0, ce, sg), normal n = x_arm x e_r = (0, -sg, ce).
 
@@ -356,8 +471,8 @@ def panel(i, vb0, wb, flap, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_of
     du = wb[1] * sg - wb[2] * ce  # d(u) / dr
     ra = rm - dr_g
     rb = rm + dr_g
-    a = strip(vb0[0] + ra * du, wn0 - ra * wb[0], vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn)
-    b = strip(vb0[0] + rb * du, wn0 - rb * wb[0], vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn)
+    a = strip(vb0[0] + ra * du, wn0 - ra * wb[0], vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn, unsteady, x)
+    b = strip(vb0[0] + rb * du, wn0 - rb * wb[0], vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn, unsteady, x)
     fx = a[0] + b[0]
     fn = a[1] + b[1]
     fr = -(vs * (a[2] + b[2]))
@@ -368,12 +483,13 @@ def panel(i, vb0, wb, flap, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_of
 
 
 @njit(**_JIT)
-def strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, tab_alpha, tab_cn):
+def strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, tab_alpha, tab_cn, unsteady, xs):
     """Sum of the eight strips' loads with the stall tables (a table search per strip: not vectorisable,
-    so compiled once as its own function rather than inlined beside the linear loop)."""
+    so compiled once as its own function rather than inlined beside the linear loop); unsteady: through the
+    panels' separation states xs (4-tuple)."""
     fx = fy = fz = mx = my = mz = 0.0
     for i in range(4):
-        f = panel(i, vb0, wb, flaps[i], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, True, tab_alpha, tab_cn)
+        f = panel(i, vb0, wb, flaps[i], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, True, tab_alpha, tab_cn, unsteady, xs[i])
         fx += f[0]
         fy += f[1]
         fz += f[2]
@@ -384,19 +500,19 @@ def strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_o
 
 
 @inlined(**_JIT)
-def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn, unrolled=False):
+def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn, unrolled=False, unsteady=False, xs=ATTACHED4):
     """Compensator force (world, N) and moment about its aerodynamic reference point (world, N m).
 
     A: arm rotation; v_ref: velocity of the reference point (world); omega: arm angular velocity
     (world); v_air: air velocity (world); the rest as :func:`comp_aero_arm`, which this calls with the
     velocities in arm axes.
     """
-    f, m = comp_aero_arm(p, mtv(A, sub(v_ref, v_air)), mtv(A, omega), flaps, nonlinear, tab_alpha, tab_cn, unrolled)
+    f, m = comp_aero_arm(p, mtv(A, sub(v_ref, v_air)), mtv(A, omega), flaps, nonlinear, tab_alpha, tab_cn, unrolled, unsteady, xs)
     return mv(A, f), mv(A, m)
 
 
 @inlined(**_JIT)
-def comp_aero_arm(p, vb0, wb, flaps, nonlinear, tab_alpha, tab_cn, unrolled=False):
+def comp_aero_arm(p, vb0, wb, flaps, nonlinear, tab_alpha, tab_cn, unrolled=False, unsteady=False, xs=ATTACHED4):
     """Compensator force (arm axes, N) and moment about its aerodynamic reference point (arm axes, N m).
 
     vb0: velocity of the reference point relative to the air, wb: arm angular velocity, both in arm
@@ -404,7 +520,8 @@ def comp_aero_arm(p, vb0, wb, flaps, nonlinear, tab_alpha, tab_cn, unrolled=Fals
     the lane kernel, whose loop over environments must contain no loop of its own (a compile-time
     constant there); otherwise one loop over the panels, which LLVM vectorises across the panels.
     Each panel i (span e_r, normal n = x_arm cross e_r) carries Table 4 coefficients per unit area of
-    half the reference area; its lift acts along n for positive local incidence or flap.
+    half the reference area; its lift acts along n for positive local incidence or flap.  unsteady (with
+    nonlinear): the panels' tables through their separation states xs (4-tuple, flaps 1-4 order).
     """
     S = p[L.P_COMP_AERO_S]
     span = p[L.P_COMP_AERO_SPAN]
@@ -427,12 +544,12 @@ def comp_aero_arm(p, vb0, wb, flaps, nonlinear, tab_alpha, tab_cn, unrolled=Fals
     cmq = p[L.P_COMP_AERO_CMQ]
     cd0 = 0.5 * p[L.P_COMP_AERO_CD0]
     if nonlinear:
-        fx, fy, fz, mx, my, mz = strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, tab_alpha, tab_cn)
+        fx, fy, fz, mx, my, mz = strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, tab_alpha, tab_cn, unsteady, xs)
     elif unrolled:
-        f0 = panel(0, vb0, wb, flaps[0], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
-        f1 = panel(1, vb0, wb, flaps[1], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
-        f2 = panel(2, vb0, wb, flaps[2], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
-        f3 = panel(3, vb0, wb, flaps[3], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
+        f0 = panel(0, vb0, wb, flaps[0], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn, False, 1.0)
+        f1 = panel(1, vb0, wb, flaps[1], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn, False, 1.0)
+        f2 = panel(2, vb0, wb, flaps[2], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn, False, 1.0)
+        f3 = panel(3, vb0, wb, flaps[3], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn, False, 1.0)
         fx = f0[0] + f1[0] + f2[0] + f3[0]
         fy = f0[1] + f1[1] + f2[1] + f3[1]
         fz = f0[2] + f1[2] + f2[2] + f3[2]
@@ -444,7 +561,7 @@ def comp_aero_arm(p, vb0, wb, flaps, nonlinear, tab_alpha, tab_cn, unrolled=Fals
         # that LLVM computes them side by side in SIMD lanes
         fx = fy = fz = mx = my = mz = 0.0
         for i in range(4):
-            f = panel(i, vb0, wb, flaps[i], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
+            f = panel(i, vb0, wb, flaps[i], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn, False, 1.0)
             fx += f[0]
             fy += f[1]
             fz += f[2]

@@ -7,7 +7,7 @@ Per physics step (Strang splitting, second order overall with friction, fourth o
     2. classical RK4 over h on (q, qd, servo positions, servo rates) with z frozen
     3. bristle states z: exact solution over h/2 at the new joint rates
 
-The Hawk's flow-separation state (``F_UNSTEADY``, X_SEP) is split the same way, inside the bristles' half
+The flow-separation states (``F_UNSTEADY``, X_SEP: the Hawk's and the compensator panels') are split the same way, inside the bristles' half
 steps: relaxed exactly over h/2 towards its target at the state of the step's start, held through RK4,
 relaxed over h/2 at the state of its end.
     4. servo rate and position limits
@@ -56,8 +56,8 @@ def new_work(n_envs: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 @inlined(**_JIT)
-def rhs(y, z, xsep, ud, u, p, flags, free_idx, n_free, tabs, M, w, out):
-    """Time derivative of the RK state y (24,) into out (24,); z, xsep: bristle and separation states, held."""
+def rhs(y, z, xs, ud, u, p, flags, free_idx, n_free, tabs, M, w, out):
+    """Time derivative of the RK state y (24,) into out (24,); z, xs: bristle and separation states, held."""
     q = y[0:5]
     qd = y[5:10]
     if flags & L.F_SERVO:
@@ -65,7 +65,7 @@ def rhs(y, z, xsep, ud, u, p, flags, free_idx, n_free, tabs, M, w, out):
     else:
         flaps = ud
     qdd = w[W_QDD : W_QDD + 5]
-    accelerations(q, qd, z, xsep, flaps, u, p, flags, free_idx, n_free, tabs, M, w[W_H : W_H + 5], w[W_Q : W_Q + 5], w[W_JV : W_JV + 45], qdd)
+    accelerations(q, qd, z, xs, flaps, u, p, flags, free_idx, n_free, tabs, M, w[W_H : W_H + 5], w[W_Q : W_Q + 5], w[W_JV : W_JV + 45], qdd)
     for j in range(5):
         out[j] = 0.0
         out[5 + j] = 0.0
@@ -102,10 +102,13 @@ def half_bristle_step(x, z, p, free_idx, n_free, h, w):
 
 @njit(**_JIT)
 def half_separation_step(x, u, p, tabs, h):
-    """The Hawk's flow-separation state x[X_SEP] over h/2 at the joint state of x (exact for its target
+    """The flow-separation states x[X_SEP:X_SEP + 5] over h/2 at the joint state of x (exact for their targets
     held, :func:`rig_env.physics.joint_space.separation_step`); with the RK4 step between two such half
     steps, second order overall, as the bristles' split."""
-    x[L.X_SEP] = separation_step(x[0:5], x[5:10], u, p, x[L.X_SEP], 0.5 * h, tabs)
+    s = L.X_SEP
+    xs = separation_step(x[0:5], x[5:10], u, p, (x[s], x[s + 1], x[s + 2], x[s + 3], x[s + 4]), 0.5 * h, tabs)
+    for k in range(5):
+        x[s + k] = xs[k]
 
 
 @njit(**_JIT)
@@ -116,6 +119,7 @@ def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w):
         half_bristle_step(x, z, p, free_idx, n_free, h, w)
     if flags & L.F_UNSTEADY:
         half_separation_step(x, u, p, tabs, h)
+    xs = (x[L.X_SEP], x[L.X_SEP + 1], x[L.X_SEP + 2], x[L.X_SEP + 3], x[L.X_SEP + 4])
     y0 = w[W_Y0 : W_Y0 + N_Y]
     yt = w[W_YT : W_YT + N_Y]
     for i in range(10):
@@ -132,7 +136,7 @@ def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w):
             c = RK_C[s] * h
             for i in range(N_Y):
                 yt[i] = y0[i] + c * kp[i]
-        rhs(yt, z, x[L.X_SEP], ud, u, p, flags, free_idx, n_free, tabs, M, w, k)  # one call site: rhs is inlined
+        rhs(yt, z, xs, ud, u, p, flags, free_idx, n_free, tabs, M, w, k)  # one call site: rhs is inlined
     for i in range(N_Y):
         acc = 0.0
         for s in range(4):

@@ -179,12 +179,14 @@ def hold_demands(idx, U, P, X, dbuf):
 
 @njit(cache=True, error_model="numpy", _nrt=False)
 def hold_separation(idx, U, P, X, flags, tabs):
-    """The Hawk's flow-separation state X[i, X_SEP] of environments idx (m,) in steady flow at their joint
+    """The flow-separation states X[i, X_SEP:X_SEP + 5] of environments idx (m,) in steady flow at their joint
     state and the inputs of U (:func:`rig_env.physics.joint_space.separation_steady`) with flags' F_UNSTEADY;
     1 (attached, and unused) without it.  In place."""
     for i in idx:
         x = X[i]
-        X[i, L.X_SEP] = separation_steady(x[0:5], x[5:10], U[i], P[i], tabs) if flags & L.F_UNSTEADY else 1.0
+        xs = separation_steady(x[0:5], x[5:10], U[i], P[i], tabs) if flags & L.F_UNSTEADY else (1.0, 1.0, 1.0, 1.0, 1.0)
+        for k in range(L.N_SEP):
+            X[i, L.X_SEP + k] = xs[k]
 
 
 @dataclass(frozen=True)
