@@ -9,7 +9,8 @@ Per physics step (Strang splitting, second order overall with friction, fourth o
 
 The flow-separation states (``F_UNSTEADY``, X_SEP: the Hawk's and the compensator panels') are split the same way, inside the bristles' half
 steps: relaxed exactly over h/2 towards its target at the state of the step's start, held through RK4,
-relaxed over h/2 at the state of its end.
+relaxed over h/2 at the state of its end (within a control step, the end's half and the next step's
+opening half, at the same state and inputs, as one relaxation over h).
     4. servo rate and position limits
 
 Surface demands pass through a per-environment delay line of whole physics steps.  An environment
@@ -101,24 +102,28 @@ def half_bristle_step(x, z, p, free_idx, n_free, h, w):
 
 
 @njit(**_JIT)
-def half_separation_step(x, u, p, tabs, h):
-    """The flow-separation states x[X_SEP:X_SEP + 5] over h/2 at the joint state of x (exact for their targets
-    held, :func:`rig_env.physics.joint_space.separation_step`); with the RK4 step between two such half
-    steps, second order overall, as the bristles' split."""
+def separation_relaxation(x, u, p, tabs, dt):
+    """The flow-separation states x[X_SEP:X_SEP + 5] over dt at the joint state of x (exact for their targets
+    held, :func:`rig_env.physics.joint_space.separation_step`); dt = h/2 on either side of the RK4 step is
+    second order overall, as the bristles' split.  Two half steps at the same state with the same inputs
+    (the end of one physics step and the start of the next, within a control step) have the same target, so
+    :func:`physics_step` makes them one relaxation over h."""
     s = L.X_SEP
-    xs = separation_step(x[0:5], x[5:10], u, p, (x[s], x[s + 1], x[s + 2], x[s + 3], x[s + 4]), 0.5 * h, tabs)
+    xs = separation_step(x[0:5], x[5:10], u, p, (x[s], x[s + 1], x[s + 2], x[s + 3], x[s + 4]), dt, tabs)
     for k in range(5):
         x[s + k] = xs[k]
 
 
 @njit(**_JIT)
-def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w):
-    """Advance one environment's state x (N_STATE,) by one physics step h (in place)."""
+def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w, sep_open, sep_close):
+    """Advance one environment's state x (N_STATE,) by one physics step h (in place).  With F_UNSTEADY the
+    separation states relax over h/2 before the RK4 step if ``sep_open`` and over ``sep_close`` seconds after
+    it (h/2 at the end of a control step, else h: the next step's opening half merged in)."""
     z = x[L.X_Z : L.X_Z + 5]
     if flags & L.F_FRICTION:
         half_bristle_step(x, z, p, free_idx, n_free, h, w)
-    if flags & L.F_UNSTEADY:
-        half_separation_step(x, u, p, tabs, h)
+    if flags & L.F_UNSTEADY and sep_open:
+        separation_relaxation(x, u, p, tabs, 0.5 * h)
     xs = (x[L.X_SEP], x[L.X_SEP + 1], x[L.X_SEP + 2], x[L.X_SEP + 3], x[L.X_SEP + 4])
     y0 = w[W_Y0 : W_Y0 + N_Y]
     yt = w[W_YT : W_YT + N_Y]
@@ -147,7 +152,7 @@ def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w):
     for i in range(14):
         x[L.X_SERVO + i] = y0[10 + i]
     if flags & L.F_UNSTEADY:
-        half_separation_step(x, u, p, tabs, h)
+        separation_relaxation(x, u, p, tabs, sep_close)
     if flags & L.F_FRICTION:
         half_bristle_step(x, z, p, free_idx, n_free, h, w)
     for k in range(7):
@@ -206,7 +211,7 @@ def advance_env(x, w, M, p, u, db, d_comp, d_hawk, k0, flags, free_idx, n_free, 
         for a in range(7):
             d = d_comp if a < 4 else d_hawk
             ud[a] = db[(k - d) % n_buf, a]
-        physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w)
+        physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w, s == 0, 0.5 * h if s == n_sub - 1 else h)
     st = check(x)
     if st != L.S_OK:
         for a in range(L.N_STATE):
