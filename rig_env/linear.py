@@ -25,15 +25,17 @@ from scipy.optimize import least_squares
 from rig_env.params import JOINTS, SURFACES, RigParams
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
-from rig_env.physics.joint_space import accelerations
+from rig_env.physics.joint_space import accelerations, separation_rates, separation_steady
+from rig_env.physics.pipeline import AERO_MODELS, check_aero_model
 from rig_env.simulate import check_controls, check_free_dofs
 
 COMP_INPUTS = ("comp_aileron", "comp_elevator", "comp_rudder")
 
 
 @njit(cache=True, error_model="numpy")
-def joint_accelerations(q, qd, u, p, flags, free_idx, tabs):
-    """qdd (5,) for ideal servos (flaps = limited mixed demands of u), bristle states zero."""
+def joint_accelerations(q, qd, u, p, flags, free_idx, tabs, xs=(1.0, 1.0, 1.0, 1.0, 1.0)):
+    """qdd (5,) for ideal servos (flaps = limited mixed demands of u), bristle states zero; xs: the
+    flow-separation states (5-tuple: the Hawk, flaps 1-4's panels; flags' F_UNSTEADY only)."""
     flaps = np.empty(7)
     for k in range(7):
         flaps[k] = sv.limited(p, k, sv.demand(u, k))
@@ -43,8 +45,12 @@ def joint_accelerations(q, qd, u, p, flags, free_idx, tabs):
     Q = np.empty(5)
     jv = np.empty(45)
     qdd = np.empty(5)
-    accelerations(q, qd, z, flaps, u, p, flags, free_idx, free_idx.shape[0], tabs, M, h, Q, jv, qdd)
+    accelerations(q, qd, z, xs, flaps, u, p, flags, free_idx, free_idx.shape[0], tabs, M, h, Q, jv, qdd)
     return qdd
+
+
+SEPARATION_STATES = ("hawk_separation", "flap1_separation", "flap2_separation", "flap3_separation", "flap4_separation")
+"""Names of the unsteady model's flow-separation states (layout.X_SEP order: the Hawk, the compensator's panels)."""
 
 
 @dataclass(frozen=True)
@@ -53,7 +59,10 @@ class OperatingPoint:
 
     ``controls_deg``: surface deflections, deg (the given ones and those of the mixed inputs);
     ``inputs``: the value of every input of the trim's :class:`InputMix` (given and solved), in its
-    ``unit_deg`` units (empty without a mix).
+    ``unit_deg`` units (empty without a mix).  ``aero_model``: the aerodynamic model it is an equilibrium
+    of (:data:`rig_env.physics.pipeline.AERO_MODELS`); ``separation``: the flow-separation states there
+    (the Hawk, flaps 1-4's panels), x0 at each one's angle of attack (the "unsteady" model's internal
+    states, :data:`SEPARATION_STATES`; empty for the others).
     """
 
     q: np.ndarray
@@ -63,6 +72,8 @@ class OperatingPoint:
     free_dofs: tuple[str, ...]
     residual: float  # max |qdd| of the free joints at the solution, rad/s^2
     inputs: dict[str, float] = field(default_factory=dict)
+    aero_model: str = "linear"
+    separation: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -107,8 +118,19 @@ def _inputs(controls_deg: Mapping[str, float], airspeed: float) -> np.ndarray:
     return u
 
 
-def _flags(aero: bool, friction: str | bool) -> int:
-    return (L.F_AERO if aero else 0) | (L.F_FRICTION if friction == "viscous" else 0)
+def _flags(aero: bool, friction: str | bool, aero_model: str = "linear") -> int:
+    return (L.F_AERO if aero else 0) | (L.F_FRICTION if friction == "viscous" else 0) | (AERO_MODELS[aero_model] if aero else 0)
+
+
+def _qdd(q: np.ndarray, qd: np.ndarray, u: np.ndarray, p: np.ndarray, flags: int, idx: np.ndarray, tabs: tuple,
+         xs: tuple | None = None) -> np.ndarray:
+    """qdd (5,) of the free joints idx; with the unsteady model the separation states are xs (5), or their
+    steady values x0 at (q, qd) when None (at an equilibrium x = x0: the loads are the tables')."""
+    if not flags & L.F_UNSTEADY:
+        return joint_accelerations(q, qd, u, p, flags, idx, tabs)
+    if xs is None:
+        xs = separation_steady(q, qd, u, p, tabs)
+    return joint_accelerations(q, qd, u, p, flags, idx, tabs, tuple(float(v) for v in xs))
 
 
 def trim(
@@ -123,6 +145,7 @@ def trim(
     unknown_inputs: Sequence[str] = (),
     hold: Mapping[str, float] | None = None,
     aero: bool = True,
+    aero_model: str = "linear",
     tol: float = 1e-10,
     max_residual: float | None = 1e-6,
 ) -> OperatingPoint:
@@ -137,11 +160,14 @@ def trim(
     :class:`InputMix`, values in its ``unit_deg``) whose other inputs take their ``inputs`` value (0 if
     not given); mixed surfaces may not also be in ``controls``.  Unknowns: the inputs (from 0) then the
     free joints not held (from their guess), solved by MINPACK's Levenberg-Marquardt to ``tol``.
+    ``aero_model``: "linear" (default), "tables" or "unsteady" (:data:`rig_env.physics.pipeline.AERO_MODELS`;
+    the unsteady model's equilibria are the tables', with the Hawk's separation state at x0).
     Returns the :class:`OperatingPoint`, with the solved inputs in ``inputs`` (surface names: in
     ``controls_deg``).  RuntimeError when max |qdd| > ``max_residual`` rad/s^2 (None: return the
     solver's point anyway, the caller checks ``residual``).
     """
     free = check_free_dofs(free_dofs)
+    aero_model = check_aero_model(aero_model)
     controls = {k: float(v) for k, v in check_controls(controls).items()}
     q0 = np.zeros(5) if q_guess is None else np.array(q_guess, dtype=np.float64)
     if q0.shape != (5,) or not np.all(np.isfinite(q0)):
@@ -179,7 +205,7 @@ def trim(
         v0[names.index(n)] = float(val)
     solved = [names.index(n) for n in unknown_inputs]
     n_in = len(solved)
-    flags = _flags(aero, False)
+    flags = _flags(aero, False, aero_model)
     qd = np.zeros(5)
 
     def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -192,7 +218,7 @@ def trim(
 
     def residual(x: np.ndarray) -> np.ndarray:
         q, u, _ = unpack(x)
-        return joint_accelerations(q, qd, u, p, flags, idx, tabs)[idx]
+        return _qdd(q, qd, u, p, flags, idx, tabs)[idx]
 
     # solved for the change y from the guess, starting at y = 0: MINPACK's Levenberg-Marquardt sizes its
     # first step in proportion to the starting point's norm (100 |x0|, or 100 when x0 = 0), so a guess
@@ -205,8 +231,9 @@ def trim(
     out_controls = dict(controls)
     if mix is not None:
         out_controls.update({n: math.degrees(u[c]) for n, c in zip(mix.surfaces, cols) if u[c] != 0.0})
+    sep = tuple(float(v) for v in separation_steady(q, qd, u, p, tabs)) if flags & L.F_UNSTEADY else ()
     return OperatingPoint(q=q, qd=qd, controls_deg=out_controls, airspeed=float(airspeed), free_dofs=free, residual=res,
-                          inputs={n: float(v[k]) for k, n in enumerate(names)})
+                          inputs={n: float(v[k]) for k, n in enumerate(names)}, aero_model=aero_model, separation=sep)
 
 
 def linearize(
@@ -218,10 +245,11 @@ def linearize(
     friction: str | bool = False,
     eps: float = 1e-6,
 ) -> control.StateSpace:
-    """Continuous-time linear model x' = A x + B u about ``op``; x = (angles, rates) of the free joints.
+    """Continuous-time linear model x' = A x + B u about ``op``; x = (angles, rates) of the free joints, then
+    with ``op``'s aero_model "unsteady" the flow-separation states (:data:`SEPARATION_STATES`, about x0).
 
     States are named ``<joint>`` and ``<joint>_rate``; inputs are the named surfaces in rad; the
-    outputs are the states.
+    outputs are the states.  The aerodynamic model is the operating point's (:func:`trim`'s ``aero_model``).
     """
     unknown = [n for n in inputs if n not in SURFACES]
     if unknown:
@@ -234,13 +262,20 @@ def linearize(
     idx = np.array([JOINTS.index(j) for j in free], dtype=np.int64)
     n = len(idx)
     u0 = _inputs(op.controls_deg, op.airspeed)
-    flags = _flags(aero, friction)
+    flags = _flags(aero, friction, op.aero_model)
+    unsteady = bool(flags & L.F_UNSTEADY)
+    x_op = np.array(separation_steady(op.q, op.qd, u0, p, tabs)) if unsteady else np.ones(L.N_SEP)
+    ns = L.N_SEP if unsteady else 0
+    m = 2 * n + ns
 
-    def f(q: np.ndarray, qd: np.ndarray, u: np.ndarray) -> np.ndarray:
-        return joint_accelerations(q, qd, u, p, flags, idx, tabs)[idx]
+    def f(q: np.ndarray, qd: np.ndarray, u: np.ndarray, xs: np.ndarray = x_op) -> np.ndarray:
+        """(free accelerations, separation rates if unsteady) at (q, qd, u) and separation states xs (5,)."""
+        t = tuple(float(v) for v in xs)
+        acc = _qdd(q, qd, u, p, flags, idx, tabs, t)[idx]
+        return np.append(acc, separation_rates(q, qd, u, p, t, tabs)) if unsteady else acc
 
-    A = np.zeros((2 * n, 2 * n))
-    A[:n, n:] = np.eye(n)
+    A = np.zeros((m, m))
+    A[:n, n:2 * n] = np.eye(n)
     for a, j in enumerate(idx):
         for which in (0, 1):
             dq = np.zeros(5)
@@ -251,10 +286,14 @@ def linearize(
             else:
                 col = (f(op.q, op.qd + dq, u0) - f(op.q, op.qd - dq, u0)) / (2 * eps)
                 A[n:, n + a] = col
-    B = np.zeros((2 * n, len(inputs)))
+    for k in range(ns):
+        dx = np.zeros(L.N_SEP)
+        dx[k] = eps
+        A[n:, 2 * n + k] = (f(op.q, op.qd, u0, x_op + dx) - f(op.q, op.qd, u0, x_op - dx)) / (2 * eps)
+    B = np.zeros((m, len(inputs)))
     for b, name in enumerate(inputs):
         du = np.zeros(L.N_INPUTS)
         du[SURFACES.index(name)] = eps
         B[n:, b] = (f(op.q, op.qd, u0 + du) - f(op.q, op.qd, u0 - du)) / (2 * eps)
-    states = [*free, *(f"{j}_rate" for j in free)]
-    return control.ss(A, B, np.eye(2 * n), np.zeros((2 * n, len(inputs))), states=states, inputs=list(inputs), outputs=states)
+    states = [*free, *(f"{j}_rate" for j in free), *(SEPARATION_STATES if unsteady else ())]
+    return control.ss(A, B, np.eye(m), np.zeros((m, len(inputs))), states=states, inputs=list(inputs), outputs=states)

@@ -48,6 +48,7 @@ E_X = np.array([1.0, 0.0, 0.0])
 E_Y = np.array([0.0, 1.0, 0.0])
 E_Z = np.array([0.0, 0.0, 1.0])
 MIN_AIRSPEED = 0.5  # m/s: below this local airspeed a body or strip carries no aerodynamic load
+SEP_LIFT_TOL = 0.01  # lift-coefficient deficit counted as attached flow (docs/MODEL.md 3.1.1)
 # compensator panels (docs/MODEL.md sec. 1): roll positions of flaps 1-4 and their mixing signs
 PANEL_GAMMA = np.radians([135.0, 45.0, -45.0, -135.0])
 PANEL_ELEVATOR_SIGN = np.array([1.0, -1.0, -1.0, 1.0])
@@ -192,7 +193,24 @@ def fin_factor(alpha: float, p: np.ndarray) -> float:
     return 1.0 - (1.0 - p[L.P_HAWK_AERO_BLANKED_FRACTION]) * (3 * t**2 - 2 * t**3)
 
 
-def hawk_loads(p: np.ndarray, Aa: np.ndarray, v_rel: np.ndarray, w: np.ndarray, de: float, da: float, dr: float, nonlinear: bool, tabs: tuple, alpha_dot: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def separation_factor(p: np.ndarray, alpha: float, cl_table: float) -> tuple[float, float]:
+    """(CL_att, F0): the attached-flow lift CLalpha sin(alpha - alpha_zl), alpha_zl = alpha0 - CL0 / CLalpha,
+    and Kirchhoff's factor F0 = F(x0(alpha)) of the table's lift, CL_table / CL_att in [1/4, 1] with a lift
+    deficit below SEP_LIFT_TOL counted as attached flow (docs/MODEL.md 3.1.1)."""
+    cla = p[L.P_HAWK_AERO_CLALPHA]
+    cl_att = cla * math.sin(alpha - (p[L.P_HAWK_AERO_ALPHA0] - p[L.P_HAWK_AERO_CL0] / cla))
+    deficit = abs(cl_att) - math.copysign(1.0, cl_att) * cl_table
+    f0 = 1.0 - max(deficit - SEP_LIFT_TOL, 0.0) / max(abs(cl_att), SEP_LIFT_TOL)
+    return cl_att, min(max(f0, 0.25), 1.0)
+
+
+def separation_static(p: np.ndarray, alpha: float, tabs: tuple) -> float:
+    """x0(alpha): the separation state whose Kirchhoff factor ((1 + sqrt(x)) / 2)^2 is F0 (:func:`separation_factor`)."""
+    f0 = separation_factor(p, alpha, float(np.interp(alpha, tabs[0], tabs[1])))[1]
+    return (2.0 * math.sqrt(f0) - 1.0) ** 2
+
+
+def hawk_loads(p: np.ndarray, Aa: np.ndarray, v_rel: np.ndarray, w: np.ndarray, de: float, da: float, dr: float, nonlinear: bool, tabs: tuple, alpha_dot: float, sep: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Hawk aerodynamic force (N) and moment about its c.g. (N m), world axes; eq. (23) plus lateral terms,
     and the force and moment per unit alpha-dot beyond ``alpha_dot`` (rad/s).
 
@@ -200,7 +218,9 @@ def hawk_loads(p: np.ndarray, Aa: np.ndarray, v_rel: np.ndarray, w: np.ndarray, 
     de, da, dr: elevator, aileron, rudder (rad).  The combined q derivatives CLq, CMq are shared between q
     ((1 - f) of them) and alpha-dot (f, ``alphadot_fraction``); the induced drag takes the lift with
     ``alpha_dot``.  The fin's derivatives (CYbeta, Cnbeta and the rudder's) are scaled by
-    :func:`fin_factor`; Clbeta grows with the static lift by Clbeta_CL.
+    :func:`fin_factor`; Clbeta grows with the static lift by Clbeta_CL.  sep (with nonlinear): the flow-separation
+    state x; the tables' lift and moment then move by the Kirchhoff lift CL_att (F(x) - F0) and that lift times
+    CMalpha / CLalpha (docs/MODEL.md 3.1.1).
     """
     u, v, wz = Aa.T @ v_rel
     V = math.sqrt(u * u + v * v + wz * wz)
@@ -214,6 +234,11 @@ def hawk_loads(p: np.ndarray, Aa: np.ndarray, v_rel: np.ndarray, w: np.ndarray, 
     if nonlinear:
         cl_alpha = np.interp(alpha, tabs[0], tabs[1])
         cm_alpha = np.interp(alpha, tabs[0], tabs[2])
+        if sep is not None:
+            cl_att, f0 = separation_factor(p, alpha, float(cl_alpha))
+            dcl = cl_att * ((1.0 + math.sqrt(min(max(sep, 0.0), 1.0))) ** 2 / 4.0 - f0)
+            cl_alpha = cl_alpha + dcl
+            cm_alpha = cm_alpha + p[L.P_HAWK_AERO_CMALPHA] / p[L.P_HAWK_AERO_CLALPHA] * dcl
     else:
         cl_alpha = p[L.P_HAWK_AERO_CL0] + p[L.P_HAWK_AERO_CLALPHA] * (alpha - p[L.P_HAWK_AERO_ALPHA0])
         cm_alpha = p[L.P_HAWK_AERO_CM0] + p[L.P_HAWK_AERO_CMALPHA] * (alpha - p[L.P_HAWK_AERO_ALPHA0])
@@ -266,13 +291,50 @@ def compensator_strips(p: np.ndarray, As: np.ndarray, flaps: np.ndarray) -> tupl
     return radius[:, None] * e_r_body, e_r_body @ As.T, n_body @ As.T, np.repeat(PANEL_ELEVATOR_SIGN, 2), np.repeat(flaps[:4], 2)
 
 
-def compensator_generalized_force(p: np.ndarray, kin: dict, qd: np.ndarray, v_air: np.ndarray, flaps: np.ndarray, nonlinear: bool, tabs: tuple) -> np.ndarray:
+def lift_ratio(cl_att: np.ndarray, cl_table: np.ndarray) -> np.ndarray:
+    """Kirchhoff's factor F0 of the table's lift against the attached-flow lift, in [1/4, 1], a lift deficit
+    below SEP_LIFT_TOL counted as attached flow (array form of :func:`separation_factor`'s)."""
+    deficit = np.abs(cl_att) - np.where(cl_att >= 0.0, cl_table, -cl_table)
+    return np.clip(1.0 - np.maximum(deficit - SEP_LIFT_TOL, 0.0) / np.maximum(np.abs(cl_att), SEP_LIFT_TOL), 0.25, 1.0)
+
+
+def compensator_panel_flow(p: np.ndarray, kin: dict, qd: np.ndarray, v_air: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(alpha, V, q_p), each (4,): the panels' incidence (rad), in-plane airspeed (m/s) and rotation rate
+    about -e_r (rad/s) at their mid-span stations, flaps 1-4 order."""
+    As = kin["As"]
+    r0, r1 = p[L.P_GEOMETRY_ARM_RADIUS], 0.5 * p[L.P_COMP_AERO_SPAN]
+    e_r_body = np.stack([np.zeros(4), np.cos(PANEL_GAMMA), np.sin(PANEL_GAMMA)], axis=1)
+    e_r, n = e_r_body @ As.T, cross(E_X, e_r_body) @ As.T
+    axes = kin["axes"][:3]
+    w_s = axes.T @ qd[:3]
+    r = As @ np.array([p[L.P_GEOMETRY_COMP_AERO_X], 0.0, 0.0]) + 0.5 * (r0 + r1) * e_r  # (4, 3), world
+    v = np.cross(w_s[None, :], r) - v_air
+    u, wn = v @ As[:, 0], -np.einsum("sc,sc->s", v, n)
+    return np.arctan2(wn, u), np.hypot(u, wn), -(e_r @ w_s)
+
+
+def compensator_separation_rates(p: np.ndarray, kin: dict, qd: np.ndarray, v_air: np.ndarray, xs: np.ndarray, tabs: tuple) -> np.ndarray:
+    """dx/dt (4,) of the panels' separation states: (x0(alpha - tau2 q_p) - x) / tau1, tau1, tau2 the
+    compensator's times its chord S / span over V, x0 from the CN table against CLalpha sin(alpha)."""
+    alpha, V, qp = compensator_panel_flow(p, kin, qd, v_air)
+    c = p[L.P_COMP_AERO_S] / p[L.P_COMP_AERO_SPAN]
+    cla = p[L.P_COMP_AERO_CLALPHA]
+    V_safe = np.maximum(V, MIN_AIRSPEED)
+    a_d = alpha - p[L.P_COMP_AERO_SEP_TAU2] * c / V_safe * qp
+    x0 = (2.0 * np.sqrt(lift_ratio(cla * np.sin(a_d), np.interp(a_d, tabs[3], tabs[4]))) - 1.0) ** 2
+    return np.where(V >= MIN_AIRSPEED, (x0 - xs) * V / (p[L.P_COMP_AERO_SEP_TAU1] * c), 0.0)
+
+
+def compensator_generalized_force(p: np.ndarray, kin: dict, qd: np.ndarray, v_air: np.ndarray, flaps: np.ndarray, nonlinear: bool, tabs: tuple,
+                                  seps: np.ndarray | None = None) -> np.ndarray:
     """Q (5,) of the compensator's strip loads, each applied at its own station (docs/MODEL.md 3.2).
 
     Per strip: in-plane incidence alpha = atan2(-v.n, v.x_s); CL = s_e (CL0 - CLa a0)/sqrt2 + CLa alpha +
     CLq q_p c/2V + CLde/sqrt2 flap; CM likewise; CD = CD0/2 + CL^2/(pi e AR); lift qS CL normal to the
     in-plane velocity, drag qS CD against the full velocity, section moment qS c CM about -e_r, with
     V and qS = rho V^2 dS / 2 from the in-plane velocity and dS = S/4.  The eight strips are arrays.
+    seps (4,), with nonlinear: the panels' separation states; each strip's table CN then moves by
+    CLalpha sin(alpha) (F(x) - F0) (docs/MODEL.md 3.1.1).
     """
     As = kin["As"]
     S, span = p[L.P_COMP_AERO_S], p[L.P_COMP_AERO_SPAN]
@@ -293,6 +355,10 @@ def compensator_generalized_force(p: np.ndarray, kin: dict, qd: np.ndarray, v_ai
     q_hat = -(e_r @ w_s) * c / (2 * V_safe)
     if nonlinear:
         cl_a = np.interp(alpha, tabs[3], tabs[4])
+        if seps is not None:
+            cn_att = cla * np.sin(alpha)
+            x = np.clip(np.repeat(seps, 2), 0.0, 1.0)
+            cl_a = cl_a + cn_att * ((1.0 + np.sqrt(x)) ** 2 / 4.0 - lift_ratio(cn_att, cl_a))
         cm_a = cl_a * cma / cla if cla != 0.0 else cma * alpha
     else:
         cl_a, cm_a = cla * alpha, cma * alpha
@@ -345,14 +411,33 @@ def fixture_force(q: np.ndarray, p: np.ndarray) -> np.ndarray:
     return np.array([p[b + 3] - p[b] * (q[j] - p[b + 1]) for j, b in enumerate(FIXTURE_BASE)])
 
 
+def separation_rate(p: np.ndarray, Aa: np.ndarray, v_rel: np.ndarray, w: np.ndarray, x: float, tabs: tuple) -> float:
+    """dx/dt = (x0(alpha - tau2 alphadot) - x) / tau1 of the Hawk's flow-separation state (Goman & Khrabrov 1994;
+    tau1, tau2 the parameters times c / V), alphadot = q - v (p u + r w) / (u^2 + w^2) from the velocities."""
+    u, v, wz = Aa.T @ v_rel
+    V = math.sqrt(u * u + v * v + wz * wz)
+    if V < MIN_AIRSPEED:
+        return 0.0
+    pb, qb, rb = Aa.T @ w
+    c = p[L.P_HAWK_AERO_C]
+    alpha_dot = qb - v * (pb * u + rb * wz) / (u * u + wz * wz)
+    target = separation_static(p, math.atan2(wz, u) - p[L.P_HAWK_AERO_SEP_TAU2] * c / V * alpha_dot, tabs)
+    return (target - x) * V / (p[L.P_HAWK_AERO_SEP_TAU1] * c)
+
+
 def rhs(t: float, y: np.ndarray, flaps: np.ndarray, u: np.ndarray, p: np.ndarray, flags: int, free_idx: np.ndarray, tabs: tuple) -> np.ndarray:
     """dy/dt (15,) of y = [q, qd, z] (15,); the arguments of :func:`rig_env.reference.continuous_rhs`.
+    With the unsteady model (flags' F_UNSTEADY) y has five more entries, the flow-separation states x of
+    the Hawk and of the compensator's panels (flaps 1-4), and dy/dt their rates (:func:`separation_rate`,
+    :func:`compensator_separation_rates`).
 
     flaps (7,) servo positions (rad, rig_env.SERVOS order: four flaps after mixing, Hawk elevator,
     aileron, rudder); u (N_INPUTS,) with the gust (world, m/s) and airspeed (m/s); p (N_PARAMS,);
     flags (layout.F_*); free_idx (n_free,) joint indices; tabs from ``RigParams.tables()``.
     """
     q, qd, z = y[0:5], y[5:10], y[10:15]
+    unsteady = bool(flags & L.F_UNSTEADY)
+    dy = np.zeros(20 if unsteady else 15)
     kin, bs = bodies(q, qd, p)
     M, h = mass_matrix_and_bias(bs, qd)
     M += np.diag(fixture_inertia(p))
@@ -363,11 +448,15 @@ def rhs(t: float, y: np.ndarray, flaps: np.ndarray, u: np.ndarray, p: np.ndarray
         hawk = bs[2]
         # the Hawk's alpha-dot depends on qdd: its loads are Q0 + Q_ad (g . qdd), moved into M below
         ad0, g = hawk_alpha_dot(kin, hawk, qd, v_air)
-        F, T, dF, dT = hawk_loads(p, kin["Aa"], hawk["Jv"] @ qd - v_air, hawk["Jw"] @ qd, flaps[4], flaps[5], flaps[6], nonlinear, tabs, ad0)
+        sep = float(y[15]) if unsteady else None
+        F, T, dF, dT = hawk_loads(p, kin["Aa"], hawk["Jv"] @ qd - v_air, hawk["Jw"] @ qd, flaps[4], flaps[5], flaps[6], nonlinear, tabs, ad0, sep)
+        if unsteady:
+            dy[15] = separation_rate(p, kin["Aa"], hawk["Jv"] @ qd - v_air, hawk["Jw"] @ qd, float(y[15]), tabs)
         Q += hawk["Jv"].T @ F + hawk["Jw"].T @ T
         M = M - np.outer(hawk["Jv"].T @ dF + hawk["Jw"].T @ dT, g)
-        Q += compensator_generalized_force(p, kin, qd, v_air, flaps, nonlinear, tabs)
-    dy = np.zeros(15)
+        Q += compensator_generalized_force(p, kin, qd, v_air, flaps, nonlinear, tabs, y[16:20] if unsteady else None)
+        if unsteady:
+            dy[16:20] = compensator_separation_rates(p, kin, qd, v_air, y[16:20], tabs)
     for j in free_idx:
         if flags & L.F_FRICTION:
             tau_f, dy[10 + j] = friction_torque(p, j, qd[j], z[j])

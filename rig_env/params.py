@@ -55,6 +55,10 @@ NEUTRAL_DEFAULTS: dict[str, tuple[float, str]] = {
     "hawk_aero.blanking_width_deg": (6.0, "not in the file: 6 deg; inactive with blanked_fraction = 1"),
     "hawk_aero.blanked_fraction": (1.0, "not in the file: 1, no tail blanking, as before issue 21"),
     "hawk_aero.Clbeta_CL": (0.0, "not in the file: 0, Clbeta independent of lift, as before issue 21"),
+    "hawk_aero.sep_tau1": (10.0, "not in the file: 10 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
+    "hawk_aero.sep_tau2": (3.0, "not in the file: 3 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
+    "comp_aero.sep_tau1": (10.0, "not in the file: 10 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
+    "comp_aero.sep_tau2": (3.0, "not in the file: 3 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
 }
 """Parameters added after the file format was first used: a file without them loads with these values
 (source ``estimate``), which switch the added terms off, so that an older file keeps its model exactly."""
@@ -150,6 +154,10 @@ class HawkAero:
     blanking_width_deg: float = _f(0.1, 45.0, "deg")  # blanking complete this far above the onset
     blanked_fraction: float = _f(0.0, 1.0, "-")  # fin derivatives' share left when fully blanked
     Clbeta_CL: float = _f(-1.0, 1.0, "1/rad")  # d(Clbeta)/d(CL), the swept wing's share
+    # issue 21 item 1 (docs/MODEL.md 3.1.1): the flow-separation state's time constants (Goman & Khrabrov 1994),
+    # in chord lengths of travel c/V; used by aero_model="unsteady" only
+    sep_tau1: float = _f(0.5, 100.0, "c/V")  # relaxation time of the separation point
+    sep_tau2: float = _f(0.0, 50.0, "c/V")  # delay of the static separation point behind alpha
 
 
 @dataclass(frozen=True)
@@ -169,6 +177,10 @@ class CompensatorAero:
     CMalpha: float = _f(-10.0, 2.0, "1/rad")
     CMq: float = _f(-200.0, 10.0, "1/rad")
     CMde: float = _f(-10.0, 10.0, "1/rad")
+    # the panels' flow-separation time constants (docs/MODEL.md 3.1.1), in their chord S / span over V;
+    # used by aero_model="unsteady" only
+    sep_tau1: float = _f(0.5, 100.0, "c/V")
+    sep_tau2: float = _f(0.0, 50.0, "c/V")
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ import numpy as np
 
 from rig_env.params import JOINTS, SURFACES, ParameterError, RigParams, param_batch
 from rig_env.physics import layout as L
-from rig_env.physics.pipeline import PhysicsBatch, delay_line, flags_of, rates  # noqa: F401  (delay_line: re-exported)
+from rig_env.physics.pipeline import PhysicsBatch, delay_line, flags_of, rates, resolve_aero_model  # noqa: F401  (delay_line: re-exported)
 
 Schedule = float | Sequence[float] | np.ndarray | Callable[[float], "float | Sequence[float] | np.ndarray"]
 """A signal over time: a constant, a per-environment (or per-component: a gust's three) sequence or array,
@@ -32,7 +32,8 @@ class SimResult:
     t: (n_t,) s.  q, qd: (n_t, n_free) or (n_envs, n_t, n_free), rad and rad/s, free joints in
     ``free_dofs`` order.  q_all: the same for all five joints (JOINTS order).  energy: kinetic +
     potential (gravity, and a test fixture's spring and weight), J.  flaps: servo positions (deg, rig_env.SERVOS order).  z: LuGre bristle states
-    (rad).  constraint_residual: max |C| per sample (DAE only, else None).  status: per-environment
+    (rad).  separation: the flow-separation states x (1 attached, 0 separated; the Hawk, then the
+    compensator's panels of flaps 1-4: (n_t, 5); aero_model "unsteady" only, else None).  constraint_residual: max |C| per sample (DAE only, else None).  status: per-environment
     code (0 ok; see ``status_text``); fail_time: time of the detected blow-up (s) or NaN.  After a
     blow-up an environment's samples hold its last finite state.
     """
@@ -52,6 +53,7 @@ class SimResult:
     formulation: str
     physics_dt: float
     control_dt: float
+    separation: np.ndarray | None = None
 
     @property
     def failed(self) -> np.ndarray:
@@ -205,7 +207,8 @@ def simulate(
     friction: bool = True,
     stops: bool = True,
     servo: bool = True,
-    nonlinear_aero: bool = False,
+    aero_model: str | None = None,
+    nonlinear_aero: bool | None = None,
     formulation: str = "joint",
     control_rate: float = 80.0,
     physics_dt: float | None = None,
@@ -220,6 +223,9 @@ def simulate(
     controls: surface name -> degrees (constant, (n_envs,) array, or function of time returning
     either), held over each control step.  airspeed: m/s (same forms).  gust: world-frame air
     velocity added to the tunnel flow, m/s, shape (3,) or (n_envs, 3) or a function of time.
+    aero_model: "linear" (default: the stability derivatives of eq. 23), "tables" (the static high-incidence
+    tables) or "unsteady" (the tables through the Hawk's flow-separation state, tau1 dx/dt + x = x0(alpha -
+    tau2 alphadot): docs/MODEL.md 3.1.1); nonlinear_aero=True is the older name of "tables".
     formulation: "joint" (fast joint-space model) or "dae" (the paper's body-coordinate DAE).
     control_rate: Hz; physics_dt: s, default the largest step <= 2.5 ms dividing the control step.
     overrides: per-environment parameter overrides (see rig_env.param_batch).
@@ -232,6 +238,7 @@ def simulate(
     runs the per-environment kernel (:func:`rig_env.physics.pipeline.choose_kernel`), "dae" the DAE kernel.
     """
     free = check_free_dofs(free_dofs)
+    model = resolve_aero_model(aero_model, nonlinear_aero)
     if formulation not in ("joint", "dae"):
         raise ValueError(f"formulation = {formulation!r}; allowed: 'joint', 'dae'")
     if not (math.isfinite(t_final) and 0.0 < t_final <= 1e5):
@@ -246,7 +253,7 @@ def simulate(
     check_initial_state(X, P, stops)
     first = params if isinstance(params, RigParams) else params[0]
     tabs = first.tables()
-    flags = flags_of(aero, friction, stops, servo, nonlinear_aero)
+    flags = flags_of(aero, friction, stops, servo, model)
     free_idx = np.array([JOINTS.index(j) for j in free], dtype=np.int64)
     n_t = int(round(t_final / control_dt)) + 1
     batch = PhysicsBatch(P, tabs, free_idx, flags, h, n_sub, kind=formulation)
@@ -296,6 +303,7 @@ def simulate(
         energy=E,
         flaps=np.degrees(Xs[:, :, L.X_SERVO : L.X_SERVO + 7]),
         z=Xs[:, :, L.X_Z : L.X_Z + 5],
+        separation=Xs[:, :, L.X_SEP : L.X_SEP + L.N_SEP] if flags & L.F_UNSTEADY else None,
         constraint_residual=None if R is None else R.T,
     )
     if not batched:

@@ -31,11 +31,13 @@ from rig_env.bifurcation.core import Settings
 from rig_env.bifurcation.equilibria import check_values, equilibria
 from rig_env.bifurcation.periodic import orbits as orbit_branch
 from rig_env.bifurcation.result import Branch
-from rig_env.linear import joint_accelerations
+from rig_env.linear import SEPARATION_STATES, joint_accelerations
 from rig_env.params import JOINTS, PARAM_INDEX, PARAM_NAMES, SURFACES, ParameterError, RigParams, _iter_leaves
 from rig_env.physics import layout as L
 from rig_env.physics.friction import FRICTION_BASE
-from rig_env.physics.pipeline import PhysicsBatch
+from rig_env.physics.joint_space import separation_rates, separation_steady
+from rig_env.physics.pipeline import AERO_MODELS as FLAGS
+from rig_env.physics.pipeline import PhysicsBatch, check_aero_model
 from rig_env.simulate import check_controls, check_free_dofs
 
 
@@ -51,13 +53,15 @@ class AeroModel:
 
 
 AERO_MODELS: dict[str, AeroModel] = {
-    "linear": AeroModel("linear", 0),
-    "tables": AeroModel("tables", L.F_NONLINEAR),
+    "linear": AeroModel("linear", FLAGS["linear"]),
+    "tables": AeroModel("tables", FLAGS["tables"]),
+    "unsteady": AeroModel("unsteady", FLAGS["unsteady"], SEPARATION_STATES, ("-",) * L.N_SEP, tuple(L.X_SEP + k for k in range(L.N_SEP))),
 }
-"""The aerodynamic models continuation knows: the linear derivatives and the high-incidence tables
-(``simulate(nonlinear_aero=True)``).  A model with internal states (flow separation) lists them in
-``internal`` with their columns of the kernels' state vector; the continuation state carries them after
-the joint rates and :meth:`RigField.rates` takes their time derivatives from the model."""
+"""The aerodynamic models continuation knows: the linear derivatives, the high-incidence tables
+(``simulate(aero_model="tables")``) and the unsteady model, whose flow-separation states x (the Hawk's and
+the compensator panels', ``internal``, with their columns of the kernels' state vector) the continuation
+state carries after the joint rates; :meth:`RigField.rates` takes its rate from the model (its equilibria have x = x0(alpha), where
+the loads are the tables': the unsteady model's equilibria are the tables', their stability is its own)."""
 
 
 @dataclass(frozen=True)
@@ -136,10 +140,25 @@ class RigField:
         qd = np.zeros(5)
         q[self.idx] = x[: self.nf]
         qd[self.idx] = x[self.nf : 2 * self.nf]
-        qdd = joint_accelerations(q, qd, u, p, self.flags, self.idx, self.tabs)
-        if self.aero.internal:
-            raise NotImplementedError(f"aero_model {self.aero.name!r}: the rates of its internal states are not wired in")
-        return np.concatenate([x[self.nf : 2 * self.nf], qdd[self.idx]])
+        if not self.aero.internal:
+            qdd = joint_accelerations(q, qd, u, p, self.flags, self.idx, self.tabs)
+            return np.concatenate([x[self.nf : 2 * self.nf], qdd[self.idx]])
+        xs = tuple(float(v) for v in x[2 * self.nf :])
+        qdd = joint_accelerations(q, qd, u, p, self.flags, self.idx, self.tabs, xs)
+        return np.concatenate([x[self.nf : 2 * self.nf], qdd[self.idx], separation_rates(q, qd, u, p, xs, self.tabs)])
+
+    def steady_internal(self, x: np.ndarray, value: float) -> np.ndarray:
+        """x with its internal states at their steady values for its angles and rates (x = x0 for the unsteady model)."""
+        if not self.aero.internal:
+            return x
+        u, p = self.inputs(value)
+        q = self.q_locked.copy()
+        qd = np.zeros(5)
+        q[self.idx] = x[: self.nf]
+        qd[self.idx] = x[self.nf : 2 * self.nf]
+        y = x.copy()
+        y[2 * self.nf :] = separation_steady(q, qd, u, p, self.tabs)
+        return y
 
     def rates_batch(self, X: np.ndarray, values: np.ndarray) -> np.ndarray:
         return np.array([self.rates(x, v) for x, v in zip(X, values)])
@@ -183,11 +202,7 @@ class RigField:
 
 
 def _check_options(aero_model: str, friction: str) -> AeroModel:
-    if aero_model == "unsteady":
-        raise ValueError("aero_model = 'unsteady': not available yet (the flow-separation model is not in the physics); "
-                         f"allowed values: {list(AERO_MODELS)}")
-    if aero_model not in AERO_MODELS:
-        raise ValueError(f"aero_model = {aero_model!r}: allowed values: {list(AERO_MODELS)}")
+    check_aero_model(aero_model)
     if friction not in ("off", "viscous"):
         raise ValueError(f"friction = {friction!r}: allowed values: 'off', 'viscous' (LuGre's stiction band has no isolated "
                          "equilibria to continue)")
@@ -220,7 +235,9 @@ def continuation(
     (its file unit, e.g. ``"geometry.hawk_cg_x"``, m); values: the range (minimum to maximum) and the
     output sampling, traced from values[0] towards values[-1]; airspeed: m/s when it is not the parameter
     (default 20); controls: the other surfaces, deg (constant); aero_model: ``"linear"`` (the stability
-    derivatives) or ``"tables"`` (the high-incidence tables, ``simulate(nonlinear_aero=True)``);
+    derivatives), ``"tables"`` (the high-incidence tables) or ``"unsteady"`` (the tables through the Hawk's
+    flow-separation states, which become the last five columns of ``states``: ``hawk_separation``,
+    ``flap1_separation`` .. ``flap4_separation``);
     q_guess: five joint angles (rad, JOINTS order): the locked joints' angles and the first equilibrium's
     guess (default zeros); friction: ``"off"`` or ``"viscous"``; stops: model the joint stops (see the
     module docstring); periodic: continue the orbits of every Hopf point (single shooting on the kernels,
@@ -311,14 +328,14 @@ def _first_equilibrium(rig: RigField, values: np.ndarray) -> tuple[np.ndarray, f
         def res(dq: np.ndarray, value: float = float(value)) -> np.ndarray:
             y = x.copy()
             y[:nf] += dq
-            return rig.rates(y, value)[nf : 2 * nf]
+            return rig.rates(rig.steady_internal(y, value), value)[nf : 2 * nf]
 
         sol = least_squares(res, np.zeros(nf), xtol=1e-12, ftol=1e-12, gtol=1e-12, method="lm")
         r = float(np.max(np.abs(sol.fun))) if np.all(np.isfinite(sol.fun)) else np.inf
         if r <= 1e-6:
             y = x.copy()
             y[:nf] += sol.x
-            return y, float(value)
+            return rig.steady_internal(y, float(value)), float(value)
         worst = min(worst, r)
     raise ValueError(f"q_guess: no equilibrium of {list(rig.free)} found near it at any of the values of {rig.par.name} "
                      f"(smallest max |qdd| {worst:.3g} rad/s^2); give a better q_guess")

@@ -1,7 +1,7 @@
 """``RigEnvConfig``: every setting of a rig environment, validated on construction.
 
 Errors are ``ValueError`` naming the field and its allowed range.  ``None`` in a task-dependent field
-(``free_dofs``, ``airspeed``, ``episode_seconds``, ``nonlinear_aero``) means "the task's default" (see
+(``free_dofs``, ``airspeed``, ``episode_seconds``, ``aero_model``) means "the task's default" (see
 :mod:`rig_env.envs.tasks`); :meth:`RigEnvConfig.with_overrides` rejects unknown names.
 
 | field | default | unit / range | meaning |
@@ -25,7 +25,8 @@ Errors are ``ValueError`` naming the field and its allowed range.  ``None`` in a
 | turbulence_tau | 0.2 | s, [0.01, 10] | gust correlation time (first-order Gauss-Markov) |
 | randomise | {} | param -> (lo, hi), file units | per-episode uniform draw of rig parameters |
 | hawk_surfaces | False | bool | Hawk elevator, aileron, rudder are actions too |
-| nonlinear_aero | None (task's) | bool | high-incidence tables (departure_recovery: on by default) |
+| aero_model | None (task's) | "linear", "tables" or "unsteady" | aerodynamic model: stability derivatives, static high-incidence tables, or the tables through the Hawk's flow-separation state (departure_recovery: "tables" by default) |
+| nonlinear_aero | None | bool | older name: True is aero_model "tables", False "linear" (contradicting aero_model is an error) |
 | params_file | None | path | rig parameter file (None: the default rig) |
 | pilot_inputs | None | ``rig_env.signals.InputSchedule``, deg | test inputs flown from every episode's start instead of the task's pilot inputs (below) |
 
@@ -48,6 +49,7 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 from rig_env.params import JOINTS, PARAM_INDEX
+from rig_env.physics.pipeline import check_aero_model, resolve_aero_model
 from rig_env.signals import InputSchedule
 
 MAX_AIRSPEED = 40.0  # m/s: the Bristol 7x5 ft tunnel's working range for the rig
@@ -85,6 +87,7 @@ class RigEnvConfig:
     turbulence_tau: float = 0.2
     randomise: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     hawk_surfaces: bool = False
+    aero_model: str | None = None
     nonlinear_aero: bool | None = None
     params_file: str | None = None
     pilot_inputs: InputSchedule | None = None
@@ -156,6 +159,9 @@ class RigEnvConfig:
             v = getattr(self, name)
             if not isinstance(v, bool) and not (name == "nonlinear_aero" and v is None):
                 raise ValueError(f"{name} = {v!r}: must be True or False" + (" (or None: the task's default)" if name == "nonlinear_aero" else ""))
+        if self.aero_model is not None:
+            check_aero_model(self.aero_model)  # ValueError naming aero_model and the allowed values
+            resolve_aero_model(self.aero_model, self.nonlinear_aero)  # and the older switch must not contradict it
 
     def with_overrides(self, **overrides: Any) -> "RigEnvConfig":
         """A copy with fields replaced; an unknown name is a ValueError listing the valid ones."""

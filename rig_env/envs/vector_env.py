@@ -69,7 +69,7 @@ from rig_env.envs.sensors import Sensors
 from rig_env.envs.tasks import TASKS
 from rig_env.params import JOINTS, PARAM_INDEX, RigParams, param_batch
 from rig_env.physics import layout as L
-from rig_env.physics.pipeline import PhysicsBatch, flags_of, rates
+from rig_env.physics.pipeline import PhysicsBatch, flags_of, rates, resolve_aero_model
 
 ACTION_SCALE_DEG = 40.0
 _RAD_PER_ACTION = math.radians(ACTION_SCALE_DEG)
@@ -204,14 +204,15 @@ class RigVectorEnv(VectorEnv):
             corners = param_batch(self.params, 2, {k: [cfg.randomise[k][0], cfg.randomise[k][1]] for k in names})
         else:
             corners = self.base_row[None]
-        self.nonlinear_aero = task_cls.default_nonlinear_aero if cfg.nonlinear_aero is None else cfg.nonlinear_aero
+        self.aero_model = resolve_aero_model(cfg.aero_model, cfg.nonlinear_aero, task_cls.default_aero_model)
+        self.nonlinear_aero = self.aero_model != "linear"  # the tables, static or through the separation state
         # the physics: eight environments per SIMD register (rig_env.physics.lanes) unless the model has the
         # high-incidence tables, which only the per-environment kernel runs; chosen by the model alone, not
         # by the batch size, so a RigEnv (the batch of one) steps exactly as environment i of a batch.  The
         # delay lines hold the longest servo delay of the randomisation range (its corners).
         self.physics = PhysicsBatch(
             np.repeat(self.base_row[None], n, axis=0), self.params.tables(), self.free_idx,
-            flags_of(True, True, True, True, self.nonlinear_aero), self.h, self.n_sub, kind="lanes", delay_rows=corners,
+            flags_of(True, True, True, True, self.aero_model), self.h, self.n_sub, kind="lanes", delay_rows=corners,
         )
 
         self.task = task_cls(n, self.free_dofs, self.dt, self.episode_seconds, **cfg.task_options)

@@ -42,6 +42,7 @@ MIX_ELEVATOR = (1.0, -1.0, -1.0, 1.0)
 MIX_ELEVATOR_A = np.array(MIX_ELEVATOR)
 MIX_RUDDER = (-1.0, -1.0, 1.0, 1.0)
 GAUSS = 0.5 / math.sqrt(3.0)  # 2-point Gauss stations at mid +- GAUSS * length
+ATTACHED4 = (1.0, 1.0, 1.0, 1.0)  # the panels' separation states when the model has none
 
 
 @njit(**_JIT)
@@ -83,7 +84,7 @@ def blanking(alpha, p):
 
 
 @inlined(**_JIT)
-def hawk_aero_full(p, A, v_cg, omega, v_air, a_bias, de, da, dr, nonlinear, tab_alpha, tab_cl, tab_cm):
+def hawk_aero_full(p, A, v_cg, omega, v_air, a_bias, de, da, dr, nonlinear, tab_alpha, tab_cl, tab_cm, unsteady, xsep):
     """Hawk force and moment about its c.g. (N, N m), and their alpha-dot parts, in the caller's axes.
 
     p: parameter vector; A: aircraft rotation (body to the caller's axes); v_cg, omega: c.g. velocity and
@@ -95,6 +96,9 @@ def hawk_aero_full(p, A, v_cg, omega, v_air, a_bias, de, da, dr, nonlinear, tab_
     CL = CL(alpha) + (1 - f) CLq q^ + f CLq alphadot^ + CLde de, CD = CD0 + CL_v^2/(pi e AR),
     CM = CM(alpha) + (1 - f) CMq q^ + f CMq alphadot^ + CMde de, with x^ = x c/2V; plus CY, Cl, Cn in beta,
     p, r, da, dr, the fin's terms times the blanking factor and Clbeta + Clbeta_CL CL(alpha).
+
+    unsteady (with nonlinear): CL(alpha) and CM(alpha) are :func:`separated_coefficients` at the flow-separation
+    state xsep (1 attached, 0 separated), which equal the tables at xsep = x0(alpha); otherwise xsep is unused.
 
     alpha-dot: alpha = atan2(w, u) of v_b = A^T (v_cg - v_air), whose body-axis rate is
     v_b' = A^T a_cg - w_b x v_b, so
@@ -130,7 +134,9 @@ def hawk_aero_full(p, A, v_cg, omega, v_air, a_bias, de, da, dr, nonlinear, tab_
     adot = wb[1] - vb[1] * (wb[0] * vb[0] + wb[2] * vb[2]) * ixz2 + dot(n, a_bias)
     adh = adot * c * (0.5 * iV)
     a0 = p[L.P_HAWK_AERO_ALPHA0]
-    if nonlinear:
+    if nonlinear and unsteady:
+        cl_static, cm_static = separated_coefficients(p, alpha, xsep, tab_alpha, tab_cl, tab_cm)
+    elif nonlinear:
         cl_static = interp(alpha, tab_alpha, tab_cl)
         cm_static = interp(alpha, tab_alpha, tab_cm)
     else:
@@ -187,19 +193,231 @@ def hawk_aero(p, A, v_cg, omega, v_air, de, da, dr, nonlinear, tab_alpha, tab_cl
     """Hawk force and moment about its c.g. (:func:`hawk_aero_full`) for a caller that does not have the
     accelerations (the MuJoCo peer): alphadot from the velocities alone, q - v (p u + r w) / (u^2 + w^2),
     which is alphadot wherever the c.g. does not accelerate (the model pitching about a gimbal at its c.g.)."""
-    f, m, fd, md, n = hawk_aero_full(p, A, v_cg, omega, v_air, (0.0, 0.0, 0.0), de, da, dr, nonlinear, tab_alpha, tab_cl, tab_cm)
+    f, m, fd, md, n = hawk_aero_full(p, A, v_cg, omega, v_air, (0.0, 0.0, 0.0), de, da, dr, nonlinear, tab_alpha, tab_cl, tab_cm, False, 1.0)
     return f, m
 
 
+# ---------------------------------------------------------------------- flow separation (aero_model="unsteady")
+# Goman & Khrabrov, J. Aircraft 31(5) 1994: one internal variable x per lifting surface, the chordwise
+# position of the separation point (1 attached, 0 fully separated), with Kirchhoff's thin-aerofoil relation
+# for its lift, CN = CN_att ((1 + sqrt(x)) / 2)^2, and first-order dynamics
+#
+#     tau1 dx/dt + x = x0(alpha - tau2 alphadot),      tau1, tau2 in units of c / V.
+#
+# Static x0(alpha) is the table's lift inverted through that relation against the attached-flow lift
+# CL_att = CLalpha sin(alpha - alpha_zl), alpha_zl = alpha0 - CL0 / CLalpha (Kirchhoff's sin alpha at the
+# attached slope): F0 = CL_tab / CL_att clipped to [1/4, 1] (1/4 is x = 0), x0 = (2 sqrt(F0) - 1)^2, with
+# a lift deficit CL_att - CL_tab below SEP_LIFT_TOL taken as attached flow (continuously: F0 = 1 - max(deficit
+# - SEP_LIFT_TOL, 0) / |CL_att|), so that the tables' rounding near the zero-lift angle, where the ratio
+# of two small numbers means nothing, does not read as separation.
+
+SEP_LIFT_TOL = 0.01
+"""Lift-coefficient deficit below which the flow counts as attached: the tables' agreement with the
+attached slope over their linear range (0.887 against 0.881 at 8 deg, three decimals given)."""
+
+
 @inlined(**_JIT)
-def strip(u, wn, vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn):
+def kirchhoff(x):
+    """Kirchhoff's lift factor F(x) = ((1 + sqrt(x)) / 2)^2 of separation state x (clipped to [0, 1])."""
+    r = 0.5 * (1.0 + math.sqrt(min(max(x, 0.0), 1.0)))
+    return r * r
+
+
+@inlined(**_JIT)
+def attached_lift(p, alpha):
+    """The attached-flow lift CLalpha sin(alpha - alpha_zl) of the Hawk (the linear model's slope at alpha_zl)."""
+    cla = p[L.P_HAWK_AERO_CLALPHA]
+    a_zl = p[L.P_HAWK_AERO_ALPHA0] - p[L.P_HAWK_AERO_CL0] / cla
+    return cla * vmath.sincos(alpha - a_zl)[0]
+
+
+@inlined(**_JIT)
+def static_factor(p, alpha, cl_tab):
+    """F(x0(alpha)) of the Hawk: :func:`lift_factor` against its attached-flow lift."""
+    return lift_factor(attached_lift(p, alpha), cl_tab)
+
+
+@inlined(**_JIT)
+def lift_factor(cl_att, cl_tab):
+    """F0 = F(x0): the table's lift over the attached-flow lift (a deficit below SEP_LIFT_TOL taken as
+    none), clipped to Kirchhoff's range [1/4, 1]."""
+    mag = abs(cl_att)
+    deficit = mag - (cl_tab if cl_att >= 0.0 else -cl_tab)  # |CL_att| - CL_tab sign(CL_att)
+    r = 1.0 - max(deficit - SEP_LIFT_TOL, 0.0) / max(mag, SEP_LIFT_TOL)
+    return min(max(r, 0.25), 1.0)
+
+
+@inlined(**_JIT)
+def separation_static(p, alpha, tab_alpha, tab_cl):
+    """The static separation state x0(alpha) = (2 sqrt(F0) - 1)^2 of the Hawk (:func:`static_factor`)."""
+    s = 2.0 * math.sqrt(static_factor(p, alpha, interp(alpha, tab_alpha, tab_cl))) - 1.0
+    return s * s
+
+
+@inlined(**_JIT)
+def separated_coefficients(p, alpha, x, tab_alpha, tab_cl, tab_cm):
+    """The Hawk's CL and CM at angle of attack alpha and separation state x:
+
+        CL = CL_tab(alpha) + CL_att(alpha) (F(x) - F(x0(alpha))),
+        CM = CM_tab(alpha) + (CMalpha / CLalpha) (CL - CL_tab(alpha)),
+
+    so both equal the tables whenever x = x0(alpha) (whatever the clipping of F0), and away from it the
+    lift that separation takes away or gives back acts at the attached flow's aerodynamic centre (the
+    static margin -CMalpha / CLalpha behind the c.g.)."""
+    cl_tab = interp(alpha, tab_alpha, tab_cl)
+    cm_tab = interp(alpha, tab_alpha, tab_cm)
+    dcl = attached_lift(p, alpha) * (kirchhoff(x) - static_factor(p, alpha, cl_tab))
+    return cl_tab + dcl, cm_tab + (p[L.P_HAWK_AERO_CMALPHA] / p[L.P_HAWK_AERO_CLALPHA]) * dcl
+
+
+@inlined(**_JIT)
+def hawk_flow(A, v_cg, omega, v_air):
+    """The Hawk's angle of attack alpha (rad), airspeed V (m/s) and alpha-dot from the velocities (rad/s),
+    q - v (p u + r w) / (u^2 + w^2) (:func:`hawk_aero_full`; the c.g. acceleration's part left out)."""
+    vb = mtv(A, sub(v_cg, v_air))
+    wb = mtv(A, omega)
+    vxz2 = vb[0] * vb[0] + vb[2] * vb[2]
+    ixz2 = 1.0 / vxz2 if vxz2 > 0.0 else 0.0
+    V = math.sqrt(vxz2 + vb[1] * vb[1])
+    return vmath.atan2(vb[2], vb[0]), V, wb[1] - vb[1] * (wb[0] * vb[0] + wb[2] * vb[2]) * ixz2
+
+
+@inlined(**_JIT)
+def separation_target(p, alpha, V, adot, tab_alpha, tab_cl):
+    """The right-hand side x0(alpha - tau2 alphadot) of the separation state's equation (tau2 in seconds:
+    the parameter times c / V), the state's steady value at constant alpha-dot."""
+    c = p[L.P_HAWK_AERO_C]
+    return separation_static(p, alpha - p[L.P_HAWK_AERO_SEP_TAU2] * (c / max(V, MIN_AIRSPEED)) * adot, tab_alpha, tab_cl)
+
+
+@inlined(**_JIT)
+def separation_relax(p, alpha, V, adot, x, dt, tab_alpha, tab_cl):
+    """The separation state x after dt seconds of tau1 dx/dt + x = x0(alpha - tau2 alphadot) with its
+    right-hand side held: x0_d + (x - x0_d) exp(-dt V / (tau1 c)), x0_d the delayed static state
+    (:func:`separation_target`) and tau1 in seconds the parameter times c / V.  Below MIN_AIRSPEED x is held."""
+    c = p[L.P_HAWK_AERO_C]
+    Vs = max(V, MIN_AIRSPEED)
+    target = separation_target(p, alpha, V, adot, tab_alpha, tab_cl)
+    decay = vmath.exp(-(dt * Vs) / (p[L.P_HAWK_AERO_SEP_TAU1] * c))
+    xn = target + (x - target) * decay
+    return xn if V >= MIN_AIRSPEED else x
+
+
+# the compensator's panels (NACA 0018 sections): one separation state per panel, the same model with the
+# attached-flow normal force CLalpha sin(alpha) of the symmetric section, the panel's flow taken at its
+# mid-span station, and its own time constants (comp_aero.sep_tau1, sep_tau2, in its chord S / span over V)
+
+
+@inlined(**_JIT)
+def panel_flow(vb0, wb, rm, i):
+    """Panel i's angle of attack (rad), in-plane airspeed (m/s) and pitch rate about -e_r (rad/s; the
+    velocity part of its alpha-dot) at radius rm, from the reference point's velocity relative to the air
+    vb0 and the arm's angular velocity wb (arm axes; :func:`panel`'s kinematics)."""
+    ce = PANEL_COS[i]
+    sg = PANEL_SIN[i]
+    u = vb0[0] + rm * (wb[1] * sg - wb[2] * ce)
+    wn = vb0[1] * sg - vb0[2] * ce - rm * wb[0]
+    return vmath.atan2(wn, u), math.sqrt(u * u + wn * wn), -(wb[1] * ce + wb[2] * sg)
+
+
+@inlined(**_JIT)
+def panel_separation_static(cla, alpha, tab_alpha, tab_cn):
+    """x0(alpha) of a compensator panel: the table's CN inverted through Kirchhoff's factor against CLalpha sin(alpha)."""
+    s = 2.0 * math.sqrt(lift_factor(cla * vmath.sincos(alpha)[0], interp(alpha, tab_alpha, tab_cn))) - 1.0
+    return s * s
+
+
+@inlined(**_JIT)
+def comp_separation_relax(p, vb0, wb, xs, dt, tab_alpha, tab_cn):
+    """The four panels' separation states xs (4-tuple) after dt seconds, each relaxed towards its target
+    x0(alpha - tau2 alphadot) held (:func:`separation_relax`'s equation; tau1, tau2 the compensator's times
+    its chord S / span over the panel's in-plane speed at mid-span); a panel below MIN_AIRSPEED holds x."""
+    span = p[L.P_COMP_AERO_SPAN]
+    c = p[L.P_COMP_AERO_S] / span
+    rm = 0.5 * (p[L.P_GEOMETRY_ARM_RADIUS] + 0.5 * span)
+    cla = p[L.P_COMP_AERO_CLALPHA]
+    t1 = p[L.P_COMP_AERO_SEP_TAU1] * c
+    t2 = p[L.P_COMP_AERO_SEP_TAU2] * c
+    a0, v0, r0 = panel_flow(vb0, wb, rm, 0)
+    a1, v1, r1 = panel_flow(vb0, wb, rm, 1)
+    a2, v2, r2 = panel_flow(vb0, wb, rm, 2)
+    a3, v3, r3 = panel_flow(vb0, wb, rm, 3)
+    return (
+        panel_relax(cla, a0, v0, r0, xs[0], dt, t1, t2, tab_alpha, tab_cn),
+        panel_relax(cla, a1, v1, r1, xs[1], dt, t1, t2, tab_alpha, tab_cn),
+        panel_relax(cla, a2, v2, r2, xs[2], dt, t1, t2, tab_alpha, tab_cn),
+        panel_relax(cla, a3, v3, r3, xs[3], dt, t1, t2, tab_alpha, tab_cn),
+    )
+
+
+@inlined(**_JIT)
+def panel_target(cla, alpha, V, adot, t2, tab_alpha, tab_cn):
+    """A panel's x0(alpha - tau2 alphadot), t2 = tau2 c (m)."""
+    return panel_separation_static(cla, alpha - (t2 / max(V, MIN_AIRSPEED)) * adot, tab_alpha, tab_cn)
+
+
+@inlined(**_JIT)
+def panel_relax(cla, alpha, V, adot, x, dt, t1, t2, tab_alpha, tab_cn):
+    """A panel's separation state after dt seconds towards its held target (t1 = tau1 c, t2 = tau2 c, m)."""
+    target = panel_target(cla, alpha, V, adot, t2, tab_alpha, tab_cn)
+    xn = target + (x - target) * vmath.exp(-(dt * max(V, MIN_AIRSPEED)) / t1)
+    return xn if V >= MIN_AIRSPEED else x
+
+
+@inlined(**_JIT)
+def comp_separation_targets(p, vb0, wb, tab_alpha, tab_cn):
+    """The panels' targets x0(alpha - tau2 alphadot) (4-tuple): their separation states in steady flow."""
+    span = p[L.P_COMP_AERO_SPAN]
+    c = p[L.P_COMP_AERO_S] / span
+    rm = 0.5 * (p[L.P_GEOMETRY_ARM_RADIUS] + 0.5 * span)
+    cla = p[L.P_COMP_AERO_CLALPHA]
+    t2 = p[L.P_COMP_AERO_SEP_TAU2] * c
+    a0, v0, r0 = panel_flow(vb0, wb, rm, 0)
+    a1, v1, r1 = panel_flow(vb0, wb, rm, 1)
+    a2, v2, r2 = panel_flow(vb0, wb, rm, 2)
+    a3, v3, r3 = panel_flow(vb0, wb, rm, 3)
+    return (
+        panel_target(cla, a0, v0, r0, t2, tab_alpha, tab_cn), panel_target(cla, a1, v1, r1, t2, tab_alpha, tab_cn),
+        panel_target(cla, a2, v2, r2, t2, tab_alpha, tab_cn), panel_target(cla, a3, v3, r3, t2, tab_alpha, tab_cn),
+    )
+
+
+@inlined(**_JIT)
+def comp_separation_rates(p, vb0, wb, xs, tab_alpha, tab_cn):
+    """dx/dt (4-tuple, 1/s) of the panels' separation states (continuation and linearisation)."""
+    span = p[L.P_COMP_AERO_SPAN]
+    c = p[L.P_COMP_AERO_S] / span
+    rm = 0.5 * (p[L.P_GEOMETRY_ARM_RADIUS] + 0.5 * span)
+    cla = p[L.P_COMP_AERO_CLALPHA]
+    t1 = p[L.P_COMP_AERO_SEP_TAU1] * c
+    t2 = p[L.P_COMP_AERO_SEP_TAU2] * c
+    return (
+        panel_rate(cla, panel_flow(vb0, wb, rm, 0), xs[0], t1, t2, tab_alpha, tab_cn),
+        panel_rate(cla, panel_flow(vb0, wb, rm, 1), xs[1], t1, t2, tab_alpha, tab_cn),
+        panel_rate(cla, panel_flow(vb0, wb, rm, 2), xs[2], t1, t2, tab_alpha, tab_cn),
+        panel_rate(cla, panel_flow(vb0, wb, rm, 3), xs[3], t1, t2, tab_alpha, tab_cn),
+    )
+
+
+@inlined(**_JIT)
+def panel_rate(cla, flow, x, t1, t2, tab_alpha, tab_cn):
+    """A panel's dx/dt (1/s) at its flow (alpha, V, alphadot) (:func:`panel_flow`); 0 below MIN_AIRSPEED."""
+    a, V, r = flow
+    rate = (panel_target(cla, a, V, r, t2, tab_alpha, tab_cn) - x) * V / t1
+    return rate if V >= MIN_AIRSPEED else 0.0
+
+
+@inlined(**_JIT)
+def strip(u, wn, vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn, unsteady, x):
     """Loads of one strip from its velocity relative to the air in the panel's axes (e_x, n, e_r): u along
     x, -wn along the normal n, a spanwise component of square vs2.  Returns (f_x, f_n, dk, mc): the force's
     x and n components, the drag factor dk (the force's spanwise component is -dk times the spanwise
     velocity, the same for both strips of a panel, so the panel applies it once) and the section pitching
     moment mc (about -e_r).  Lift is normal to the in-plane velocity (u e_x - wn n), drag against the full
     strip velocity (so that the panels' drag sums to a force along the free stream, as Table 4's CD does).
-    A strip below MIN_AIRSPEED carries no load (selected, not branched, so that panels vectorise)."""
+    A strip below MIN_AIRSPEED carries no load (selected, not branched, so that panels vectorise).
+    unsteady (with nonlinear): the table's CN moved by CLalpha sin(alpha) (F(x) - F0), x the panel's separation
+    state (:func:`lift_factor`; the table's CN at x = x0), the moment with it as with the table."""
     V2 = u * u + wn * wn
     V = math.sqrt(V2)  # in-plane speed
     vabs = math.sqrt(V2 + vs2)  # full speed, with the spanwise component
@@ -209,6 +427,9 @@ def strip(u, wn, vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, 
     qhat = qp * c * (0.5 * vabs * inv)
     if nonlinear:
         cl_static = interp(alpha, tab_alpha, tab_cn)
+        if unsteady:
+            cn_att = cla * vmath.sincos(alpha)[0]
+            cl_static = cl_static + cn_att * (kirchhoff(x) - lift_factor(cn_att, cl_static))
         cm_static = cl_static * (cma / cla) if cla != 0.0 else cma * alpha
     else:
         cl_static = cla * alpha
@@ -229,7 +450,7 @@ def strip(u, wn, vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, 
 
 
 @inlined(**_JIT)
-def panel(i, vb0, wb, flap, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn):
+def panel(i, vb0, wb, flap, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn, unsteady, x):
     """Force and moment (arm axes, the moment about the reference point) of panel i: its two Gauss strips
     at r = rm -+ dr_g along its span e_r = (0, ce, sg), normal n = x_arm x e_r = (0, -sg, ce).
 
@@ -250,8 +471,8 @@ def panel(i, vb0, wb, flap, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_of
     du = wb[1] * sg - wb[2] * ce  # d(u) / dr
     ra = rm - dr_g
     rb = rm + dr_g
-    a = strip(vb0[0] + ra * du, wn0 - ra * wb[0], vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn)
-    b = strip(vb0[0] + rb * du, wn0 - rb * wb[0], vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn)
+    a = strip(vb0[0] + ra * du, wn0 - ra * wb[0], vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn, unsteady, x)
+    b = strip(vb0[0] + rb * du, wn0 - rb * wb[0], vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn, unsteady, x)
     fx = a[0] + b[0]
     fn = a[1] + b[1]
     fr = -(vs * (a[2] + b[2]))
@@ -262,12 +483,13 @@ def panel(i, vb0, wb, flap, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_of
 
 
 @njit(**_JIT)
-def strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, tab_alpha, tab_cn):
+def strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, tab_alpha, tab_cn, unsteady, xs):
     """Sum of the eight strips' loads with the stall tables (a table search per strip: not vectorisable,
-    so compiled once as its own function rather than inlined beside the linear loop)."""
+    so compiled once as its own function rather than inlined beside the linear loop); unsteady: through the
+    panels' separation states xs (4-tuple)."""
     fx = fy = fz = mx = my = mz = 0.0
     for i in range(4):
-        f = panel(i, vb0, wb, flaps[i], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, True, tab_alpha, tab_cn)
+        f = panel(i, vb0, wb, flaps[i], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, True, tab_alpha, tab_cn, unsteady, xs[i])
         fx += f[0]
         fy += f[1]
         fz += f[2]
@@ -278,19 +500,19 @@ def strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_o
 
 
 @inlined(**_JIT)
-def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn, unrolled=False):
+def comp_aero(p, A, v_ref, omega, v_air, flaps, nonlinear, tab_alpha, tab_cn, unrolled=False, unsteady=False, xs=ATTACHED4):
     """Compensator force (world, N) and moment about its aerodynamic reference point (world, N m).
 
     A: arm rotation; v_ref: velocity of the reference point (world); omega: arm angular velocity
     (world); v_air: air velocity (world); the rest as :func:`comp_aero_arm`, which this calls with the
     velocities in arm axes.
     """
-    f, m = comp_aero_arm(p, mtv(A, sub(v_ref, v_air)), mtv(A, omega), flaps, nonlinear, tab_alpha, tab_cn, unrolled)
+    f, m = comp_aero_arm(p, mtv(A, sub(v_ref, v_air)), mtv(A, omega), flaps, nonlinear, tab_alpha, tab_cn, unrolled, unsteady, xs)
     return mv(A, f), mv(A, m)
 
 
 @inlined(**_JIT)
-def comp_aero_arm(p, vb0, wb, flaps, nonlinear, tab_alpha, tab_cn, unrolled=False):
+def comp_aero_arm(p, vb0, wb, flaps, nonlinear, tab_alpha, tab_cn, unrolled=False, unsteady=False, xs=ATTACHED4):
     """Compensator force (arm axes, N) and moment about its aerodynamic reference point (arm axes, N m).
 
     vb0: velocity of the reference point relative to the air, wb: arm angular velocity, both in arm
@@ -298,7 +520,8 @@ def comp_aero_arm(p, vb0, wb, flaps, nonlinear, tab_alpha, tab_cn, unrolled=Fals
     the lane kernel, whose loop over environments must contain no loop of its own (a compile-time
     constant there); otherwise one loop over the panels, which LLVM vectorises across the panels.
     Each panel i (span e_r, normal n = x_arm cross e_r) carries Table 4 coefficients per unit area of
-    half the reference area; its lift acts along n for positive local incidence or flap.
+    half the reference area; its lift acts along n for positive local incidence or flap.  unsteady (with
+    nonlinear): the panels' tables through their separation states xs (4-tuple, flaps 1-4 order).
     """
     S = p[L.P_COMP_AERO_S]
     span = p[L.P_COMP_AERO_SPAN]
@@ -321,12 +544,12 @@ def comp_aero_arm(p, vb0, wb, flaps, nonlinear, tab_alpha, tab_cn, unrolled=Fals
     cmq = p[L.P_COMP_AERO_CMQ]
     cd0 = 0.5 * p[L.P_COMP_AERO_CD0]
     if nonlinear:
-        fx, fy, fz, mx, my, mz = strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, tab_alpha, tab_cn)
+        fx, fy, fz, mx, my, mz = strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, tab_alpha, tab_cn, unsteady, xs)
     elif unrolled:
-        f0 = panel(0, vb0, wb, flaps[0], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
-        f1 = panel(1, vb0, wb, flaps[1], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
-        f2 = panel(2, vb0, wb, flaps[2], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
-        f3 = panel(3, vb0, wb, flaps[3], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
+        f0 = panel(0, vb0, wb, flaps[0], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn, False, 1.0)
+        f1 = panel(1, vb0, wb, flaps[1], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn, False, 1.0)
+        f2 = panel(2, vb0, wb, flaps[2], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn, False, 1.0)
+        f3 = panel(3, vb0, wb, flaps[3], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn, False, 1.0)
         fx = f0[0] + f1[0] + f2[0] + f3[0]
         fy = f0[1] + f1[1] + f2[1] + f3[1]
         fz = f0[2] + f1[2] + f2[2] + f3[2]
@@ -338,7 +561,7 @@ def comp_aero_arm(p, vb0, wb, flaps, nonlinear, tab_alpha, tab_cn, unrolled=Fals
         # that LLVM computes them side by side in SIMD lanes
         fx = fy = fz = mx = my = mz = 0.0
         for i in range(4):
-            f = panel(i, vb0, wb, flaps[i], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn)
+            f = panel(i, vb0, wb, flaps[i], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn, False, 1.0)
             fx += f[0]
             fy += f[1]
             fz += f[2]

@@ -7,7 +7,7 @@ theta = (e0, e1, e2, e3), A(theta) body to world.  World axes x upstream, y star
 pivot at the origin, gravity +z.  The model is split by idea:
 
     ==========================================  ===========================================================
-    :mod:`rig_env.physics.dae_layout`           state row Y (N_DAE = 56), scratch row, solver constants
+    :mod:`rig_env.physics.dae_layout`           state row Y (N_DAE = 61), scratch row, solver constants
     :mod:`rig_env.physics.dae_rotations`        Euler parameters, rotation matrices, joint angles and rates
     :mod:`rig_env.physics.dae_loads`            body inertias; gravity, aero, friction and stop loads
     :mod:`rig_env.physics.dae_constraints`      constraints (15)-(18) and locked joints, Jacobian, residual
@@ -47,7 +47,7 @@ from rig_env.physics.dae_constraints import (  # noqa: F401  (re-exported)
 from rig_env.physics.dae_layout import (  # noqa: F401  (re-exported)
     AIRCRAFT, ARM, C_VA, C_VR, C_VS, C_WA, C_WS, GROUND, N_CMAX, N_COORD, N_DAE, N_RK, N_VEL, N_WORK_DAE, PROJ_ITERS,
     PROJ_SKIP_RECHECK, PROJ_TOL, RK_C, RK_W, W_ACC, W_B, W_BACK, W_C, W_F, W_J, W_K, W_LAM, W_MJ, W_SCHUR, W_UD, W_Y0,
-    W_YT, Y_QA, Y_QS, Y_RA, Y_RR, Y_RS, Y_SERVO, Y_SERVO_RATE, Y_TARGET, Y_V, Y_VA, Y_VR, Y_VS, Y_WA, Y_WS, Y_Z,
+    W_YT, Y_QA, Y_QS, Y_RA, Y_RR, Y_RS, Y_SEP, Y_SERVO, Y_SERVO_RATE, Y_TARGET, Y_V, Y_VA, Y_VR, Y_VS, Y_WA, Y_WS, Y_Z,
     new_work_dae,
 )  # fmt: skip
 from rig_env.physics.dae_loads import applied_loads, inertias, inv_inertias, loads_at  # noqa: F401  (re-exported)
@@ -57,7 +57,8 @@ from rig_env.physics.dae_rotations import (  # noqa: F401  (re-exported)
 )  # fmt: skip
 from rig_env.physics.dae_solve import accelerations, project  # noqa: F401  (re-exported)
 from rig_env.physics.integrator import push_demands
-from rig_env.physics.joint_space import frames, velocities
+from rig_env.physics.aero import comp_separation_relax, hawk_flow, separation_relax
+from rig_env.physics.joint_space import air_velocity, frames, velocities
 
 _JIT = dict(cache=True, error_model="numpy", _nrt=False)  # allocation-free kernels: no NRT refcounting
 _JIT_BATCH = dict(cache=True, error_model="numpy")  # batch drivers that allocate small scratch
@@ -65,13 +66,13 @@ _JIT_BATCH = dict(cache=True, error_model="numpy")  # batch drivers that allocat
 
 # ---------------------------------------------------------------------- integration
 @njit(**_JIT)
-def rhs_dae(yr, tgt, z, ud, u, p, flags, free_idx, n_free, locked, n_locked, tabs, w, out):
-    """Time derivative of the RK state yr (46,) into out (46,)."""
+def rhs_dae(yr, tgt, z, xs, ud, u, p, flags, free_idx, n_free, locked, n_locked, tabs, w, out):
+    """Time derivative of the RK state yr (46,) into out (46,); z, xs: bristle and separation states, held."""
     if flags & L.F_SERVO:
         flaps = yr[32:39]
     else:
         flaps = ud
-    accelerations(yr, tgt, z, flaps, u, p, flags, free_idx, n_free, locked, n_locked, tabs, w)
+    accelerations(yr, tgt, z, xs, flaps, u, p, flags, free_idx, n_free, locked, n_locked, tabs, w)
     acc = w[W_ACC : W_ACC + 15]
     for d in range(3):
         out[Y_RA + d] = yr[Y_VA + d]
@@ -91,6 +92,24 @@ def rhs_dae(yr, tgt, z, ud, u, p, flags, free_idx, n_free, locked, n_locked, tab
 
 
 @njit(**_JIT)
+def half_separation_step_dae(y, u, p, tabs, h):
+    """The flow-separation states y[Y_SEP:Y_SEP + 5] over h/2 at the bodies' state y (as the joint-space
+    integrator's half step: :func:`rig_env.physics.aero.separation_relax` at the Hawk's flow angles,
+    :func:`rig_env.physics.aero.comp_separation_relax` at the compensator reference point's flow)."""
+    Aa, As = body_matrices(y)
+    w_a, w_s = world_rates(y, Aa, As)
+    v_air = air_velocity(u)
+    alpha, V, adot = hawk_flow(Aa, vec3(y, Y_VA), w_a, v_air)
+    y[Y_SEP] = separation_relax(p, alpha, V, adot, y[Y_SEP], 0.5 * h, tabs[0], tabs[1])
+    lever = sub(scale(col(As, 0), p[L.P_GEOMETRY_COMP_AERO_X]), vec3(y, Y_RS))  # ref point - arm c.g. (as dae_loads)
+    v_ref = add(vec3(y, Y_VS), cross(w_s, lever))
+    c = comp_separation_relax(p, mtv(As, sub(v_ref, v_air)), mtv(As, w_s), (y[Y_SEP + 1], y[Y_SEP + 2], y[Y_SEP + 3], y[Y_SEP + 4]),
+                              0.5 * h, tabs[3], tabs[4])
+    for k in range(4):
+        y[Y_SEP + 1 + k] = c[k]
+
+
+@njit(**_JIT)
 def physics_step_dae(y, ud, u, p, flags, free_idx, n_free, locked, n_locked, tabs, h, w):
     """Advance one environment's DAE state y (N_DAE,) by one physics step h (in place)."""
     z = y[Y_Z : Y_Z + 5]
@@ -100,6 +119,9 @@ def physics_step_dae(y, ud, u, p, flags, free_idx, n_free, locked, n_locked, tab
         for a in range(n_free):
             j = free_idx[a]
             z[j] = fr.advance_bristle(p, j, qd[j], z[j], 0.5 * h)
+    if flags & L.F_UNSTEADY:
+        half_separation_step_dae(y, u, p, tabs, h)
+    xs = (y[Y_SEP], y[Y_SEP + 1], y[Y_SEP + 2], y[Y_SEP + 3], y[Y_SEP + 4])
     y0 = w[W_Y0 : W_Y0 + N_RK]
     yt = w[W_YT : W_YT + N_RK]
     for i in range(32):
@@ -109,13 +131,13 @@ def physics_step_dae(y, ud, u, p, flags, free_idx, n_free, locked, n_locked, tab
     for s in range(4):
         k = w[W_K + s * N_RK : W_K + (s + 1) * N_RK]
         if s == 0:
-            rhs_dae(y0, tgt, z, ud, u, p, flags, free_idx, n_free, locked, n_locked, tabs, w, k)
+            rhs_dae(y0, tgt, z, xs, ud, u, p, flags, free_idx, n_free, locked, n_locked, tabs, w, k)
         else:
             kp = w[W_K + (s - 1) * N_RK : W_K + s * N_RK]
             c = RK_C[s] * h
             for i in range(N_RK):
                 yt[i] = y0[i] + c * kp[i]
-            rhs_dae(yt, tgt, z, ud, u, p, flags, free_idx, n_free, locked, n_locked, tabs, w, k)
+            rhs_dae(yt, tgt, z, xs, ud, u, p, flags, free_idx, n_free, locked, n_locked, tabs, w, k)
     for i in range(N_RK):
         acc = 0.0
         for s in range(4):
@@ -126,6 +148,8 @@ def physics_step_dae(y, ud, u, p, flags, free_idx, n_free, locked, n_locked, tab
     for i in range(14):
         y[Y_SERVO + i] = y0[32 + i]
     project(y, tgt, p, locked, n_locked, w)
+    if flags & L.F_UNSTEADY:
+        half_separation_step_dae(y, u, p, tabs, h)
     if flags & L.F_FRICTION:
         qd = current_joint_rates(y)
         for a in range(n_free):
@@ -262,6 +286,8 @@ def from_joint_state(X, P, Y):
             y[Y_TARGET + j] = q[j]
         for k in range(14):
             y[Y_SERVO + k] = x[L.X_SERVO + k]
+        for k in range(L.N_SEP):
+            y[Y_SEP + k] = x[L.X_SEP + k]
 
 
 @njit(**_JIT_BATCH)
@@ -291,6 +317,8 @@ def to_joint_state(Y, P, X):
             x[L.X_Z + j] = y[Y_Z + j]
         for k in range(14):
             x[L.X_SERVO + k] = y[Y_SERVO + k]
+        for k in range(L.N_SEP):
+            x[L.X_SEP + k] = y[Y_SEP + k]
 
 
 @njit(**_JIT_BATCH)
@@ -328,7 +356,8 @@ def accelerations_batch(Y, U, P, flags, free_idx, n_free, tabs, ACC, LOADS):
     for i in range(Y.shape[0]):
         y = Y[i]
         loads = accelerations(
-            y, y[Y_TARGET : Y_TARGET + 5], y[Y_Z : Y_Z + 5], y[Y_SERVO : Y_SERVO + 7], U[i], P[i], flags,
+            y, y[Y_TARGET : Y_TARGET + 5], y[Y_Z : Y_Z + 5], (y[Y_SEP], y[Y_SEP + 1], y[Y_SEP + 2], y[Y_SEP + 3], y[Y_SEP + 4]),
+            y[Y_SERVO : Y_SERVO + 7], U[i], P[i], flags,
             free_idx, n_free, locked, n_locked, tabs, w,
         )
         for k in range(15):

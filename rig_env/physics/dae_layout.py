@@ -5,7 +5,7 @@ compensator's inertia) and r (compensator, a point mass), Euler parameters theta
 velocities v = (Rdot_a, omega_a, Rdot_s, omega_s, Rdot_r) with body-axis angular velocities
 (:mod:`rig_env.physics.dae` gives the model).
 
-State row Y[i] (N_DAE = 56):
+State row Y[i] (N_DAE = 61):
 
     ===========  =====  ==========================================================
     Y_RA         0:3    aircraft c.g. position R_a, m (world)
@@ -22,6 +22,7 @@ State row Y[i] (N_DAE = 56):
     Y_SERVO      37:44  servo positions, rad (SERVOS order)
     Y_SERVO_RATE 44:51  servo rates, rad/s
     Y_TARGET     51:56  locked-joint target angles, rad (JOINTS order; used for locked joints only)
+    Y_SEP        56:61  flow-separation states: the Hawk, flaps 1-4's panels (layout.X_SEP; F_UNSTEADY only)
     ===========  =====  ==========================================================
 """
 
@@ -47,7 +48,8 @@ Y_Z = 32
 Y_SERVO = 37
 Y_SERVO_RATE = 44
 Y_TARGET = 51
-N_DAE = 56
+Y_SEP = 56
+N_DAE = 61
 
 # RK state: Y[0:32] (coordinates, velocities) then Y[37:51] (servo positions and rates)
 N_RK = 46
@@ -71,8 +73,8 @@ W_F = 988  # applied + gyroscopic forces F (15)
 W_LAM = 1003  # multipliers / projection unknowns
 W_ACC = 1018  # vdot (15)
 W_BACK = 1033  # last good state, N_DAE
-W_ACC2 = 1089  # vdot per unit of the Hawk's alpha-dot (15)
-N_WORK_DAE = 1104
+W_ACC2 = W_BACK + N_DAE  # vdot per unit of the Hawk's alpha-dot (15)
+N_WORK_DAE = W_ACC2 + 15
 
 RK_C = (0.0, 0.5, 0.5, 1.0)
 RK_W = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)

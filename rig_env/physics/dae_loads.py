@@ -60,15 +60,16 @@ def inertias(p):
 def applied_loads(y, z, flaps, u, p, flags, free_idx, n_free, tabs):
     """Applied loads of state y; see :func:`loads_at`."""
     Aa, As = body_matrices(y)
-    return loads_at(y, Aa, As, z, flaps, u, p, flags, free_idx, n_free, tabs)
+    return loads_at(y, Aa, As, z, (1.0, 1.0, 1.0, 1.0, 1.0), flaps, u, p, flags, free_idx, n_free, tabs)
 
 
 @njit(**_JIT)
-def loads_at(y, Aa, As, z, flaps, u, p, flags, free_idx, n_free, tabs):
+def loads_at(y, Aa, As, z, xs, flaps, u, p, flags, free_idx, n_free, tabs):
     """Applied loads (world axes): (f_a, n_a, f_s, n_s, f_r, (fd, md, n)), forces at each c.g. (N), moments
     (N m), and the Hawk's alpha-dot terms (aero.hawk_aero_full, with no acceleration known: the whole c.g.
     acceleration goes through them): force and moment per unit of n . a_a, the Hawk c.g.'s acceleration
-    along n (zero without aerodynamics).
+    along n (zero without aerodynamics).  xs: the flow-separation states (5-tuple: the Hawk, flaps 1-4's
+    panels; F_UNSTEADY).
 
     Gravity on every body; Hawk aero at its c.g.; compensator aero force at the arm point
     A_s [comp_aero_x 0 0]^T plus its moment, on the arm; friction and stop torques of the free joints
@@ -88,14 +89,16 @@ def loads_at(y, Aa, As, z, flaps, u, p, flags, free_idx, n_free, tabs):
         v_air = air_velocity(u)
         nonlin = (flags & L.F_NONLINEAR) != 0
         fa, ta, fd, md, n = hawk_aero_full(
-            p, Aa, vec3(y, Y_VA), w_a, v_air, zero, flaps[4], flaps[5], flaps[6], nonlin, tabs[0], tabs[1], tabs[2]
+            p, Aa, vec3(y, Y_VA), w_a, v_air, zero, flaps[4], flaps[5], flaps[6], nonlin, tabs[0], tabs[1], tabs[2],
+            (flags & L.F_UNSTEADY) != 0, xs[0],
         )
         ad = (fd, md, n)
         f_a = add(f_a, fa)
         n_a = add(n_a, ta)
         lever = sub(scale(col(As, 0), p[L.P_GEOMETRY_COMP_AERO_X]), vec3(y, Y_RS))  # ref point - arm c.g.
         v_ref = add(vec3(y, Y_VS), cross(w_s, lever))
-        fc, tc = comp_aero(p, As, v_ref, w_s, v_air, flaps, nonlin, tabs[3], tabs[4])
+        fc, tc = comp_aero(p, As, v_ref, w_s, v_air, flaps, nonlin, tabs[3], tabs[4], False, (flags & L.F_UNSTEADY) != 0,
+                           (xs[1], xs[2], xs[3], xs[4]))
         f_s = add(f_s, fc)
         n_s = add(n_s, add(cross(lever, fc), tc))
     if flags & (L.F_FRICTION | L.F_STOPS):

@@ -130,11 +130,11 @@ def _solve_constrained(F, acc, MJ, S, m, lam, b, with_b, ima, ims, ma, ms, mr):
 
 
 @njit(**_JIT)
-def accelerations(y, tgt, z, flaps, u, p, flags, free_idx, n_free, locked, n_locked, tabs, w):
+def accelerations(y, tgt, z, xs, flaps, u, p, flags, free_idx, n_free, locked, n_locked, tabs, w):
     """vdot (15) of the DAE into w[W_ACC:W_ACC+15] by the Schur complement of the module docstring.
 
     y: coordinates and velocities in its first 32 entries; tgt: locked targets (5); z: bristle states
-    (5); flaps: 7 surface deflections, rad; locked[:n_locked]: locked joints.  Returns the applied
+    (5); xs: the flow-separation states (5-tuple); flaps: 7 surface deflections, rad; locked[:n_locked]: locked joints.  Returns the applied
     loads (world axes) (f_a, n_a, f_s, n_s, f_r): those of :func:`dae_loads.loads_at` with the Hawk's
     alpha-dot load at the solved acceleration added (the loads eq. (1) holds with).
 
@@ -152,7 +152,7 @@ def accelerations(y, tgt, z, flaps, u, p, flags, free_idx, n_free, locked, n_loc
     lam = w[W_LAM : W_LAM + N_CMAX]
     acc = w[W_ACC : W_ACC + 15]
     Aa, As = body_matrices(y)
-    loads = loads_at(y, Aa, As, z, flaps, u, p, flags, free_idx, n_free, tabs)
+    loads = loads_at(y, Aa, As, z, xs, flaps, u, p, flags, free_idx, n_free, tabs)
     f_a, n_a, f_s, n_s, f_r, ad = loads
     Ia, Is = inertias(p)
     ima, ims = inv_inertias(p)

@@ -6,6 +6,11 @@ Per physics step (Strang splitting, second order overall with friction, fourth o
     1. bristle states z: exact solution of eq. (19) over h/2 at the current joint rates
     2. classical RK4 over h on (q, qd, servo positions, servo rates) with z frozen
     3. bristle states z: exact solution over h/2 at the new joint rates
+
+The flow-separation states (``F_UNSTEADY``, X_SEP: the Hawk's and the compensator panels') are split the same way, inside the bristles' half
+steps: relaxed exactly over h/2 towards its target at the state of the step's start, held through RK4,
+relaxed over h/2 at the state of its end (within a control step, the end's half and the next step's
+opening half, at the same state and inputs, as one relaxation over h).
     4. servo rate and position limits
 
 Surface demands pass through a per-environment delay line of whole physics steps.  An environment
@@ -21,7 +26,7 @@ from numba import njit, prange
 from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
-from rig_env.physics.joint_space import accelerations, kinetic_energy, potential_energy
+from rig_env.physics.joint_space import accelerations, kinetic_energy, potential_energy, separation_step
 from rig_env.physics.llvm_inline import inlined
 from rig_env.physics.vec import FASTMATH
 
@@ -52,8 +57,8 @@ def new_work(n_envs: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 @inlined(**_JIT)
-def rhs(y, z, ud, u, p, flags, free_idx, n_free, tabs, M, w, out):
-    """Time derivative of the RK state y (24,) into out (24,)."""
+def rhs(y, z, xs, ud, u, p, flags, free_idx, n_free, tabs, M, w, out):
+    """Time derivative of the RK state y (24,) into out (24,); z, xs: bristle and separation states, held."""
     q = y[0:5]
     qd = y[5:10]
     if flags & L.F_SERVO:
@@ -61,7 +66,7 @@ def rhs(y, z, ud, u, p, flags, free_idx, n_free, tabs, M, w, out):
     else:
         flaps = ud
     qdd = w[W_QDD : W_QDD + 5]
-    accelerations(q, qd, z, flaps, u, p, flags, free_idx, n_free, tabs, M, w[W_H : W_H + 5], w[W_Q : W_Q + 5], w[W_JV : W_JV + 45], qdd)
+    accelerations(q, qd, z, xs, flaps, u, p, flags, free_idx, n_free, tabs, M, w[W_H : W_H + 5], w[W_Q : W_Q + 5], w[W_JV : W_JV + 45], qdd)
     for j in range(5):
         out[j] = 0.0
         out[5 + j] = 0.0
@@ -97,11 +102,29 @@ def half_bristle_step(x, z, p, free_idx, n_free, h, w):
 
 
 @njit(**_JIT)
-def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w):
-    """Advance one environment's state x (N_STATE,) by one physics step h (in place)."""
+def separation_relaxation(x, u, p, tabs, dt):
+    """The flow-separation states x[X_SEP:X_SEP + 5] over dt at the joint state of x (exact for their targets
+    held, :func:`rig_env.physics.joint_space.separation_step`); dt = h/2 on either side of the RK4 step is
+    second order overall, as the bristles' split.  Two half steps at the same state with the same inputs
+    (the end of one physics step and the start of the next, within a control step) have the same target, so
+    :func:`physics_step` makes them one relaxation over h."""
+    s = L.X_SEP
+    xs = separation_step(x[0:5], x[5:10], u, p, (x[s], x[s + 1], x[s + 2], x[s + 3], x[s + 4]), dt, tabs)
+    for k in range(5):
+        x[s + k] = xs[k]
+
+
+@njit(**_JIT)
+def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w, sep_open, sep_close):
+    """Advance one environment's state x (N_STATE,) by one physics step h (in place).  With F_UNSTEADY the
+    separation states relax over h/2 before the RK4 step if ``sep_open`` and over ``sep_close`` seconds after
+    it (h/2 at the end of a control step, else h: the next step's opening half merged in)."""
     z = x[L.X_Z : L.X_Z + 5]
     if flags & L.F_FRICTION:
         half_bristle_step(x, z, p, free_idx, n_free, h, w)
+    if flags & L.F_UNSTEADY and sep_open:
+        separation_relaxation(x, u, p, tabs, 0.5 * h)
+    xs = (x[L.X_SEP], x[L.X_SEP + 1], x[L.X_SEP + 2], x[L.X_SEP + 3], x[L.X_SEP + 4])
     y0 = w[W_Y0 : W_Y0 + N_Y]
     yt = w[W_YT : W_YT + N_Y]
     for i in range(10):
@@ -118,7 +141,7 @@ def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w):
             c = RK_C[s] * h
             for i in range(N_Y):
                 yt[i] = y0[i] + c * kp[i]
-        rhs(yt, z, ud, u, p, flags, free_idx, n_free, tabs, M, w, k)  # one call site: rhs is inlined
+        rhs(yt, z, xs, ud, u, p, flags, free_idx, n_free, tabs, M, w, k)  # one call site: rhs is inlined
     for i in range(N_Y):
         acc = 0.0
         for s in range(4):
@@ -128,6 +151,8 @@ def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w):
         x[i] = y0[i]
     for i in range(14):
         x[L.X_SERVO + i] = y0[10 + i]
+    if flags & L.F_UNSTEADY:
+        separation_relaxation(x, u, p, tabs, sep_close)
     if flags & L.F_FRICTION:
         half_bristle_step(x, z, p, free_idx, n_free, h, w)
     for k in range(7):
@@ -186,7 +211,7 @@ def advance_env(x, w, M, p, u, db, d_comp, d_hawk, k0, flags, free_idx, n_free, 
         for a in range(7):
             d = d_comp if a < 4 else d_hawk
             ud[a] = db[(k - d) % n_buf, a]
-        physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w)
+        physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w, s == 0, 0.5 * h if s == n_sub - 1 else h)
     st = check(x)
     if st != L.S_OK:
         for a in range(L.N_STATE):

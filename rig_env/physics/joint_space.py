@@ -40,11 +40,15 @@ from numba import njit
 from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import vmath
-from rig_env.physics.aero import comp_aero_arm, hawk_aero_full
+from rig_env.physics.aero import (
+    MIN_AIRSPEED, comp_aero_arm, comp_separation_rates, comp_separation_relax, comp_separation_targets, hawk_aero_full, hawk_flow,
+    separation_relax, separation_target,
+)  # fmt: skip
 from rig_env.physics.llvm_inline import inlined
 from rig_env.physics.vec import FASTMATH, add, col, cross, dot, inertia_world, mm, mtv, mv, rot_zy, rot_zyx, scale, sub
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
+ATTACHED5 = (1.0, 1.0, 1.0, 1.0, 1.0)  # the separation states of a model without them (the Hawk, flaps 1-4)
 # the right-hand side's parts are inlined into their callers by LLVM (rig_env.physics.llvm_inline): as separate
 # functions they would exchange their tuples through memory and be optimised apart (about 1.3x per env-step)
 
@@ -391,7 +395,71 @@ def joint_projection(t_pivot, t_gimbal, cs, a2, sc):
 
 
 @inlined(**_JIT)
-def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
+def hawk_air(q, u, p, kin):
+    """The air velocity (inputs u: tunnel flow and gust) and the Hawk c.g.'s velocity, both in arm axes
+    (kin: :func:`arm_kinematics` or :func:`mass_matrix_terms`' kinematics): :func:`forces`' first lines.
+    forces keeps its own copy: called from there, this moved the lane kernel's code enough that its
+    serial and parallel twins no longer agreed bit for bit (LLVM's contraction choices), which
+    tests/test_envs.py requires of a batch of one and environment i of a batch."""
+    B, cs, a2, sc, rho, w_s, w_a, b_s, b_a, ts = kin[:10]
+    v_air = air_velocity(u)  # world; into arm axes: A_s^T = Rx(phi)^T Ry(theta)^T Rz(psi)^T
+    sp, cp = vmath.sincos(q[L.J_RIG_YAW])
+    cf, sf = cs
+    ct, st = ts
+    v1 = (cp * v_air[0] + sp * v_air[1], cp * v_air[1] - sp * v_air[0], v_air[2])
+    v2 = (ct * v1[0] - st * v1[2], v1[1], st * v1[0] + ct * v1[2])
+    v_air_s = (v2[0], cf * v2[1] + sf * v2[2], cf * v2[2] - sf * v2[1])
+    return v_air_s, add(cross_x(w_s, p[L.P_GEOMETRY_ARM_LENGTH]), cross(w_a, rho))
+
+
+@inlined(**_JIT)
+def air_flows(q, qd, u, p):
+    """What the separation states see at joint state (q, qd) and inputs u: the Hawk's angle of attack,
+    airspeed and alpha-dot from the velocities (:func:`rig_env.physics.aero.hawk_flow`), and the
+    compensator's reference point velocity relative to the air and the arm's angular velocity (arm axes)."""
+    kin = arm_kinematics(q, qd, p)
+    v_air_s, v_a = hawk_air(q, u, p, kin)
+    w_s = kin[5]
+    return hawk_flow(kin[0], v_a, kin[6], v_air_s), sub(cross_x(w_s, p[L.P_GEOMETRY_COMP_AERO_X]), v_air_s), w_s
+
+
+@inlined(**_JIT)
+def separation_step(q, qd, u, p, xs, dt, tabs):
+    """The flow-separation states xs (5-tuple: the Hawk, flaps 1-4's panels) after dt seconds at joint state
+    (q, qd) and inputs u, their targets held (:func:`rig_env.physics.aero.separation_relax`,
+    :func:`rig_env.physics.aero.comp_separation_relax`)."""
+    hawk, vb0, wb = air_flows(q, qd, u, p)
+    alpha, V, adot = hawk
+    c = comp_separation_relax(p, vb0, wb, (xs[1], xs[2], xs[3], xs[4]), dt, tabs[3], tabs[4])
+    return separation_relax(p, alpha, V, adot, xs[0], dt, tabs[0], tabs[1]), c[0], c[1], c[2], c[3]
+
+
+@njit(**_JIT)
+def separation_rates(q, qd, u, p, xs, tabs):
+    """dx/dt = (x0(alpha - tau2 alphadot) - x) / tau1 (1/s; tau1, tau2 in seconds: the parameters times c / V)
+    of the flow-separation states xs (5-tuple) at joint state (q, qd) and inputs u; 0 below MIN_AIRSPEED.
+    The integrators relax the states exactly over half steps (:func:`separation_step`); this is the same
+    equation for continuation and linearisation."""
+    hawk, vb0, wb = air_flows(q, qd, u, p)
+    alpha, V, adot = hawk
+    target = separation_target(p, alpha, V, adot, tabs[0], tabs[1])
+    rate = (target - xs[0]) * V / (p[L.P_HAWK_AERO_SEP_TAU1] * p[L.P_HAWK_AERO_C])
+    c = comp_separation_rates(p, vb0, wb, (xs[1], xs[2], xs[3], xs[4]), tabs[3], tabs[4])
+    return rate if V >= MIN_AIRSPEED else 0.0, c[0], c[1], c[2], c[3]
+
+
+@njit(**_JIT)
+def separation_steady(q, qd, u, p, tabs):
+    """The flow-separation states (5-tuple) in steady flow at joint state (q, qd) and inputs u: their
+    targets x0(alpha - tau2 alphadot) (:func:`separation_step`'s, without the relaxation)."""
+    hawk, vb0, wb = air_flows(q, qd, u, p)
+    alpha, V, adot = hawk
+    c = comp_separation_targets(p, vb0, wb, tabs[3], tabs[4])
+    return separation_target(p, alpha, V, adot, tabs[0], tabs[1]), c[0], c[1], c[2], c[3]
+
+
+@inlined(**_JIT)
+def forces(q, qd, fric, xs, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
     """Generalised forces (Q, D, G), three 5-tuples: Q (N m) of gravity, aerodynamics, stops and the joint
     torques ``fric``, with the Hawk's alpha-dot at its velocity part (aero.hawk_aero_full); D (N m s/rad)
     the generalised force per unit of the rest of alpha-dot (rad/s) and G (s) that rest per unit joint
@@ -405,6 +473,8 @@ def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
 
     fric: the joints' friction and test-fixture torques (:func:`applied_torques`; the lane kernel
     computes them in loops of their own, for the free joints only, so that a locked joint costs nothing).
+    xs: the flow-separation states (5-tuple: the Hawk, flaps 1-4's panels; used with flags' F_UNSTEADY and
+    nonlinear only).
 
     nonlinear: the stall tables (flags' F_NONLINEAR), unrolled: the compensator's panels written out
     (the lane kernel) rather than looped over (the per-environment kernel vectorises that loop); both
@@ -439,13 +509,17 @@ def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
         v2 = (ct * v1[0] - st * v1[2], v1[1], st * v1[0] + ct * v1[2])
         v_air_s = (v2[0], cf * v2[1] + sf * v2[2], cf * v2[2] - sf * v2[1])
         v_a = add(cross_x(w_s, lf), cross(w_a, rho))
-        fa, ta, fd, md, n = hawk_aero_full(p, B, v_a, w_a, v_air_s, a_bias, flaps[4], flaps[5], flaps[6], nonlinear, tabs[0], tabs[1], tabs[2])
+        unsteady = nonlinear and (flags & L.F_UNSTEADY) != 0  # folded away where nonlinear is a constant False (lanes)
+        fa, ta, fd, md, n = hawk_aero_full(
+            p, B, v_a, w_a, v_air_s, a_bias, flaps[4], flaps[5], flaps[6], nonlinear, tabs[0], tabs[1], tabs[2], unsteady, xs[0]
+        )
         f_a = add(f_a, fa)
         t_a = ta
         D = joint_projection(add(cross(r_a, fd), md), add(cross(rho, fd), md), cs, a2, sc)
         Gv = joint_projection(cross(r_a, n), cross(rho, n), cs, a2, sc)
         x_ref = p[L.P_GEOMETRY_COMP_AERO_X]
-        fc, tc = comp_aero_arm(p, sub(cross_x(w_s, x_ref), v_air_s), w_s, flaps, nonlinear, tabs[3], tabs[4], unrolled)
+        fc, tc = comp_aero_arm(p, sub(cross_x(w_s, x_ref), v_air_s), w_s, flaps, nonlinear, tabs[3], tabs[4], unrolled, unsteady,
+                               (xs[1], xs[2], xs[3], xs[4]))
         t_arm = add(t_arm, add(x_cross(x_ref, fc), tc))
     t_pivot = add(t_arm, add(cross(r_a, f_a), t_a))
     t_gimbal = add(cross(rho, f_a), t_a)
@@ -460,9 +534,9 @@ def forces(q, qd, fric, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
 
 
 @inlined(**_JIT)
-def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q):
-    """Fill Q (5) with :func:`forces`' Q (alpha-dot at its velocity part)."""
-    Qt, D, Gv = forces(q, qd, applied_torques(q, qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
+def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q, xs=ATTACHED5):
+    """Fill Q (5) with :func:`forces`' Q (alpha-dot at its velocity part; xs: the separation states)."""
+    Qt, D, Gv = forces(q, qd, applied_torques(q, qd, z, p, flags), xs, flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
     for k in range(5):
         Q[k] = Qt[k]
 
@@ -582,12 +656,12 @@ def ldl_solve(fac, r, free):
 
 
 @inlined(**_JIT)
-def accelerations(q, qd, z, flaps, u, p, flags, free_idx, n_free, tabs, M, hvec, Q, jv, qdd):
+def accelerations(q, qd, z, xs, flaps, u, p, flags, free_idx, n_free, tabs, M, hvec, Q, jv, qdd):
     """Joint accelerations qdd (5; zero for locked joints) of the joint-space model, (M - D G^T) qdd + h = Q
     (:func:`forces`, :func:`solve_free_rank1`), with M, h and Q (alpha-dot at its velocity part) written to
-    M, hvec and Q (jv: unused scratch, kept for callers)."""
+    M, hvec and Q (jv: unused scratch, kept for callers); xs: the flow-separation states (5-tuple)."""
     Mt, ht, kin = mass_matrix_terms(q, qd, p)
-    Qt, D, Gv = forces(q, qd, applied_torques(q, qd, z, p, flags), flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
+    Qt, D, Gv = forces(q, qd, applied_torques(q, qd, z, p, flags), xs, flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
     r = (Qt[0] - ht[0], Qt[1] - ht[1], Qt[2] - ht[2], Qt[3] - ht[3], Qt[4] - ht[4])
     x = solve_free_rank1(Mt, r, D, Gv, free_mask(free_idx, n_free))
     store_mass_matrix(Mt, ht, M, hvec)

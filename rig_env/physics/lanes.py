@@ -55,7 +55,7 @@ from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.integrator import N_Y, RK_C, RK_W, limited_demands
-from rig_env.physics.joint_space import fixture_torque, forces, free_mask, friction_torque, mass_matrix_terms, solve_free_rank1
+from rig_env.physics.joint_space import ATTACHED5, fixture_torque, forces, free_mask, friction_torque, mass_matrix_terms, solve_free_rank1
 from rig_env.physics.llvm_inline import inlined
 from rig_env.physics.vmath import FASTMATH
 
@@ -83,8 +83,9 @@ _ZERO_Y = (0.0,) * N_Y
 
 
 def supports(flags: int) -> bool:
-    """Whether the lane kernel can run a model with these flags (all but the high-incidence tables)."""
-    return not flags & L.F_NONLINEAR
+    """Whether the lane kernel can run a model with these flags (all but the high-incidence tables, which
+    the unsteady model, ``F_UNSTEADY``, uses as well)."""
+    return not flags & (L.F_NONLINEAR | L.F_UNSTEADY)
 
 
 @register_jitable
@@ -160,7 +161,7 @@ def rhs_values(y, fric, ud, u, p, flags, free, tabs):
     qd = y[5:10]
     flaps = y[10:17] if flags & L.F_SERVO else ud
     Mt, ht, kin = mass_matrix_terms(q, qd, p)
-    Qt, D, Gv = forces(q, qd, fric, flaps, u, p, flags, tabs, kin, False, True)
+    Qt, D, Gv = forces(q, qd, fric, ATTACHED5, flaps, u, p, flags, tabs, kin, False, True)
     qdd = solve_free_rank1(Mt, (Qt[0] - ht[0], Qt[1] - ht[1], Qt[2] - ht[2], Qt[3] - ht[3], Qt[4] - ht[4]), D, Gv, free)
     servo = (flags & L.F_SERVO) != 0
     return (

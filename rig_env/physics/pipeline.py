@@ -50,6 +50,7 @@ from rig_env.params import PARAM_NAMES
 from rig_env.physics import integrator as integ
 from rig_env.physics import lanes
 from rig_env.physics import layout as L
+from rig_env.physics.joint_space import separation_steady
 
 KINDS = ("lanes", "joint", "dae")
 """Kernel kinds :func:`choose_kernel` knows (see the module docstring)."""
@@ -78,16 +79,49 @@ def check_no_fixture(P: np.ndarray) -> None:
         )
 
 
-def flags_of(aero: bool, friction: bool, stops: bool, servo: bool, nonlinear_aero: bool) -> int:
+AERO_MODELS: dict[str, int] = {"linear": 0, "tables": L.F_NONLINEAR, "unsteady": L.F_NONLINEAR | L.F_UNSTEADY}
+"""The aerodynamic models and their flags: ``"linear"`` the stability derivatives (eq. 23), ``"tables"`` the
+static high-incidence tables (formerly ``nonlinear_aero=True``), ``"unsteady"`` the tables through the Hawk's
+flow-separation state (Goman-Khrabrov; docs/MODEL.md 3.1.1)."""
+
+
+def check_aero_model(aero_model: object, field: str = "aero_model") -> str:
+    """``aero_model`` if it names one of :data:`AERO_MODELS`; ValueError naming ``field`` and the allowed values otherwise."""
+    if not isinstance(aero_model, str) or aero_model not in AERO_MODELS:
+        raise ValueError(f"{field} = {aero_model!r}: allowed values: {list(AERO_MODELS)}")
+    return aero_model
+
+
+def resolve_aero_model(aero_model: str | None, nonlinear_aero: bool | None, default: str = "linear") -> str:
+    """One aero model from the option and its older alias: ``nonlinear_aero=True`` is ``aero_model="tables"``
+    (False: "linear"); both given and different is a ValueError; neither: ``default``."""
+    if nonlinear_aero is not None and not isinstance(nonlinear_aero, bool):
+        raise ValueError(f"nonlinear_aero = {nonlinear_aero!r}: must be True or False (or use aero_model)")
+    alias = None if nonlinear_aero is None else ("tables" if nonlinear_aero else "linear")
+    if aero_model is None:
+        return alias if alias is not None else check_aero_model(default)
+    model = check_aero_model(aero_model)
+    if alias is not None and alias != model:
+        raise ValueError(f"nonlinear_aero = {nonlinear_aero} (aero_model {alias!r}) contradicts aero_model = {model!r}: give one")
+    return model
+
+
+def flags_of(aero: bool, friction: bool, stops: bool, servo: bool, aero_model: str | bool = "linear", *,
+             nonlinear_aero: bool | None = None) -> int:
     """The kernels' feature flags (``layout.F_*`` bits) of the model's terms: aerodynamics, LuGre friction,
     joint stops, servo dynamics (off: the surfaces sit at the delayed, limited command) and the
-    high-incidence aerodynamic tables."""
+    aerodynamic model (:data:`AERO_MODELS`; True and False stand for "tables" and "linear", as does the
+    older keyword ``nonlinear_aero``)."""
+    if nonlinear_aero is not None:
+        aero_model = resolve_aero_model(None if aero_model == "linear" else aero_model, nonlinear_aero)
+    elif isinstance(aero_model, bool):
+        aero_model = "tables" if aero_model else "linear"
     return (
         (L.F_AERO if aero else 0)
         | (L.F_FRICTION if friction else 0)
         | (L.F_STOPS if stops else 0)
         | (L.F_SERVO if servo else 0)
-        | (L.F_NONLINEAR if nonlinear_aero else 0)
+        | AERO_MODELS[check_aero_model(aero_model)]
     )
 
 
@@ -141,6 +175,18 @@ def hold_demands(idx, U, P, X, dbuf):
             X[i, L.X_SERVO_RATE + a] = 0.0
             for s in range(dbuf.shape[1]):
                 dbuf[i, s, a] = v
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def hold_separation(idx, U, P, X, flags, tabs):
+    """The flow-separation states X[i, X_SEP:X_SEP + 5] of environments idx (m,) in steady flow at their joint
+    state and the inputs of U (:func:`rig_env.physics.joint_space.separation_steady`) with flags' F_UNSTEADY;
+    1 (attached, and unused) without it.  In place."""
+    for i in idx:
+        x = X[i]
+        xs = separation_steady(x[0:5], x[5:10], U[i], P[i], tabs) if flags & L.F_UNSTEADY else (1.0, 1.0, 1.0, 1.0, 1.0)
+        for k in range(L.N_SEP):
+            X[i, L.X_SEP + k] = xs[k]
 
 
 @dataclass(frozen=True)
@@ -283,12 +329,14 @@ class PhysicsBatch:
         """Restart environments idx (m,) at joint angles q (m, 5), rad, and rates qd (m, 5), rad/s (JOINTS
         order; locked joints: their angle, rate 0), with bristles at zero and status ok.  The servos start
         in equilibrium with the surface commands in U[idx] (set them first): at rest at the limited
-        demands, which fill the delay lines (:func:`hold_demands`; zero commands: servos at zero)."""
+        demands, which fill the delay lines (:func:`hold_demands`; zero commands: servos at zero); the
+        Hawk's flow-separation state in steady flow at that state (:func:`hold_separation`)."""
         idx = np.atleast_1d(np.arange(self.n_envs)[idx])
         self.X[idx] = 0.0
         self.X[idx, L.X_Q : L.X_Q + 5] = q
         self.X[idx, L.X_QD : L.X_QD + 5] = qd
         hold_demands(idx, self.U, self.P, self.X, self.dbuf)
+        hold_separation(idx, self.U, self.P, self.X, self.flags, self.tabs)
         self.status[idx] = L.S_OK
         if self._dae:
             from rig_env.physics import dae

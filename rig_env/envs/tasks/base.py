@@ -136,7 +136,7 @@ class Task:
     |---|---|
     | name | key in ``TASKS`` (the ``task`` configuration field) |
     | default_free_dofs, default_airspeed, default_episode_seconds | used when the configuration leaves them ``None`` |
-    | default_nonlinear_aero | high-incidence tables on when ``nonlinear_aero`` is ``None`` |
+    | default_aero_model | the aerodynamic model ("linear", "tables", "unsteady") when the configuration leaves ``aero_model`` (and ``nonlinear_aero``) ``None`` |
     | required | joints that must be free (a ``ValueError`` otherwise) |
     | ref_labels | names of the observation entries the task appends (bounds ``obs_low``/``obs_high``) |
     | ref_scales | every appended entry by name -> its unit per normalised value (rad, rad/s, m/s^2, Hz, 1), in ``ref_labels`` order: the entry times its scale is the physical quantity the class docstring's table names (laws read them at design time) |
@@ -159,7 +159,7 @@ class Task:
     default_free_dofs: ClassVar[tuple[str, ...]]
     default_airspeed: ClassVar[tuple[float, float]]
     default_episode_seconds: ClassVar[float]
-    default_nonlinear_aero: ClassVar[bool] = False
+    default_aero_model: ClassVar[str] = "linear"
     required: ClassVar[tuple[str, ...]] = ()
     ref_labels: ClassVar[tuple[str, ...]]
     ref_scales: ClassVar[Mapping[str, float]]

@@ -1,0 +1,90 @@
+"""Env-step throughput of the three aerodynamic models, measured in one run (ratios are the figures to quote).
+
+    python benchmarks/bench_aero_models.py [--envs 64 1024] [--seconds 2] [--rounds 3] [--json]
+
+The harness of ``bench_step.py`` (``rate``: wall and CPU env-steps/s over a window, after a warm-up call
+that compiles or loads the kernel, so compile time is never in the rate), the cases taking turns window by
+window for ``--rounds`` rounds, each case's best wall rate and best rate per CPU-second kept (the CPU rate,
+which other jobs on a shared machine do not inflate, is the one to quote there): one env-step = one 80 Hz control step
+= 5 physics steps of 2.5 ms, all physics on (aero at 20 m/s, LuGre friction, stops, servos), all five
+joints free, states near trim.  Kernels (``rig_env.physics.pipeline.choose_kernel``):
+
+* ``linear``, lanes: the lane kernel (eight environments per SIMD register), what the environments run;
+* ``linear``, joint: the per-environment kernel on the same model;
+* ``tables``, joint and ``unsteady``, joint: the high-incidence tables, static and through the five
+  flow-separation states.  The lane kernel does not run the tables (a table search per evaluation, which
+  no lane can share), so both fall back to the per-environment kernel, as the environments do.
+
+Ratios: ``unsteady / tables`` (the cost of the separation states on the kernel that runs them) and
+``unsteady / linear lanes`` (what a switch from the default model to the unsteady one costs an environment).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from benchmarks.bench_step import AIRSPEED, H, N_SUB, machine_line, rate  # noqa: E402
+from rig_env import RigParams, param_batch  # noqa: E402
+from rig_env.physics import layout as L  # noqa: E402
+from rig_env.physics.pipeline import PhysicsBatch, flags_of  # noqa: E402
+
+CASES = (("linear", "lanes"), ("linear", "joint"), ("tables", "joint"), ("unsteady", "joint"))
+
+
+def stepper(params: RigParams, n: int, aero_model: str, kind: str, seed: int = 0):
+    """One env-step of n environments near trim on the kernel of ``kind`` with ``aero_model`` (the kernel that runs)."""
+    rng = np.random.default_rng(seed)
+    flags = flags_of(True, True, True, True, aero_model)
+    batch = PhysicsBatch(param_batch(params, n), params.tables(), np.arange(5, dtype=np.int64), flags, H, N_SUB, kind=kind)
+    batch.U[:, L.U_AIRSPEED] = AIRSPEED
+    batch.reset(np.arange(n), rng.uniform(-0.2, 0.2, (n, 5)), rng.uniform(-0.5, 0.5, (n, 5)))
+    return batch.step, batch.kernel.kind
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--envs", type=int, nargs="+", default=[64, 1024])
+    ap.add_argument("--seconds", type=float, default=2.0, help="timing window per case, batch size and round")
+    ap.add_argument("--rounds", type=int, default=3, help="rounds of the cases taking turns")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    params = RigParams.default()
+    out: dict = {"machine": machine_line(), "rates": {}}
+    for n in args.envs:
+        steps = {f"{model}/{kind}/{n}": stepper(params, n, model, kind) for model, kind in CASES}
+        for key, (step, ran) in steps.items():
+            out["rates"][key] = {"kernel": ran, "env_steps_per_s": 0.0, "env_steps_per_cpu_s": 0.0}
+        for _ in range(args.rounds):
+            for key, (step, _) in steps.items():
+                wall, cpu = rate(step, n, args.seconds, repeats=1)
+                r = out["rates"][key]
+                r["env_steps_per_s"], r["env_steps_per_cpu_s"] = max(r["env_steps_per_s"], wall), max(r["env_steps_per_cpu_s"], cpu)
+        for unit in ("env_steps_per_s", "env_steps_per_cpu_s"):
+            r = {k.rsplit("/", 1)[0]: v[unit] for k, v in out["rates"].items() if k.endswith(f"/{n}")}
+            tag = "" if unit == "env_steps_per_s" else "_cpu"
+            out[f"unsteady_over_tables{tag}/{n}"] = r["unsteady/joint"] / r["tables/joint"]
+            out[f"unsteady_over_linear_lanes{tag}/{n}"] = r["unsteady/joint"] / r["linear/lanes"]
+    if args.json:
+        print(json.dumps(out, indent=1))
+    else:
+        print(out["machine"])
+        print(f"{'model':10s} {'asked':6s} {'ran':6s} {'envs':>6s} {'env-steps/s':>12s} {'per CPU-s':>12s}")
+        for k, v in out["rates"].items():
+            model, kind, n = k.split("/")
+            print(f"{model:10s} {kind:6s} {v['kernel']:6s} {n:>6s} {v['env_steps_per_s']:12,.0f} {v['env_steps_per_cpu_s']:12,.0f}")
+        for k, v in out.items():
+            if "_over_" in k:
+                print(f"{k}: {v:.3f}")
+    return out
+
+
+if __name__ == "__main__":
+    main()
