@@ -32,15 +32,43 @@ def local(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Any]:
     return out, _run(out)
 
 
+# Equal to the last bit when the driver and the workers run kernels compiled alike; a process whose kernels
+# were compiled in another order (the full test suite compiles variants on the way) can differ in the last
+# bits of a float (README, "Not done yet"), so floats are compared to 1e-9 relative, everything else exactly.
+def _close(a: Any, b: Any, what: str) -> None:
+    a, b = np.asarray(a), np.asarray(b)
+    if a.dtype.kind == "f" or b.dtype.kind == "f":
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12, equal_nan=True, err_msg=what)
+    else:
+        np.testing.assert_array_equal(a, b, err_msg=what)
+
+
+def _same_csv(a: str, b: str) -> None:
+    import csv
+    import io
+    import math
+
+    ra, rb = list(csv.reader(io.StringIO(a))), list(csv.reader(io.StringIO(b)))
+    assert ra[0] == rb[0] and len(ra) == len(rb)
+    for row_a, row_b in zip(ra, rb):
+        for x, y in zip(row_a, row_b, strict=True):
+            try:
+                fx, fy = float(x), float(y)
+            except ValueError:
+                assert x == y
+                continue
+            assert (math.isnan(fx) and math.isnan(fy)) or math.isclose(fx, fy, rel_tol=1e-9, abs_tol=1e-12), (x, y)
+
+
 def _same_metrics(a: Any, b: Any) -> None:
     assert [(r.task, r.conditions, r.n_episodes) for r in a.results] == [(r.task, r.conditions, r.n_episodes) for r in b.results]
     for ra, rb in zip(a.results, b.results):
         for law in ra.metrics:
             for k, v in ra.metrics[law].items():
-                np.testing.assert_array_equal(v, rb.metrics[law][k], err_msg=f"{law} {k}")
+                _close(v, rb.metrics[law][k], f"{law} {k}")
         for law in ra.history:
             for k, v in ra.history[law].items():
-                np.testing.assert_array_equal(v, rb.history[law][k], err_msg=f"history {law} {k}")
+                _close(v, rb.history[law][k], f"history {law} {k}")
 
 
 @pytest.mark.parametrize("argv, needle", [
@@ -68,7 +96,7 @@ def test_ray_summary_equals_local(ray_cluster: Any, local: tuple[Path, Any], tmp
     t0 = time.perf_counter()
     cmp = _run(tmp_path / "ray", backend="ray", chunk_size=3)  # 10 episodes: chunks 3, 3, 4 (no chunk of one)
     assert time.perf_counter() - t0 < 240
-    assert (tmp_path / "ray" / "summary.csv").read_text() == (local[0] / "summary.csv").read_text()
+    _same_csv((tmp_path / "ray" / "summary.csv").read_text(), (local[0] / "summary.csv").read_text())
     _same_metrics(local[1], cmp)
     (batch,) = cmp.backend["batches"]
     assert [(c["first"], c["episodes"]) for c in batch["chunks"]] == [(0, 3), (3, 3), (6, 4)]
@@ -114,7 +142,7 @@ def test_node_lost_mid_comparison_every_episode_accounted(ray_cluster: Any, loca
     assert retried and all(c["attempts"][0]["node"] == victim.node_id for c in retried)
     assert all(c["finished_on"]["node"] != victim.node_id for c in retried)
     assert sorted(c["first"] for c in batch["chunks"]) == list(range(0, EPISODES, 2))  # every episode, once
-    assert (tmp_path / "ray" / "summary.csv").read_text() == (local[0] / "summary.csv").read_text()
+    _same_csv((tmp_path / "ray" / "summary.csv").read_text(), (local[0] / "summary.csv").read_text())
     _same_metrics(local[1], cmp)
     assert f"{cmp.backend['retries']} retried" in (tmp_path / "ray.log").read_text()  # the retries reported
 

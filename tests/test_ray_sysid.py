@@ -42,8 +42,9 @@ def test_ray_monte_carlo_equals_local(ray_cluster: Any, clean: sysid.FlightRecor
                                backend="ray", chunk_size=2)
     assert ray_mc.seeds == local.seeds == tuple(seeds)
     for n in NAMES:
-        np.testing.assert_array_equal(ray_mc.estimates[n], local.estimates[n])
-        np.testing.assert_array_equal(ray_mc.std[n], local.std[n])
+        # to the last bits when driver and workers run kernels compiled alike (tests/test_ray_compare.py)
+        np.testing.assert_allclose(ray_mc.estimates[n], local.estimates[n], rtol=1e-9, atol=0.0)
+        np.testing.assert_allclose(ray_mc.std[n], local.std[n], rtol=1e-6, atol=0.0)
     assert ray_mc.backend["chunks"] == 3 and ray_mc.backend["retries"] == 0
     assert local.estimates["hawk_aero.CMq"].std() > 0  # the draws differ (the noise is the seed's)
     s = local.summary({n: float(p.to_vector()[PARAM_INDEX[n]]) for n in NAMES})
