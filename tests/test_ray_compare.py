@@ -26,49 +26,54 @@ def _run(out: Path, **kw: Any) -> Any:
                    progress=False, stream=open(out.parent / f"{out.name}.log", "w"), **kw)
 
 
+_LOCAL = """
+import sys
+from pathlib import Path
+import numpy as np
+from controllers.evaluation.compare import compare
+out = Path(sys.argv[1])
+c = compare(tasks=[{task!r}], kinds={kinds!r}, episodes={episodes}, seed={seed}, modes=["nominal"], out_dir=out,
+            progress=False, stream=open(out.parent / "local.log", "w"))
+arrays = {{}}
+for r in c.results:
+    for part in ("metrics", "history"):
+        for law, d in getattr(r, part).items():
+            for k, v in d.items():
+                arrays[f"{{r.task}}|{{r.conditions}}|{{r.n_episodes}}|{{part}}|{{law}}|{{k}}"] = np.asarray(v)
+np.savez(out.parent / "local.npz", **arrays)
+"""
+
+
 @pytest.fixture(scope="module")
-def local(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Any]:
+def local(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, np.ndarray]]:
+    """The local backend's run, in a fresh interpreter set up as the Ray workers are (their environment
+    variables: one thread, the same numba cache): a user's local run is such a process, while this test
+    process has compiled other kernel variants on the way through the suite (README, "Not done yet")."""
+    import os
+    import subprocess
+
+    from rig_env.distributed import worker_env
+
     out = tmp_path_factory.mktemp("local") / "cmp"
-    return out, _run(out)
+    code = _LOCAL.format(task=TASK, kinds=KINDS, episodes=EPISODES, seed=SEED)
+    r = subprocess.run([sys.executable, "-c", code, str(out)], env={**os.environ, **worker_env()}, capture_output=True,
+                       text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
+    with np.load(out.parent / "local.npz") as z:
+        return out, {k: z[k] for k in z.files}
 
 
-# Equal to the last bit when the driver and the workers run kernels compiled alike; a process whose kernels
-# were compiled in another order (the full test suite compiles variants on the way) can differ in the last
-# bits of a float (README, "Not done yet"), so floats are compared to 1e-9 relative, everything else exactly.
-def _close(a: Any, b: Any, what: str) -> None:
-    a, b = np.asarray(a), np.asarray(b)
-    if a.dtype.kind == "f" or b.dtype.kind == "f":
-        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12, equal_nan=True, err_msg=what)
-    else:
-        np.testing.assert_array_equal(a, b, err_msg=what)
-
-
-def _same_csv(a: str, b: str) -> None:
-    import csv
-    import io
-    import math
-
-    ra, rb = list(csv.reader(io.StringIO(a))), list(csv.reader(io.StringIO(b)))
-    assert ra[0] == rb[0] and len(ra) == len(rb)
-    for row_a, row_b in zip(ra, rb):
-        for x, y in zip(row_a, row_b, strict=True):
-            try:
-                fx, fy = float(x), float(y)
-            except ValueError:
-                assert x == y
-                continue
-            assert (math.isnan(fx) and math.isnan(fy)) or math.isclose(fx, fy, rel_tol=1e-9, abs_tol=1e-12), (x, y)
-
-
-def _same_metrics(a: Any, b: Any) -> None:
-    assert [(r.task, r.conditions, r.n_episodes) for r in a.results] == [(r.task, r.conditions, r.n_episodes) for r in b.results]
-    for ra, rb in zip(a.results, b.results):
-        for law in ra.metrics:
-            for k, v in ra.metrics[law].items():
-                _close(v, rb.metrics[law][k], f"{law} {k}")
-        for law in ra.history:
-            for k, v in ra.history[law].items():
-                _close(v, rb.history[law][k], f"history {law} {k}")
+def _same_metrics(a: dict[str, np.ndarray], b: Any) -> None:
+    """Every per-episode metric and recorded history of the local run ``a`` (as saved) equals ``b``'s, bit for bit."""
+    got = {}
+    for r in b.results:
+        for part in ("metrics", "history"):
+            for law, d in getattr(r, part).items():
+                for k, v in d.items():
+                    got[f"{r.task}|{r.conditions}|{r.n_episodes}|{part}|{law}|{k}"] = np.asarray(v)
+    assert sorted(got) == sorted(a)
+    for k, v in a.items():
+        np.testing.assert_array_equal(v, got[k], err_msg=k)
 
 
 @pytest.mark.parametrize("argv, needle", [
@@ -96,7 +101,7 @@ def test_ray_summary_equals_local(ray_cluster: Any, local: tuple[Path, Any], tmp
     t0 = time.perf_counter()
     cmp = _run(tmp_path / "ray", backend="ray", chunk_size=3)  # 10 episodes: chunks 3, 3, 4 (no chunk of one)
     assert time.perf_counter() - t0 < 240
-    _same_csv((tmp_path / "ray" / "summary.csv").read_text(), (local[0] / "summary.csv").read_text())
+    assert (tmp_path / "ray" / "summary.csv").read_text() == (local[0] / "summary.csv").read_text()
     _same_metrics(local[1], cmp)
     (batch,) = cmp.backend["batches"]
     assert [(c["first"], c["episodes"]) for c in batch["chunks"]] == [(0, 3), (3, 3), (6, 4)]
@@ -142,7 +147,7 @@ def test_node_lost_mid_comparison_every_episode_accounted(ray_cluster: Any, loca
     assert retried and all(c["attempts"][0]["node"] == victim.node_id for c in retried)
     assert all(c["finished_on"]["node"] != victim.node_id for c in retried)
     assert sorted(c["first"] for c in batch["chunks"]) == list(range(0, EPISODES, 2))  # every episode, once
-    _same_csv((tmp_path / "ray" / "summary.csv").read_text(), (local[0] / "summary.csv").read_text())
+    assert (tmp_path / "ray" / "summary.csv").read_text() == (local[0] / "summary.csv").read_text()
     _same_metrics(local[1], cmp)
     assert f"{cmp.backend['retries']} retried" in (tmp_path / "ray.log").read_text()  # the retries reported
 
