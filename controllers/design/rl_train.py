@@ -344,7 +344,6 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
     from controllers.laws.rl import policy_path
     from controllers.design.rl_export import evaluate, export_sb3
     from controllers.design.rl_hyperparams import HyperparamError, settings
-    from rig_env.envs import RigVectorEnv
     from rig_env.envs.sb3 import RigSB3VecEnv
     from controllers.laws.axes import acting_surfaces
     from controllers.design.rl_callbacks import (
@@ -372,12 +371,12 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
     kwargs = hp.sb3_kwargs()
     timer: list[EnvTimer] = []
 
-    probe = RigVectorEnv(1, task=args.task, **overrides)
-    # the policy flies the surfaces that move a free rig joint (the settings' acting_surfaces; not with the
-    # Hawk's surfaces in the action): the others stay neutral and export as zero rows
-    keep = acting_surfaces(probe.free_dofs) if hp.acting_surfaces and len(probe.action_names) == 3 else None
-    if keep is not None and len(keep) == 3:
-        keep = None
+    def kept_surfaces(vec: Any) -> tuple[int, ...] | None:
+        """The actions the policy commands: the surfaces that move a free rig joint (the settings'
+        acting_surfaces; not with the Hawk's surfaces in the action); None: all.  The others stay neutral
+        and export as zero rows."""
+        keep = acting_surfaces(vec.free_dofs) if hp.acting_surfaces and len(vec.action_names) == 3 else None
+        return None if keep is None or len(keep) == 3 else keep
 
     def make_env(n: int, seed: int, training: bool) -> tuple[Any, Any]:
         base = RigSB3VecEnv(n, task=args.task, **overrides)
@@ -389,6 +388,7 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
             raise SystemExit(f"rig train: settings {hp.file} [{args.task}].error_reset.entry = {reset_at[0]!r}: not an "
                              f"observation entry; entries: {list(base.vec.obs_labels)}")
         inner: Any = ErrorReset(base, *(reset_at or (None, np.inf)))
+        keep = kept_surfaces(base.vec)
         if keep is not None:
             inner = ActionSubset(inner, keep)
         env = EnvTimer(SuccessInfo(VecMonitor(inner)))
@@ -450,7 +450,7 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
     wall = time.perf_counter() - t0 + wall_before
 
     # export, load the file back, and measure what ships (numpy runtime, not the torch model)
-    art = export_sb3(model, spec, env if hp.normalize else None, env_overrides=overrides, action_index=keep)
+    art = export_sb3(model, spec, env if hp.normalize else None, env_overrides=overrides, action_index=kept_surfaces(base.vec))
     path = out / "policy.json"
     save(art, path)
     law = make_controller(args.algo, spec, args.final_episodes, path=path)
