@@ -1,7 +1,7 @@
 """Compile the kernels a run will use, in parallel processes, before the run needs them.
 
 A fresh installation compiles its numba kernels on first use, one after another in the one process
-that needs them: the lane kernel, the per-environment kernel (the high-incidence tables), the
+that needs them: the lane kernel for each aerodynamic model the tasks fly (the linear one, the high-incidence tables), the
 linearisation's right-hand side (the designed laws), each task's and the sensors' kernels.  They are
 independent, and numba's disk cache is shared between processes, so :func:`precompile` compiles them
 side by side in ``processes`` child interpreters (``python -m rig_env.precompile``), each taking the
@@ -84,7 +84,7 @@ def _kernel_kind(task: str, fields: Mapping[str, Any]) -> str:
     from rig_env.envs import RigVectorEnv
 
     env = RigVectorEnv(1, task=task, **fields)
-    return str(env.physics.kernel.kind)
+    return f"{env.physics.kernel.kind}/{env.aero_model}"  # one compiled kernel per kind and aerodynamic model
 
 
 def _jobs(tasks: Sequence[str], fields: Mapping[str, Any], design: bool, processes: int) -> list[dict[str, Any]]:
@@ -93,7 +93,7 @@ def _jobs(tasks: Sequence[str], fields: Mapping[str, Any], design: bool, process
     groups: dict[str, list[str]] = {}
     for t in tasks:
         groups.setdefault(_kernel_kind(t, fields), []).append(t)
-    jobs = [{"tasks": ts, "design": False} for _, ts in sorted(groups.items(), key=lambda kv: kv[0] != "lanes")]
+    jobs = [{"tasks": ts, "design": False} for _, ts in sorted(groups.items(), key=lambda kv: kv[0] != "lanes/linear")]
     if design:
         if jobs:
             min(jobs[1:] or jobs, key=lambda j: len(j["tasks"]))["design"] = True

@@ -2,9 +2,8 @@
 
 The physics is a :class:`rig_env.physics.pipeline.PhysicsBatch` (``self.physics``: state ``X``,
 parameters ``P``, inputs ``U``, servo delay lines, status; the same pipeline :func:`rig_env.simulate`
-runs), advanced with the lane kernel (eight environments per SIMD register), or with the
-per-environment kernel when the model has the high-incidence tables
-(:func:`rig_env.physics.pipeline.choose_kernel`).  Servos start every episode at rest at zero
+runs), advanced with the lane kernel (eight environments per SIMD register; every aerodynamic model,
+:func:`rig_env.physics.pipeline.choose_kernel`).  Servos start every episode at rest at zero
 deflection (the pipeline's convention with the zero commands of a reset).  The task
 (:mod:`rig_env.envs.tasks`) supplies references, rewards, initial states and success; the sensor model
 (:mod:`rig_env.envs.sensors`) turns the state into what the real-time loop measures.
@@ -206,9 +205,8 @@ class RigVectorEnv(VectorEnv):
             corners = self.base_row[None]
         self.aero_model = resolve_aero_model(cfg.aero_model, cfg.nonlinear_aero, task_cls.default_aero_model)
         self.nonlinear_aero = self.aero_model != "linear"  # the tables, static or through the separation state
-        # the physics: eight environments per SIMD register (rig_env.physics.lanes) unless the model has the
-        # high-incidence tables, which only the per-environment kernel runs; chosen by the model alone, not
-        # by the batch size, so a RigEnv (the batch of one) steps exactly as environment i of a batch.  The
+        # the physics: eight environments per SIMD register (rig_env.physics.lanes), whatever the model and
+        # the batch size, so a RigEnv (the batch of one) steps exactly as environment i of a batch.  The
         # delay lines hold the longest servo delay of the randomisation range (its corners).
         self.physics = PhysicsBatch(
             np.repeat(self.base_row[None], n, axis=0), self.params.tables(), self.free_idx,

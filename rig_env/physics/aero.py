@@ -17,9 +17,12 @@ Mixing (rig-code): flap_i = da + s_e,i de + s_r,i dr with (s_e, s_r) = (+,-), (-
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.core.errors import TypingError
+from numba.extending import overload
 
 from rig_env.physics import layout as L
 from rig_env.physics import vmath
@@ -45,9 +48,32 @@ GAUSS = 0.5 / math.sqrt(3.0)  # 2-point Gauss stations at mid +- GAUSS * length
 ATTACHED4 = (1.0, 1.0, 1.0, 1.0)  # the panels' separation states when the model has none
 
 
+def interp(x: float, xs, ys) -> float:
+    """Piecewise-linear table look-up, end values held outside the grid (xs strictly increasing).
+
+    In compiled code the tables come in either of two forms, chosen by their type when a kernel is compiled:
+    arrays of breakpoints and values (a binary search, :func:`search_table`: the per-environment kernel), or
+    the breakpoints as a tuple of floats with ys in its sum form ``(c, slopes)`` (:func:`table_sum_form`,
+    :func:`sum_table`: no branch, loop or memory access, so that eight lanes compute it side by side in the
+    lane kernel)."""
+    if isinstance(ys, tuple) and len(ys) == 2 and isinstance(ys[1], tuple):
+        c, slopes = ys
+        return float(c + sum(s * min(max(x, xs[k]), xs[k + 1]) for k, s in enumerate(slopes)))
+    return float(np.interp(x, xs, ys))
+
+
+def table_sum_form(xs: np.ndarray, ys: np.ndarray) -> tuple[tuple[float, ...], tuple[float, tuple[float, ...]]]:
+    """A table (breakpoints xs strictly increasing, values ys) in the form :func:`sum_table` evaluates:
+    (xs as a tuple, (c, slopes)), slopes s_k = (y_k+1 - y_k) / (x_k+1 - x_k), c = y_0 - sum_k s_k x_k."""
+    xs = np.asarray(xs, dtype=np.float64)
+    ys = np.asarray(ys, dtype=np.float64)
+    slopes = np.diff(ys) / np.diff(xs)
+    return tuple(float(v) for v in xs), (float(ys[0] - np.sum(slopes * xs[:-1])), tuple(float(v) for v in slopes))
+
+
 @njit(**_JIT)
-def interp(x, xs, ys):
-    """Piecewise-linear table look-up, end values held outside the grid."""
+def search_table(x, xs, ys):
+    """:func:`interp` of array tables: a binary search for the segment."""
     n = xs.shape[0]
     if x <= xs[0]:
         return ys[0]
@@ -63,6 +89,46 @@ def interp(x, xs, ys):
             hi = mid
     t = (x - xs[lo]) / (xs[hi] - xs[lo])
     return ys[lo] + t * (ys[hi] - ys[lo])
+
+
+_SUM_TABLES: dict[int, Any] = {}
+
+
+def sum_table(n: int) -> Any:
+    """:func:`interp` of a table of n breakpoints in its sum form (:func:`table_sum_form`), written out:
+
+        f(x) = y_0 + sum_k s_k (min(max(x, x_k), x_k+1) - x_k)  =  c + sum_k s_k min(max(x, x_k), x_k+1),
+
+    each term the segment's rise up to x (0 for a segment beyond x, its whole rise for one before it),
+    which is the linear interpolant inside the grid and holds the end values outside it.  Every segment
+    costs three operations whatever x is (the slopes and c depend on the table only and come computed),
+    against a search that no two lanes could share; two tables on one grid (the Hawk's CL and CM) share the
+    clamped values.  The same value as :func:`search_table` to rounding (a few 1e-16 of sum |s_k x_k|)."""
+    if n not in _SUM_TABLES:
+        terms = " + ".join(f"ys[1][{k}] * min(max(x, xs[{k}]), xs[{k + 1}])" for k in range(n - 1))
+        ns: dict[str, Any] = {}
+        exec(f"def table_{n}(x, xs, ys):\n    return ys[0] + ({terms or '0.0'})\n", ns)
+        _SUM_TABLES[n] = ns[f"table_{n}"]
+    return _SUM_TABLES[n]
+
+
+@overload(interp, inline="always", jit_options=dict(fastmath=FASTMATH, error_model="numpy"))
+def _interp_sum_form(x, xs, ys):
+    """The lane kernel's tables (breakpoints a tuple, ys in sum form): :func:`sum_table`, inlined where called."""
+    if isinstance(xs, types.UniTuple) and isinstance(ys, types.BaseTuple) and len(ys) == 2:
+        slopes = ys[1]
+        if not isinstance(slopes, types.UniTuple) or slopes.count != xs.count - 1:
+            raise TypingError(f"interp: {xs.count} breakpoints need {xs.count - 1} slopes, not {slopes}")
+        return sum_table(xs.count)
+    return None
+
+
+@overload(interp, jit_options=dict(fastmath=FASTMATH, error_model="numpy"))
+def _interp_arrays(x, xs, ys):
+    """The per-environment kernels' tables (arrays): :func:`search_table`."""
+    if isinstance(xs, types.Array) and isinstance(ys, types.Array):
+        return search_table.py_func
+    return None
 
 
 @njit(**_JIT)
@@ -428,7 +494,7 @@ def strip(u, wn, vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, 
     if nonlinear:
         cl_static = interp(alpha, tab_alpha, tab_cn)
         if unsteady:
-            cn_att = cla * vmath.sincos(alpha)[0]
+            cn_att = cla * (wn * (vabs * inv))  # CLalpha sin(alpha): sin(atan2(wn, u)) = wn / V, no sine needed
             cl_static = cl_static + cn_att * (kirchhoff(x) - lift_factor(cn_att, cl_static))
         cm_static = cl_static * (cma / cla) if cla != 0.0 else cma * alpha
     else:
@@ -518,7 +584,8 @@ def comp_aero_arm(p, vb0, wb, flaps, nonlinear, tab_alpha, tab_cn, unrolled=Fals
     vb0: velocity of the reference point relative to the air, wb: arm angular velocity, both in arm
     axes; flaps: 4 flap deflections (rad, after mixing and servos); unrolled: the four panels written out, for
     the lane kernel, whose loop over environments must contain no loop of its own (a compile-time
-    constant there); otherwise one loop over the panels, which LLVM vectorises across the panels.
+    constant there; its tables are tuples, :func:`interp`); otherwise one loop over the panels, which LLVM
+    vectorises across the panels (with the tables, :func:`strips_nonlinear`: a table search per strip).
     Each panel i (span e_r, normal n = x_arm cross e_r) carries Table 4 coefficients per unit area of
     half the reference area; its lift acts along n for positive local incidence or flap.  unsteady (with
     nonlinear): the panels' tables through their separation states xs (4-tuple, flaps 1-4 order).
@@ -543,13 +610,13 @@ def comp_aero_arm(p, vb0, wb, flaps, nonlinear, tab_alpha, tab_cn, unrolled=Fals
     clq = p[L.P_COMP_AERO_CLQ]
     cmq = p[L.P_COMP_AERO_CMQ]
     cd0 = 0.5 * p[L.P_COMP_AERO_CD0]
-    if nonlinear:
+    if nonlinear and not unrolled:
         fx, fy, fz, mx, my, mz = strips_nonlinear(vb0, wb, flaps, rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, tab_alpha, tab_cn, unsteady, xs)
     elif unrolled:
-        f0 = panel(0, vb0, wb, flaps[0], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn, False, 1.0)
-        f1 = panel(1, vb0, wb, flaps[1], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn, False, 1.0)
-        f2 = panel(2, vb0, wb, flaps[2], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn, False, 1.0)
-        f3 = panel(3, vb0, wb, flaps[3], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, False, tab_alpha, tab_cn, False, 1.0)
+        f0 = panel(0, vb0, wb, flaps[0], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn, unsteady, xs[0])
+        f1 = panel(1, vb0, wb, flaps[1], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn, unsteady, xs[1])
+        f2 = panel(2, vb0, wb, flaps[2], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn, unsteady, xs[2])
+        f3 = panel(3, vb0, wb, flaps[3], rm, dr_g, c, dS, rho, k_ind, cla, cma, cl_off, cm_off, cld, cmd, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn, unsteady, xs[3])
         fx = f0[0] + f1[0] + f2[0] + f3[0]
         fy = f0[1] + f1[1] + f2[1] + f3[1]
         fz = f0[2] + f1[2] + f2[2] + f3[2]

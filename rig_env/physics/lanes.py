@@ -34,8 +34,15 @@ is computed once and the delayed demands of all its physics steps are staged in 
 (``row_length(n_sub)`` floats; the per-environment kernel computes the demand every physics step).  The
 buffers end bit for bit as the per-environment kernel leaves them (``tests/test_lanes.py``).
 
-The high-incidence tables (``F_NONLINEAR``) need a table search per evaluation, which no lane can
-share: :func:`supports` says False for them and callers use the per-environment kernel.
+The high-incidence tables (``aero_model="tables"``, ``F_NONLINEAR``) and the flow-separation states
+(``"unsteady"``, ``F_UNSTEADY``) run here too.  A table search per evaluation is a loop whose trip count
+differs from lane to lane; the kernel takes the tables as tuples of floats instead (:func:`lane_tables`),
+looked up as a sum over the segments with no branch (:func:`rig_env.physics.aero.sum_table`).  Which
+model a kernel runs is known when it is compiled, from the tables' type (:func:`model_of`: arrays for the
+linear model, which never reads them), so the linear kernel's loops carry none of the tables' work and each
+model is its own compiled kernel.  The separation states are split around the RK4 step as the bristles
+are, relaxed exactly over h/2 on either side (the two halves inside a control step merged into one over h,
+as :func:`rig_env.physics.integrator.physics_step` does), in a loop of their own.
 
 Results equal :mod:`rig_env.physics.integrator`'s to rounding (``tests/test_lanes.py``: 2e-13 rad
 after 100 control steps with every term on, every lock set), not bit for bit: the order of some
@@ -45,17 +52,23 @@ halves (AVX2) or scalar: correct either way, fast only with vectors.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numba
 import numpy as np
-from numba import njit, prange, types
+from numba import literally, njit, prange, types
 from numba.core import cgutils
-from numba.extending import intrinsic, register_jitable
+from numba.extending import intrinsic, overload, register_jitable
 
 from rig_env.physics import friction as fr
+from rig_env.physics.aero import table_sum_form
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.integrator import N_Y, RK_C, RK_W, limited_demands
-from rig_env.physics.joint_space import ATTACHED5, fixture_torque, forces, free_mask, friction_torque, mass_matrix_terms, solve_free_rank1
+from rig_env.physics.joint_space import (
+    ATTACHED5, fixture_torque, forces, free_mask, friction_torque, mass_matrix_terms, separation_step, solve_free_rank1,
+)  # fmt: skip
 from rig_env.physics.llvm_inline import inlined
 from rig_env.physics.vmath import FASTMATH
 
@@ -82,10 +95,96 @@ OFF_STAGE = BLOCK  # the delayed demands of every physics step of the control st
 _ZERO_Y = (0.0,) * N_Y
 
 
-def supports(flags: int) -> bool:
-    """Whether the lane kernel can run a model with these flags (all but the high-incidence tables, which
-    the unsteady model, ``F_UNSTEADY``, uses as well)."""
-    return not flags & (L.F_NONLINEAR | L.F_UNSTEADY)
+MODELS = ("linear", "tables", "unsteady")
+"""The aerodynamic models of :func:`model_of`, in its numbering."""
+
+
+def lane_shape(tabs: tuple[np.ndarray, ...], flags: int) -> tuple[int, int, int]:
+    """The lane kernel's last three arguments for a model with ``flags`` and tables ``tabs``
+    (``RigParams.tables()``): (model, n_hawk, n_comp), model 0 linear, 1 the high-incidence tables
+    (F_NONLINEAR), 2 with the flow-separation states too (F_UNSTEADY); n_hawk and n_comp the breakpoints of
+    the Hawk's and the compensator's tables (0 for the linear model, which never reads them).  The kernel
+    compiles one version per value (numba's ``literally``): :func:`lane_tables`."""
+    if not flags & L.F_NONLINEAR:
+        return 0, 0, 0
+    return (2 if flags & L.F_UNSTEADY else 1), int(np.size(tabs[0])), int(np.size(tabs[3]))
+
+
+def lane_tables(tabs: tuple[np.ndarray, ...], model: int, n_hawk: int, n_comp: int) -> tuple:
+    """The tables as the lane kernel's loops read them (:func:`lane_shape` gives the other arguments):
+    ``tabs`` unchanged for the linear model (never read); otherwise the Hawk's and the compensator's
+    breakpoints as tuples of floats and each table's values in their sum form (c, slopes) (looked up without
+    a search: :func:`rig_env.physics.aero.sum_table`), in ``tabs``' order, and for the unsteady model a sixth,
+    empty tuple that marks it (:func:`model_of`).  In compiled code the tuples' lengths must be constants, so
+    the kernel takes them as literal arguments and builds the tuples from the arrays once per block and
+    control step (:func:`_lane_tables`; numba cannot pass tuples into a parallel loop)."""
+    if model == 0:
+        return tabs
+    sizes = (n_hawk, n_hawk, n_hawk, n_comp, n_comp)
+    if tuple(np.size(t) for t in tabs[:5]) != sizes:
+        raise ValueError(f"tables of {tuple(np.size(t) for t in tabs[:5])} breakpoints, not {sizes}")
+    xh, cl = table_sum_form(tabs[0], tabs[1])
+    cm = table_sum_form(tabs[0], tabs[2])[1]
+    xc, cn = table_sum_form(tabs[3], tabs[4])
+    out = (xh, cl, cm, xc, cn)
+    return (*out, ()) if model == 2 else out
+
+
+def entry_point(kernel: Any, model: int, n_hawk: int, n_comp: int) -> Callable[..., None] | None:
+    """The compiled ``kernel`` (:func:`step_lanes` or :func:`step_lanes_serial`) for the literal arguments
+    (model, n_hawk, n_comp) once it has been called with them, else None.
+
+    The dispatcher of a function with literal arguments matches a call's plain integers to no compiled
+    signature and resolves the literal one in Python, about 7 ms a call (against about 20 us for the whole
+    control step of eight environments); :class:`rig_env.physics.pipeline.PhysicsBatch` calls this entry
+    point directly instead (the same machine code)."""
+    want = (types.literal(model), types.literal(n_hawk), types.literal(n_comp))
+    for sig, cres in kernel.overloads.items():
+        if tuple(sig[-3:]) == want:
+            return cres.entry_point
+    return None
+
+
+@overload(lane_tables, inline="always")
+def _lane_tables(tabs, model, n_hawk, n_comp):
+    """:func:`lane_tables` in compiled code, written out for the literal model and lengths."""
+    if not all(isinstance(a, types.IntegerLiteral) for a in (model, n_hawk, n_comp)):
+        return None
+    m, nh, nc = model.literal_value, n_hawk.literal_value, n_comp.literal_value
+    if m == 0:
+        return lambda tabs, model, n_hawk, n_comp: tabs
+
+    def grid(t: int, n: int) -> str:
+        return "(" + ", ".join(f"tabs[{t}][{k}]" for k in range(n)) + ",)"
+
+    def sum_form(g: int, t: int, n: int) -> str:  # (c, slopes) of values tabs[t] on breakpoints tabs[g]
+        s = [f"(tabs[{t}][{k + 1}] - tabs[{t}][{k}]) / (tabs[{g}][{k + 1}] - tabs[{g}][{k}])" for k in range(n - 1)]
+        c = " - ".join([f"tabs[{t}][0]"] + [f"{sk} * tabs[{g}][{k}]" for k, sk in enumerate(s)])
+        return f"({c}, (" + ", ".join(s) + ",))"
+
+    parts = [grid(0, nh), sum_form(0, 1, nh), sum_form(0, 2, nh), grid(3, nc), sum_form(3, 4, nc)]
+    body = ", ".join(parts) + (", ()" if m == 2 else "")
+    ns: dict = {}
+    exec(f"def build(tabs, model, n_hawk, n_comp):\n    return ({body})\n", ns)
+    return ns["build"]
+
+
+def model_of(tabs: tuple) -> int:
+    """The aerodynamic model the lane kernel runs with tables ``tabs`` (:func:`lane_tables`): 0 linear (arrays),
+    1 the high-incidence tables (five tuples), 2 with the flow-separation states (six).  A constant when
+    compiled (:func:`_model_of`), so the lanes' loops hold the chosen model's work only."""
+    if isinstance(tabs[0], np.ndarray):
+        return 0
+    return 2 if len(tabs) == 6 else 1
+
+
+@overload(model_of, inline="always")
+def _model_of(tabs):
+    """:func:`model_of` from the tables' type: a constant in the compiled kernel."""
+    if isinstance(tabs, types.BaseTuple) and len(tabs) in (5, 6):
+        kind = 0 if isinstance(tabs[0], types.Array) else (2 if len(tabs) == 6 else 1)
+        return lambda tabs: kind
+    return None
 
 
 @register_jitable
@@ -139,7 +238,8 @@ def _storer(n: int):
 
 
 load5, load7, load10, load24, load_params = _loader(5), _loader(7), _loader(10), _loader(N_Y), _loader(L.N_PARAMS)
-store7, store10, store24 = _storer(7), _storer(10), _storer(N_Y)
+load_inputs = _loader(L.N_INPUTS)
+store5, store7, store10, store24 = _storer(5), _storer(7), _storer(10), _storer(N_Y)
 
 
 @intrinsic
@@ -153,15 +253,18 @@ def _pointer(typingctx, address):
 
 
 @inlined(**_JIT)
-def rhs_values(y, fric, ud, u, p, flags, free, tabs):
+def rhs_values(y, fric, xs, ud, u, p, flags, free, tabs):
     """Time derivative (N_Y-tuple) of the RK state y (q 5, qd 5, servo positions 7, servo rates 7), with the
-    joints' friction torques fric (at y's rates and the held bristle states) and the delayed demands ud
-    held; locked joints do not move."""
+    joints' friction torques fric (at y's rates and the held bristle states), the flow-separation states xs
+    (5-tuple, read by the unsteady model only) and the delayed demands ud held; locked joints do not move.
+    The aerodynamic model is the tables' (:func:`model_of`, a compile-time constant)."""
     q = y[0:5]
     qd = y[5:10]
     flaps = y[10:17] if flags & L.F_SERVO else ud
+    model = model_of(tabs)
+    fl = (flags | L.F_UNSTEADY) if model == 2 else (flags & ~L.F_UNSTEADY)  # the model's flag a constant, as model is
     Mt, ht, kin = mass_matrix_terms(q, qd, p)
-    Qt, D, Gv = forces(q, qd, fric, ATTACHED5, flaps, u, p, flags, tabs, kin, False, True)
+    Qt, D, Gv = forces(q, qd, fric, xs, flaps, u, p, fl, tabs, kin, model > 0, True)
     qdd = solve_free_rank1(Mt, (Qt[0] - ht[0], Qt[1] - ht[1], Qt[2] - ht[2], Qt[3] - ht[3], Qt[4] - ht[4]), D, Gv, free)
     servo = (flags & L.F_SERVO) != 0
     return (
@@ -278,20 +381,52 @@ def start_step(row, free, friction, h, reuse_decay):
         store24(row, OFF_Y0, lane, load10(row, OFF_X, lane) + load7(row, OFF_X + L.X_SERVO * W, lane) + load7(row, OFF_X + L.X_SERVO_RATE * W, lane))
 
 
+def relax_separation(row: np.ndarray, tabs: tuple, dt: float) -> None:
+    """Every lane's flow-separation states over dt at the lane's joint state and inputs, their targets held
+    (:func:`rig_env.physics.joint_space.separation_step`), in place; nothing unless the tables are the
+    unsteady model's (:func:`model_of`).  Compiled code only (:func:`_relax_separation`)."""
+    raise TypeError("relax_separation runs inside the lane kernel only")
+
+
+@overload(relax_separation, inline="always")
+def _relax_separation(row, tabs, dt):
+    """:func:`relax_separation` for the unsteady model's tables; for the others a function that does nothing,
+    so that the linear and tables kernels never compile the separation step."""
+    if isinstance(tabs, types.BaseTuple) and len(tabs) == 6:
+        return lambda row, tabs, dt: _relax_lanes(row, tabs, dt)
+    return lambda row, tabs, dt: None
+
+
+@inlined(**_JIT)
+def _relax_lanes(row, tabs, dt):
+    """:func:`relax_separation`'s loop over the lanes."""
+    for lane in range(W):
+        x = load10(row, OFF_X, lane)
+        xs = separation_step(x[0:5], x[5:10], load_inputs(row, OFF_U, lane), load_params(row, OFF_P, lane),
+                             load5(row, OFF_X + L.X_SEP * W, lane), dt, tabs)
+        store5(row, OFF_X + L.X_SEP * W, lane, xs)
+
+
 @njit(**_JIT)
-def physics_step(row, flags, free, tabs, h, reuse_decay):
+def physics_step(row, flags, free, tabs, h, reuse_decay, last):
     """Every lane of one block over one physics step h (in place); row[OFF_UD] holds the delayed demands.
     reuse_decay: the row holds the bristle decay of the previous physics step's end (False on the first
-    physics step of a control step: the caller may have changed states or parameters since).
+    physics step of a control step: the caller may have changed states or parameters since).  With the
+    unsteady model (:func:`model_of`) the separation states relax over h/2 before the RK4 step on the first
+    physics step of the control step, and after it over h/2 on the ``last``, else over h (the next step's
+    opening half merged in, as the per-environment kernel does).
 
     The stages' derivatives are accumulated with the RK4 weights as they come (in the order
     integrator.physics_step sums them), so every access of the loops below is at a constant offset."""
     friction = (flags & L.F_FRICTION) != 0
     servo = (flags & L.F_SERVO) != 0
+    unsteady = model_of(tabs) == 2
     if reuse_decay:  # branched here, outside the loops over the lanes, so that each loop has none
         start_step(row, free, friction, h, True)
     else:
         start_step(row, free, friction, h, False)
+        if unsteady:
+            relax_separation(row, tabs, 0.5 * h)
     f0, f1, f2, f3, f4 = free
     for s in range(4):  # the four stages, each a loop over the lanes (one copy of the right-hand side in the code)
         c = RK_C[s] * h
@@ -308,8 +443,9 @@ def physics_step(row, flags, free, tabs, h, reuse_decay):
             yt = y0 if first else axpy24(c, load24(row, OFF_K, lane), y0)
             t = load5(row, OFF_FRIC, lane)
             fric = (t[0] if f0 else 0.0, t[1] if f1 else 0.0, t[2] if f2 else 0.0, t[3] if f3 else 0.0, t[4] if f4 else 0.0)
+            xs = load5(row, OFF_X + L.X_SEP * W, lane) if unsteady else ATTACHED5
             k = rhs_values(
-                yt, fric, load7(row, OFF_UD, lane), load10(row, OFF_U, lane), load_params(row, OFF_P, lane), flags, free, tabs,
+                yt, fric, xs, load7(row, OFF_UD, lane), load_inputs(row, OFF_U, lane), load_params(row, OFF_P, lane), flags, free, tabs,
             )  # fmt: skip
             store24(row, OFF_K, lane, k)
             acc = load24(row, OFF_ACC, lane)
@@ -329,6 +465,8 @@ def physics_step(row, flags, free, tabs, h, reuse_decay):
             s0[1] if servo else 0.0, s1[1] if servo else 0.0, s2[1] if servo else 0.0, s3[1] if servo else 0.0,
             s4[1] if servo else 0.0, s5[1] if servo else 0.0, s6[1] if servo else 0.0,
         ))  # fmt: skip
+    if unsteady:
+        relax_separation(row, tabs, 0.5 * h if last else h)
     if friction:
         bristles(row, free, h, False)
 
@@ -392,7 +530,7 @@ def advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub
     for s in range(n_sub):
         for lane in range(W):  # physics step s's delayed demands to the constant offset the step's loops read
             store7(row, OFF_UD, lane, load7(row, OFF_STAGE + 7 * W * s, lane))
-        physics_step(row, flags, free, tabs, h, s > 0)
+        physics_step(row, flags, free, tabs, h, s > 0, s == n_sub - 1)
     for lane in range(W):
         i = i0 + lane
         if i >= n or status[i] != L.S_OK:
@@ -416,24 +554,33 @@ def advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub
 
 
 @njit(parallel=True, **_JIT_BATCH)
-def step_lanes(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params):
+def step_lanes(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, model, n_hawk, n_comp):
     """Advance all environments by one control step of n_sub physics steps, blocks of W in parallel.
 
     Arguments as :func:`rig_env.physics.integrator.step_batch`, with S the scratch of :func:`new_work`
     in place of its W, MW.  pack_params: copy P into S; False reuses the parameters S
     holds from the previous call, for a caller that knows P has not changed since (RigVectorEnv: P
-    changes only at a reset).
+    changes only at a reset).  model, n_hawk, n_comp: :func:`lane_shape` of flags and tabs (the kernel is
+    compiled for each value: the aerodynamic model and the tables' lengths are constants in its code).
     """
+    literally(model)
+    literally(n_hawk)
+    literally(n_comp)
     check_work(S, n_sub)
     free = free_mask(free_idx, n_free)
     for b in prange(S.shape[0]):
-        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S, pack_params)
+        lt = lane_tables(tabs, model, n_hawk, n_comp)  # built inside the loop: numba passes no tuple into it
+        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, lt, h, n_sub, status, S, pack_params)
 
 
 @njit(**_JIT_BATCH)
-def step_lanes_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params):
+def step_lanes_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, model, n_hawk, n_comp):
     """Serial twin of :func:`step_lanes` (one block, or batches too small for a parallel launch)."""
+    literally(model)
+    literally(n_hawk)
+    literally(n_comp)
     check_work(S, n_sub)
     free = free_mask(free_idx, n_free)
+    lt = lane_tables(tabs, model, n_hawk, n_comp)
     for b in range(S.shape[0]):
-        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S, pack_params)
+        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, lt, h, n_sub, status, S, pack_params)

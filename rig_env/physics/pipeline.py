@@ -11,8 +11,8 @@ Kernels (all advance every environment by one control step of ``n_sub`` physics 
     kind    kernel                                             state it integrates
     ======  =================================================  ==========================================
     lanes   :func:`rig_env.physics.lanes.step_lanes`           joint space, eight environments per SIMD
-                                                               register (not with the high-incidence
-                                                               tables: falls back to ``joint``)
+                                                               register (every aerodynamic model; the
+                                                               tables as tuples, ``lanes.lane_tables``)
     joint   :func:`rig_env.physics.integrator.step_batch`      joint space, one environment at a time
     dae     :func:`rig_env.physics.dae.step_batch_dae`         the paper's body-coordinate DAE; ``X`` is
                                                                its joint-space image after every step
@@ -193,7 +193,7 @@ def hold_separation(idx, U, P, X, flags, tabs):
 class Kernel:
     """A chosen physics kernel: ``kind`` (one of :data:`KINDS`), whether it is the ``parallel`` version,
     and ``step``, the numba function (arguments as :func:`rig_env.physics.integrator.step_batch`, then
-    its scratch; the lane kernel takes the flag ``pack_params`` last)."""
+    its scratch; the lane kernel takes the flag ``pack_params`` and :func:`rig_env.physics.lanes.lane_shape` last)."""
 
     kind: str
     parallel: bool
@@ -203,14 +203,12 @@ class Kernel:
 def choose_kernel(kind: str, flags: int, n_envs: int, parallel: bool | None = None) -> Kernel:
     """The kernel of ``kind`` ("lanes", "joint" or "dae") for a model with ``flags`` and ``n_envs`` environments.
 
-    "lanes" becomes "joint" when the lane kernel cannot run the model (the high-incidence tables,
-    :func:`rig_env.physics.lanes.supports`).  parallel: the ``prange`` version; None chooses it from
+    Every kind runs every model (the lane kernel compiled for the model and the tables' lengths, which
+    :class:`PhysicsBatch` gives it: :func:`rig_env.physics.lanes.lane_shape`).  parallel: the ``prange`` version; None chooses it from
     :data:`rig_env.physics.integrator.PARALLEL_MIN_ENVS` environments on.
     """
     if kind not in KINDS:
         raise ValueError(f"kernel kind = {kind!r}; allowed: {', '.join(repr(k) for k in KINDS)}")
-    if kind == "lanes" and not lanes.supports(flags):
-        kind = "joint"
     par = n_envs >= integ.PARALLEL_MIN_ENVS if parallel is None else bool(parallel)
     if kind == "lanes":
         step = lanes.step_lanes if par else lanes.step_lanes_serial
@@ -298,6 +296,7 @@ class PhysicsBatch:
         if kind == "lanes":
             self._work: tuple[np.ndarray, ...] = (lanes.new_work(self.n_envs, self.n_sub),)
             self._state = self.X
+            self._lane_shape = lanes.lane_shape(self.tabs, self.flags)  # the model and the tables' lengths, constants of the kernel
         elif kind == "joint":
             self._work = integ.new_work(self.n_envs)
             self._state = self.X
@@ -311,6 +310,7 @@ class PhysicsBatch:
             self._state = self.Y
         self._lanes = kind == "lanes"
         self._dae = kind == "dae"
+        self._entry: Callable[..., None] | None = None  # the lane kernel's compiled entry point (lanes.entry_point)
 
     # ------------------------------------------------------------------ rows
     def set_params(self, idx: np.ndarray, rows: np.ndarray) -> None:
@@ -349,9 +349,12 @@ class PhysicsBatch:
     def step(self) -> None:
         """Advance every environment by one control step (n_sub physics steps) with the inputs in U, in place;
         environments already flagged in ``status`` stay frozen, environments that blow up are flagged."""
-        tail = (self._params_changed,) if self._lanes else ()
-        self.kernel.step(self._state, self.dbuf, self.k0, self.delay_steps, self.P, self.U, self.flags, self.free_idx,
-                         self.n_free, self.tabs, self.h, self.n_sub, self.status, *self._work, *tail)
+        tail = (self._params_changed, *self._lane_shape) if self._lanes else ()
+        step = self._entry or self.kernel.step
+        step(self._state, self.dbuf, self.k0, self.delay_steps, self.P, self.U, self.flags, self.free_idx,
+             self.n_free, self.tabs, self.h, self.n_sub, self.status, *self._work, *tail)
+        if self._lanes and self._entry is None:  # compiled now: call its machine code directly from here on
+            self._entry = lanes.entry_point(self.kernel.step, *self._lane_shape)
         self._params_changed = False
         if self._dae:
             from rig_env.physics import dae
