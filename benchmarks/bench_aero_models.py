@@ -1,6 +1,6 @@
 """Env-step throughput of the three aerodynamic models, measured in one run (ratios are the figures to quote).
 
-    python benchmarks/bench_aero_models.py [--envs 64 1024] [--seconds 2] [--rounds 3] [--json]
+    python benchmarks/bench_aero_models.py [--envs 64 1024] [--seconds 2] [--rounds 3] [--serial] [--json]
 
 The harness of ``bench_step.py`` (``rate``: wall and CPU env-steps/s over a window, after a warm-up call
 that compiles or loads the kernel, so compile time is never in the rate), the cases taking turns window by
@@ -12,6 +12,10 @@ joints free, states near trim.  Kernels (``rig_env.physics.pipeline.choose_kerne
 * ``linear``, ``tables``, ``unsteady`` on lanes: the lane kernel (eight environments per SIMD register),
   what the environments run; the tables as tuples looked up without a search (``lanes.lane_tables``);
 * the same three on the per-environment kernel (``joint``), for reference.
+
+``--serial``: every kernel's one-thread version whatever the batch size (on a machine other jobs share, the
+parallel kernels' rendezvous waits for a busy core and the rates of a parallel run move by tens of per
+cent from window to window; one thread's rate per CPU-second does not).
 
 Ratios: ``unsteady_over_linear_lanes`` (the issue's target: the lane kernel with the unsteady model against
 it without, at least 0.8), ``tables_over_linear_lanes``, and ``lanes_over_joint`` per model (what the lanes
@@ -39,11 +43,13 @@ MODELS = ("linear", "tables", "unsteady")
 CASES = tuple((m, k) for k in ("lanes", "joint") for m in MODELS)
 
 
-def stepper(params: RigParams, n: int, aero_model: str, kind: str, seed: int = 0):
-    """One env-step of n environments near trim on the kernel of ``kind`` with ``aero_model`` (the kernel that runs)."""
+def stepper(params: RigParams, n: int, aero_model: str, kind: str, seed: int = 0, parallel: bool | None = None):
+    """One env-step of n environments near trim on the kernel of ``kind`` with ``aero_model`` (the kernel that runs;
+    parallel: its prange version, None from the batch size)."""
     rng = np.random.default_rng(seed)
     flags = flags_of(True, True, True, True, aero_model)
-    batch = PhysicsBatch(param_batch(params, n), params.tables(), np.arange(5, dtype=np.int64), flags, H, N_SUB, kind=kind)
+    batch = PhysicsBatch(param_batch(params, n), params.tables(), np.arange(5, dtype=np.int64), flags, H, N_SUB, kind=kind,
+                         parallel=parallel)
     batch.U[:, L.U_AIRSPEED] = AIRSPEED
     batch.reset(np.arange(n), rng.uniform(-0.2, 0.2, (n, 5)), rng.uniform(-0.5, 0.5, (n, 5)))
     return batch.step, batch.kernel.kind
@@ -54,12 +60,13 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--envs", type=int, nargs="+", default=[64, 1024])
     ap.add_argument("--seconds", type=float, default=2.0, help="timing window per case, batch size and round")
     ap.add_argument("--rounds", type=int, default=3, help="rounds of the cases taking turns")
+    ap.add_argument("--serial", action="store_true", help="one-thread kernels at every batch size")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     params = RigParams.default()
-    out: dict = {"machine": machine_line(), "rates": {}}
+    out: dict = {"machine": machine_line(), "serial": args.serial, "rates": {}}
     for n in args.envs:
-        steps = {f"{model}/{kind}/{n}": stepper(params, n, model, kind) for model, kind in CASES}
+        steps = {f"{model}/{kind}/{n}": stepper(params, n, model, kind, parallel=False if args.serial else None) for model, kind in CASES}
         for key, (step, ran) in steps.items():
             out["rates"][key] = {"kernel": ran, "env_steps_per_s": 0.0, "env_steps_per_cpu_s": 0.0}
         for _ in range(args.rounds):

@@ -314,6 +314,19 @@ def lift_factor(cl_att, cl_tab):
 
 
 @inlined(**_JIT)
+def lift_deficit(cl_att, cl_tab):
+    """cl_att (1 - F0), F0 = :func:`lift_factor`: the lift the static separation takes from the attached
+    flow's, without a division (the right-hand side needs this product, not F0, and evaluates it for
+    every strip in every RK stage).  With m = max(|cl_att|, tol) and d = max(deficit - tol, 0), F0 =
+    1 - min(d, 3m/4) / m (the clip at 1 is d >= 0, at 1/4 the min), so cl_att (1 - F0) = g min(d, 3m/4)
+    with g = cl_att / m = clip(cl_att / tol, -1, 1)."""
+    mag = abs(cl_att)
+    deficit = mag - (cl_tab if cl_att >= 0.0 else -cl_tab)
+    g = min(max(cl_att * (1.0 / SEP_LIFT_TOL), -1.0), 1.0)
+    return g * min(max(deficit - SEP_LIFT_TOL, 0.0), 0.75 * max(mag, SEP_LIFT_TOL))
+
+
+@inlined(**_JIT)
 def separation_static(p, alpha, tab_alpha, tab_cl):
     """The static separation state x0(alpha) = (2 sqrt(F0) - 1)^2 of the Hawk (:func:`static_factor`)."""
     s = 2.0 * math.sqrt(static_factor(p, alpha, interp(alpha, tab_alpha, tab_cl))) - 1.0
@@ -332,7 +345,8 @@ def separated_coefficients(p, alpha, x, tab_alpha, tab_cl, tab_cm):
     static margin -CMalpha / CLalpha behind the c.g.)."""
     cl_tab = interp(alpha, tab_alpha, tab_cl)
     cm_tab = interp(alpha, tab_alpha, tab_cm)
-    dcl = attached_lift(p, alpha) * (kirchhoff(x) - static_factor(p, alpha, cl_tab))
+    cl_att = attached_lift(p, alpha)
+    dcl = cl_att * (kirchhoff(x) - 1.0) + lift_deficit(cl_att, cl_tab)  # cl_att (F(x) - F0), no division
     return cl_tab + dcl, cm_tab + (p[L.P_HAWK_AERO_CMALPHA] / p[L.P_HAWK_AERO_CLALPHA]) * dcl
 
 
@@ -495,7 +509,7 @@ def strip(u, wn, vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, 
         cl_static = interp(alpha, tab_alpha, tab_cn)
         if unsteady:
             cn_att = cla * (wn * (vabs * inv))  # CLalpha sin(alpha): sin(atan2(wn, u)) = wn / V, no sine needed
-            cl_static = cl_static + cn_att * (kirchhoff(x) - lift_factor(cn_att, cl_static))
+            cl_static = cl_static + (cn_att * (kirchhoff(x) - 1.0) + lift_deficit(cn_att, cl_static))  # cn_att (F(x) - F0)
         cm_static = cl_static * (cma / cla) if cla != 0.0 else cma * alpha
     else:
         cl_static = cla * alpha
