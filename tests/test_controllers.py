@@ -258,3 +258,30 @@ def test_pid_and_lqr_meet_the_success_criterion_at_20_m_s(task):
     for name, m in res.metrics.items():
         assert np.all(m["status"] == 0), name
         assert np.mean(m["success"]) >= 0.95, (name, np.mean(m["success"]))
+
+
+def test_designed_laws_linearise_the_model_the_rig_flies():
+    """A loop on the high-incidence tables gets a design on the tables (the unsteady model: its quasi-steady
+    form, the tables), checked against rig_env's own trim and linearisation on that model; the linear model
+    where the tables and the stability derivatives differ gives a different plant."""
+    import math
+
+    from controllers.design.model import design_aero_model, design_model
+    from rig_env import RigParams, linearize
+    from rig_env.envs import RigVectorEnv
+
+    assert [design_aero_model(m) for m in ("linear", "tables", "unsteady")] == ["linear", "tables", "tables"]
+    with pytest.raises(ValueError, match="aero_model = 'vortex'"):
+        design_aero_model("vortex")
+    p = RigParams.default()
+    fd = ("rig_pitch", "model_pitch")
+    dp = design_model(p, fd, 20.0, 0.0, aero_model="unsteady")
+    assert dp.op.aero_model == "tables"
+    sys = linearize(p, dp.op, inputs=["comp_aileron", "comp_elevator", "comp_rudder"], friction="viscous")
+    np.testing.assert_allclose(np.asarray(dp.sys.A), np.asarray(sys.A), rtol=1e-12, atol=1e-12)
+    lin = design_model(p, fd, 20.0, 0.0)
+    assert lin.op.aero_model == "linear"
+    assert not np.allclose(np.asarray(lin.sys.A), np.asarray(dp.sys.A), rtol=1e-3, atol=0.0)
+    spec = LoopSpec.from_env(RigVectorEnv(1, task="departure_recovery"))
+    assert spec.aero_model == "tables"
+    assert math.isfinite(float(np.asarray(dp.sys.A).sum()))

@@ -51,14 +51,14 @@ def run_both(X, P, delay, dbuf, free_idx, flags, steps, rng, h=0.0025, n_sub=5):
     Wk, MW = I.new_work(n)
     S = LN.new_work(n, n_sub)
     tabs = RigParams.default().tables()
-    shape = LN.lane_shape(tabs, flags)
+    step, lit = LN.kernel(flags, True), LN.literal_args(tabs, flags)
     for k in range(steps):
         U = np.zeros((n, L.N_INPUTS))
         U[:, :6] = rng.uniform(-0.5, 0.5, (n, 6))  # surface commands, rad
         U[:, L.U_GUST : L.U_GUST + 3] = rng.normal(0.0, 0.5, (n, 3))
         U[:, L.U_AIRSPEED] = rng.uniform(15.0, 25.0, n)
         I.step_serial(Xa, da, k * n_sub, delay, P, U, flags, free_idx, len(free_idx), tabs, h, n_sub, sa, Wk, MW)
-        LN.step_lanes(Xb, db, k * n_sub, delay, P, U, flags, free_idx, len(free_idx), tabs, h, n_sub, sb, S, k == 0, *shape)  # P packed once
+        step(Xb, db, k * n_sub, delay, P, U, flags, free_idx, len(free_idx), tabs, h, n_sub, sb, S, k == 0, *lit)  # P packed once
     return Xa, Xb, sa, sb, da, db
 
 
@@ -137,6 +137,9 @@ def test_lane_shape_names_the_model_and_the_tables_lengths():
     assert LN.lane_shape(tabs, ALL) == (0, 0, 0)
     assert LN.lane_shape(tabs, TABLES) == (1, tabs[0].size, tabs[3].size)
     assert LN.lane_shape(tabs, UNSTEADY) == (2, tabs[0].size, tabs[3].size)
+    assert LN.literal_args(tabs, ALL) == () and LN.literal_args(tabs, UNSTEADY) == (tabs[0].size, tabs[3].size)
+    assert LN.kernel(ALL, True) is LN.step_lanes and LN.kernel(TABLES, False) is LN.step_lanes_tables_serial
+    assert LN.kernel(UNSTEADY, True) is LN.step_lanes_unsteady
     assert LN.model_of(LN.lane_tables(tabs, *LN.lane_shape(tabs, UNSTEADY))) == 2
     assert LN.model_of(LN.lane_tables(tabs, *LN.lane_shape(tabs, TABLES))) == 1
     assert LN.model_of(tabs) == 0
@@ -179,16 +182,17 @@ def test_the_sum_over_segments_is_the_piecewise_linear_table(which):
     assert A.interp(float(xs[0]) - 1.0, xs, ys) == ys[0] and A.interp(float(xs[-1]) + 1.0, xs, ys) == ys[-1]
 
 
-def cached_object(kernel, shape: tuple[int, int, int]) -> bytes:
-    """The ELF object numba's disk cache holds for ``kernel`` compiled with the literal ``shape`` arguments
-    (:func:`rig_env.physics.lanes.lane_shape`): its index maps each signature to a data file."""
+def cached_object(kernel, literals: tuple[int, ...]) -> bytes:
+    """The ELF object numba's disk cache holds for ``kernel`` compiled with the literal arguments ``literals``
+    (:func:`rig_env.physics.lanes.literal_args`; none for the linear kernel): its index maps each signature to a
+    data file."""
     from numba.core import types
 
-    want = tuple(types.literal(v) for v in shape)
+    want = tuple(types.literal(v) for v in literals)
     cache = kernel._cache
     index = cache._cache_file._load_index()
-    names = [name for key, name in index.items() if tuple(key[0][-3:]) == want]
-    assert names, f"{kernel} was not cached for {shape}"
+    names = [name for key, name in index.items() if not want or tuple(key[0][-len(want):]) == want]
+    assert names, f"{kernel} was not cached for {literals}"
     data = (Path(cache._cache_path) / names[0]).read_bytes()
     return data[data.index(b"\x7fELF") :]
 
@@ -208,10 +212,10 @@ def test_the_lane_loops_are_vectorised(tmp_path, flags):
     X, P, delay, dbuf, free_idx = batch(8, (0, 3), seed=0)
     S, U, st = LN.new_work(8, 5), np.zeros((8, L.N_INPUTS)), np.zeros(8, np.int8)
     tabs = RigParams.default().tables()
-    shape = LN.lane_shape(tabs, flags)
-    LN.step_lanes_serial(X, dbuf, 0, delay, P, U, flags, free_idx, 2, tabs, 0.0025, 5, st, S, True, *shape)
+    step, lit = LN.kernel(flags, False), LN.literal_args(tabs, flags)
+    step(X, dbuf, 0, delay, P, U, flags, free_idx, 2, tabs, 0.0025, 5, st, S, True, *lit)
     obj = tmp_path / "step_lanes_serial.o"
-    obj.write_bytes(cached_object(LN.step_lanes_serial, shape))
+    obj.write_bytes(cached_object(step, lit))
     asm = subprocess.run([objdump, "-d", str(obj)], capture_output=True, text=True, check=True).stdout
     # the physics step's own machine code (its loops over the lanes): the packing, the delay lines and the
     # checks around it are scalar by design and would dilute the count
@@ -247,7 +251,7 @@ def test_a_scratch_too_short_for_the_control_step_is_an_error():
     X, P, delay, dbuf, free_idx = batch(8, (0, 3), seed=0)
     S, U, st = LN.new_work(8, 4), np.zeros((8, L.N_INPUTS)), np.zeros(8, np.int8)
     with pytest.raises(ValueError, match="n_sub"):
-        LN.step_lanes_serial(X, dbuf, 0, delay, P, U, ALL, free_idx, 2, RigParams.default().tables(), 0.0025, 5, st, S, True, 0, 0, 0)
+        LN.step_lanes_serial(X, dbuf, 0, delay, P, U, ALL, free_idx, 2, RigParams.default().tables(), 0.0025, 5, st, S, True)
     with pytest.raises(ValueError, match="n_sub"):
         LN.new_work(8, 0)
 

@@ -245,3 +245,35 @@ def test_shipped_policies_are_artefacts():
         art = A.load(f)
         assert art.kind in ("ppo", "sac") and f.name == f"{art.spec.task}_{art.kind}.json"
         assert {"final_eval", "env_overrides", "command", "hyperparameters", "versions"} <= set(art.provenance)
+
+
+def test_the_laws_know_the_aerodynamic_models_rig_env_flies():
+    """controllers.laws imports nothing of rig_env, so it keeps the model names itself: the same as rig_env's."""
+    from controllers.laws.base import AERO_MODELS
+    from rig_env.physics.pipeline import AERO_MODELS as RIG_MODELS
+
+    assert AERO_MODELS == tuple(RIG_MODELS)
+
+
+def test_an_artefact_records_the_aerodynamic_model_and_older_ones_read_as_linear(tmp_path):
+    """The loop's aero_model round-trips through the one format; an artefact written before the field (no key)
+    reads as the linear model; an unknown name is refused naming the field and the allowed values."""
+    import dataclasses
+
+    shipped = A.load(ROOT / "controllers" / "policies" / "departure_recovery_ppo.json")
+    art = dataclasses.replace(shipped, spec=dataclasses.replace(shipped.spec, aero_model="tables"))
+    A.save(art, tmp_path / "tables.json")
+    assert A.load(tmp_path / "tables.json").spec.aero_model == "tables"
+
+    def rewritten(name: str, change) -> Path:
+        doc = json.loads((tmp_path / "tables.json").read_text())
+        change(doc["spec"])
+        body = {k: doc[k] for k in A._BODY_KEYS}
+        doc["sha256"] = hashlib.sha256(A.canonical(body)).hexdigest()
+        out = tmp_path / name
+        out.write_text(json.dumps(doc))
+        return out
+
+    assert A.load(rewritten("old.json", lambda s: s.pop("aero_model"))).spec.aero_model == "linear"
+    with pytest.raises(A.ArtefactError, match=r"spec.aero_model = 'vortex'.*linear.*tables.*unsteady"):
+        A.load(rewritten("bad.json", lambda s: s.update(aero_model="vortex")))

@@ -44,7 +44,7 @@ import control
 import numpy as np
 
 from controllers.design.lqr import MAX_DEVIATION, MAX_INPUT, SIGMA_A, SIGMA_Z, V_REF, Design, augmented, loop_margins
-from controllers.design.model import INPUTS, loop_elements
+from controllers.design.model import INPUTS, design_aero_model, loop_elements
 from controllers.design.signals import reference_constants, signal_scales
 from controllers.design.tuning import AxisTuning, margins, rate_tf, shape_loops
 from controllers.laws.axes import AXIS_OF
@@ -59,8 +59,10 @@ DRIVEN = ("rig_pitch", "rig_yaw")
 Q_GUESS_DEG = {"rig_pitch": 7.0}  # where the trim search starts (the rig's zero-input trim, task docstrings)
 
 
-def axis_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: float, scale_deg: float = 40.0) -> tuple[np.ndarray, control.StateSpace]:
-    """Zero-input equilibrium (5,) joint angles, rad, and the linear model there.
+def axis_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: float, scale_deg: float = 40.0,
+               aero_model: str = "linear") -> tuple[np.ndarray, control.StateSpace]:
+    """Zero-input equilibrium (5,) joint angles, rad, and the linear model there, on ``aero_model``
+    (:func:`controllers.design.model.design_aero_model`).
 
     Model states ``<joint>``, ``<joint>_rate`` of ``free_dofs``; inputs the virtual (roll, heave,
     sway) in normalised units (roll column zero: the aileron is not used by these laws).
@@ -69,7 +71,7 @@ def axis_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: float, s
     for j, deg in Q_GUESS_DEG.items():
         if j in free_dofs:  # a locked joint stays at its guess
             q0[JOINTS.index(j)] = math.radians(deg)
-    op = trim(params, free_dofs=free_dofs, airspeed=float(airspeed), controls={}, q_guess=q0)
+    op = trim(params, free_dofs=free_dofs, airspeed=float(airspeed), controls={}, q_guess=q0, aero_model=design_aero_model(aero_model))
     sys = linearize(params, op, inputs=INPUTS, friction="viscous")
     B = np.asarray(sys.B) * math.radians(scale_deg)
     B[:, 0] = 0.0
@@ -138,7 +140,7 @@ U_TABLE = np.linspace(-0.9, 0.9, 19)
 
 
 def static_table(params: RigParams, free_dofs: tuple[str, ...], joint: str, airspeed: float,
-                 scale_deg: float = 40.0) -> tuple[np.ndarray, np.ndarray]:
+                 scale_deg: float = 40.0, aero_model: str = "linear") -> tuple[np.ndarray, np.ndarray]:
     """The rig's static input curve: (theta (m,) rad ascending, u (m,) normalised) with ``rig_env.trim``.
 
     For each steady elevator (rig_pitch) or rudder (rig_yaw) input of :data:`U_TABLE` every free joint
@@ -157,7 +159,8 @@ def static_table(params: RigParams, free_dofs: tuple[str, ...], joint: str, airs
         guess = q0.copy()
         for u in branch:
             try:
-                op = trim(params, free_dofs=free_dofs, airspeed=float(airspeed), controls={surface: float(u) * scale_deg}, q_guess=guess)
+                op = trim(params, free_dofs=free_dofs, airspeed=float(airspeed), controls={surface: float(u) * scale_deg}, q_guess=guess,
+                          aero_model=design_aero_model(aero_model))
             except RuntimeError:
                 break
             if abs(op.q[jq]) >= math.radians(30.0):
@@ -216,7 +219,7 @@ def _model(spec: LoopSpec, params: RigParams) -> tuple[dict[str, Any], list, Any
     ref = reference_constants(spec, params)  # UnsupportedTask first: cheap
     joint, fd = ref.joint, spec.free_dofs
     V = _grid(spec)
-    points = [axis_point(params, fd, float(v), spec.action_scale_deg) for v in V]
+    points = [axis_point(params, fd, float(v), spec.action_scale_deg, spec.aero_model) for v in V]
     nq, k = len(fd), fd.index(joint)
     p = [i for i in range(nq) if i != k]
     cw, b, S = [], [], []
@@ -226,7 +229,7 @@ def _model(spec: LoopSpec, params: RigParams) -> tuple[dict[str, Any], list, Any
         cw.append(A[nq:, nq:][k, k])
         b.append(B[nq + k, AXIS_OF[joint]])
         S.append(G[p] / G[k])
-    curves = [static_table(params, fd, joint, float(v), spec.action_scale_deg) for v in V]
+    curves = [static_table(params, fd, joint, float(v), spec.action_scale_deg, spec.aero_model) for v in V]
     m = max(t.size for t, _ in curves)
     th, us = np.zeros((V.size, m)), np.zeros((V.size, m))
     for i, (t, u) in enumerate(curves):  # padded with the last point; only the first static_n are read
@@ -241,7 +244,8 @@ def _model(spec: LoopSpec, params: RigParams) -> tuple[dict[str, Any], list, Any
 
 
 def _design(spec: LoopSpec, link_delay_steps: int, rate_filter_hz: float = 10.0, **extra: Any) -> dict[str, Any]:
-    return {"airspeed_range": list(spec.airspeed_range), "link_delay_steps": int(link_delay_steps), "rate_filter_hz": float(rate_filter_hz), **extra}
+    return {"airspeed_range": list(spec.airspeed_range), "link_delay_steps": int(link_delay_steps), "rate_filter_hz": float(rate_filter_hz),
+            "aero_model": design_aero_model(spec.aero_model), **extra}
 
 
 def design_heave_sway_pid(spec: LoopSpec, params: RigParams | None = None, *, link_delay_steps: int = 1, rate_filter_hz: float = 10.0,

@@ -24,7 +24,7 @@ import numpy as np
 from controllers.laws.axes import AXES, AXIS_OF, axes_of
 from controllers.laws.base import LoopSpec
 from controllers.design.estimator import kalman_gain
-from controllers.design.model import design_model, loop_elements
+from controllers.design.model import design_aero_model, design_model, loop_elements
 from controllers.design.signals import signal_scales
 from controllers.design.tuning import margins, plain
 from rig_env.params import JOINTS, RigParams
@@ -77,9 +77,10 @@ def augmented(A: np.ndarray, B: np.ndarray, free_dofs: tuple[str, ...]) -> tuple
     return Aa, Ba, [f"int_{j}" for j in tracked]
 
 
-def design_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: float, phi: float) -> Design:
-    """Trim, linearise, augment and solve the LQR at one (V, phi)."""
-    dp = design_model(params, free_dofs, airspeed, phi)
+def design_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: float, phi: float, aero_model: str = "linear") -> Design:
+    """Trim, linearise (on ``aero_model``: :func:`controllers.design.model.design_aero_model`), augment and solve the
+    LQR at one (V, phi)."""
+    dp = design_model(params, free_dofs, airspeed, phi, aero_model=aero_model)
     A, B = np.asarray(dp.sys.A), np.asarray(dp.sys.B)
     Aa, Ba, ilabels = augmented(A, B, free_dofs)
     labels = list(dp.sys.state_labels) + ilabels
@@ -93,9 +94,10 @@ def design_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: float,
     return Design(tuple(free_dofs), float(airspeed), float(phi), K, dp.u_trim, q_op, A, B, Q, R, np.asarray(P), np.asarray(poles))
 
 
-def design_grid(params: RigParams, free_dofs: tuple[str, ...], airspeeds: np.ndarray, phis: np.ndarray) -> list[list[Design]]:
+def design_grid(params: RigParams, free_dofs: tuple[str, ...], airspeeds: np.ndarray, phis: np.ndarray,
+                aero_model: str = "linear") -> list[list[Design]]:
     """Designs for every (airspeed, phi) of the grid: ``grid[i_v][i_phi]``."""
-    return [[design_point(params, free_dofs, float(v), float(f)) for f in phis] for v in airspeeds]
+    return [[design_point(params, free_dofs, float(v), float(f), aero_model) for f in phis] for v in airspeeds]
 
 
 def loop_margins(d: Design, channel: int, elements: dict[str, control.TransferFunction]) -> tuple[float, float, float]:
@@ -121,7 +123,9 @@ def describe_point(d: Design, elements: dict[str, control.TransferFunction]) -> 
 def design_lqr(spec: LoopSpec, params: RigParams | None = None, *, link_delay_steps: int = 1, estimator: bool = True) -> dict[str, Any]:
     """The tables of :class:`controllers.laws.lqr.LQRTables` for ``spec`` (see the module docstring).
 
-    Airspeed grid: every 2.5 m/s or finer over ``spec.airspeed_range`` (ValueError unless > 1 m/s).
+    Airspeed grid: every 2.5 m/s or finer over ``spec.airspeed_range`` (ValueError unless > 1 m/s).  Designed on
+    the model the loop's rig flies (``spec.aero_model``; the unsteady model's quasi-steady form, the tables:
+    :func:`controllers.design.model.design_aero_model`).
     """
     p = params or RigParams.default()
     fd = spec.free_dofs
@@ -130,7 +134,8 @@ def design_lqr(spec: LoopSpec, params: RigParams | None = None, *, link_delay_st
     if airspeeds[0] <= 1.0:
         raise ValueError(f"airspeed_range = {spec.airspeed_range}: the LQR design needs airspeed > 1 m/s")
     phis = np.radians(np.arange(-180.0, 180.0, PHI_STEP_DEG))
-    grid = design_grid(p, fd, airspeeds, phis)
+    aero = design_aero_model(spec.aero_model)
+    grid = design_grid(p, fd, airspeeds, phis, aero)
     nq = len(fd)
     el = loop_elements(p, spec.dt, link_delay_steps)
     vs = sorted({float(airspeeds[0]), float(np.median(airspeeds)), float(airspeeds[-1])})
@@ -155,5 +160,5 @@ def design_lqr(spec: LoopSpec, params: RigParams | None = None, *, link_delay_st
                    "max_deviation": dict(MAX_DEVIATION), "max_input": dict(MAX_INPUT), "v_ref": V_REF, "phi_step_deg": PHI_STEP_DEG,
                    "airspeed_range": list(spec.airspeed_range), "airspeed_grid": airspeeds.tolist(),
                    "sigma_a": {j: SIGMA_A[j] for j in fd}, "sigma_z": SIGMA_Z, "link_delay_steps": int(link_delay_steps),
-                   "params_default": params is None, "margins": plain(points)},
+                   "params_default": params is None, "aero_model": aero, "margins": plain(points)},
     }

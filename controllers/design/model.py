@@ -63,9 +63,20 @@ def compensator_mix(phi: float, scale_deg: float = 40.0) -> InputMix:
     return InputMix(AXES, INPUTS, rotation(phi), scale_deg)
 
 
+def design_aero_model(aero_model: str) -> str:
+    """The aerodynamic model a law is designed on when its rig flies ``aero_model``: the same for "linear" and
+    "tables"; for "unsteady" its quasi-steady form, the tables (the flow-separation states at their steady
+    values x0(alpha), where the unsteady model's loads are the tables'): the laws measure no separation state,
+    and a design that fed back on one could not be flown.  ValueError for any other name."""
+    if aero_model not in ("linear", "tables", "unsteady"):
+        raise ValueError(f"aero_model = {aero_model!r}; allowed: 'linear', 'tables', 'unsteady'")
+    return "tables" if aero_model == "unsteady" else aero_model
+
+
 def operating_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: float, phi: float,
-                    scale_deg: float = 40.0) -> tuple[OperatingPoint, np.ndarray]:
-    """Trim at rig roll ``phi`` (rad): rig joints at their targets, passive joints at equilibrium (``rig_env.trim``).
+                    scale_deg: float = 40.0, aero_model: str = "linear") -> tuple[OperatingPoint, np.ndarray]:
+    """Trim at rig roll ``phi`` (rad): rig joints at their targets, passive joints at equilibrium (``rig_env.trim``),
+    on the aerodynamic model ``aero_model`` (:func:`design_aero_model`).
 
     ``rig_env.trim`` holds every free rig joint at its target (rig_roll at ``phi``, rig_pitch and
     rig_yaw at 0) with its virtual input (:data:`AXIS_OF`, :func:`compensator_mix`) as the unknown and
@@ -84,7 +95,8 @@ def operating_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: flo
     def solve(fixed: dict[int, float]) -> tuple[OperatingPoint, np.ndarray]:
         held = [j for j in free_dofs if j in AXIS_OF and AXIS_OF[j] not in fixed]
         op = trim(params, free_dofs, q_guess, airspeed=airspeed, mix=mix, inputs={AXES[k]: val for k, val in fixed.items()},
-                  unknown_inputs=[AXES[AXIS_OF[j]] for j in held], hold={j: targets[j] for j in held}, tol=1e-12, max_residual=None)
+                  unknown_inputs=[AXES[AXIS_OF[j]] for j in held], hold={j: targets[j] for j in held}, tol=1e-12, max_residual=None,
+                  aero_model=design_aero_model(aero_model))
         return op, np.array([op.inputs[a] for a in AXES])
 
     op, v = solve({})
@@ -105,9 +117,10 @@ def operating_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: flo
 
 
 def design_model(params: RigParams, free_dofs: tuple[str, ...], airspeed: float, phi: float,
-                 scale_deg: float = 40.0) -> DesignPoint:
-    """Trim at ``(airspeed, phi)`` and linearise (friction's viscous term kept); virtual inputs, normalised."""
-    op, u_trim = operating_point(params, free_dofs, airspeed, phi, scale_deg)
+                 scale_deg: float = 40.0, aero_model: str = "linear") -> DesignPoint:
+    """Trim at ``(airspeed, phi)`` and linearise (friction's viscous term kept) on ``aero_model``
+    (:func:`design_aero_model`); virtual inputs, normalised."""
+    op, u_trim = operating_point(params, free_dofs, airspeed, phi, scale_deg, aero_model)
     sys = linearize(params, op, inputs=INPUTS, friction="viscous")
     B = sys.B @ rotation(phi) * math.radians(scale_deg)
     sysn = control.ss(sys.A, B, sys.C, np.zeros_like(B), states=sys.state_labels, inputs=list(AXES), outputs=sys.output_labels)

@@ -17,7 +17,7 @@ import numpy as np
 
 from controllers.laws.axes import axes_of
 from controllers.laws.base import LoopSpec
-from controllers.design.model import design_model, operating_point
+from controllers.design.model import design_aero_model, design_model, operating_point
 from controllers.design.signals import signal_scales
 from controllers.design.tuning import plain, tune_axis
 from rig_env.params import RigParams
@@ -33,19 +33,21 @@ def design_pid(spec: LoopSpec, params: RigParams | None = None, *, link_delay_st
                feedforward: bool = True) -> dict[str, Any]:
     """The tables of :class:`controllers.laws.pid.PIDTables` for ``spec`` (see the module docstring).
 
-    Design point: the middle of ``spec.airspeed_range`` (ValueError unless > 1 m/s) and roll 0.
+    Design point: the middle of ``spec.airspeed_range`` (ValueError unless > 1 m/s) and roll 0, on the model the
+    loop's rig flies (``spec.aero_model``, :func:`controllers.design.model.design_aero_model`).
     """
     p = params or RigParams.default()
     v_design = 0.5 * (spec.airspeed_range[0] + spec.airspeed_range[1])
     if v_design <= 1.0:
         raise ValueError(f"airspeed_range = {spec.airspeed_range}: the PID design needs airspeed > 1 m/s")
     axes = axes_of(spec.free_dofs)
-    tunings = {j: tune_axis(p, spec.free_dofs, j, v_design, spec.dt, link_delay_steps=link_delay_steps, rate_filter_hz=rate_filter_hz, **TARGETS)
-               for j in axes}
+    aero = design_aero_model(spec.aero_model)
+    tunings = {j: tune_axis(p, spec.free_dofs, j, v_design, spec.dt, link_delay_steps=link_delay_steps, rate_filter_hz=rate_filter_hz,
+                            aero_model=aero, **TARGETS) for j in axes}
     rate_lim = p.servos.compensator.rate_limit_deg_s / spec.action_scale_deg  # 1/s, normalised
     phi_grid = np.linspace(-math.pi, math.pi, N_PHI)
-    trim_roll = np.array([operating_point(p, spec.free_dofs, v_design, f)[1][0] for f in phi_grid])
-    sys = design_model(p, spec.free_dofs, v_design, 0.0).sys
+    trim_roll = np.array([operating_point(p, spec.free_dofs, v_design, f, aero_model=aero)[1][0] for f in phi_grid])
+    sys = design_model(p, spec.free_dofs, v_design, 0.0, aero_model=aero).sys
     r = sys.state_labels.index("rig_roll_rate")
     return {
         "axes": list(axes),
@@ -59,6 +61,6 @@ def design_pid(spec: LoopSpec, params: RigParams | None = None, *, link_delay_st
         **signal_scales(spec).to_data(),
         "design": {"method": "controllers.design.tuning.tune_axis (loop shaping on the linearised rig)", "targets": dict(TARGETS),
                    "airspeed_design": float(v_design), "airspeed_range": list(spec.airspeed_range), "link_delay_steps": int(link_delay_steps),
-                   "rate_filter_hz": float(rate_filter_hz), "params_default": params is None,
+                   "rate_filter_hz": float(rate_filter_hz), "params_default": params is None, "aero_model": aero,
                    "tunings": plain({j: t.as_dict() for j, t in tunings.items()})},
     }

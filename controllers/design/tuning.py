@@ -97,19 +97,19 @@ def rate_tf(sys: control.StateSpace, joint: str) -> control.TransferFunction:
 
 
 def rate_plant(params: RigParams, free_dofs: tuple[str, ...], joint: str, airspeed: float,
-               scale_deg: float = 40.0) -> control.TransferFunction:
-    """Joint rate (rad/s) per normalised virtual input of the joint's axis, at phi = 0."""
-    return rate_tf(design_model(params, free_dofs, airspeed, 0.0, scale_deg).sys, joint)
+               scale_deg: float = 40.0, aero_model: str = "linear") -> control.TransferFunction:
+    """Joint rate (rad/s) per normalised virtual input of the joint's axis, at phi = 0, on ``aero_model``."""
+    return rate_tf(design_model(params, free_dofs, airspeed, 0.0, scale_deg, aero_model).sys, joint)
 
 
 def tune_axis(params: RigParams, free_dofs: tuple[str, ...], joint: str, airspeed: float, dt: float, *,
               link_delay_steps: int = 1, rate_filter_hz: float = 10.0, pm_inner: float = 50.0,
-              gm_inner: float = 8.0, pm_outer: float = 60.0, gm_outer: float = 10.0) -> AxisTuning:
-    """The procedure of the module docstring for one joint; ValueError if no gain meets the margins."""
+              gm_inner: float = 8.0, pm_outer: float = 60.0, gm_outer: float = 10.0, aero_model: str = "linear") -> AxisTuning:
+    """The procedure of the module docstring for one joint, on ``aero_model``; ValueError if no gain meets the margins."""
     if joint not in AXIS_OF:
         raise ValueError(f"joint = {joint!r}: tunable joints are {list(AXIS_OF)}")
     el = loop_elements(params, dt, link_delay_steps, rate_filter_hz)
-    return shape_loops(rate_plant(params, free_dofs, joint, airspeed), el, joint, airspeed,
+    return shape_loops(rate_plant(params, free_dofs, joint, airspeed, aero_model=aero_model), el, joint, airspeed,
                        pm_inner=pm_inner, gm_inner=gm_inner, pm_outer=pm_outer, gm_outer=gm_outer)
 
 

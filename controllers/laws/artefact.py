@@ -75,7 +75,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from controllers.laws.base import LAWS, Controller, LoopSpec
+from controllers.laws.base import AERO_MODELS, LAWS, Controller, LoopSpec
 
 __all__ = ["DEFAULT_SENSORS", "FORMAT", "FORMAT_VERSION", "OLD_POLICY_FORMAT", "Artefact", "ArtefactError", "artefact_class",
            "artefact_kinds", "canonical", "default_limits", "from_controller", "load", "provenance", "save", "sensors_of"]
@@ -390,7 +390,9 @@ def _check_body(body: Mapping[str, Any], where: str) -> tuple[LoopSpec, dict[str
         v = s.get(k) if isinstance(s, dict) else None
         ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) if t is float else isinstance(v, (list, tuple) if t is list else t)
         need(ok, f"spec.{k} missing or not a {t.__name__}")
-    need(set(s) <= set(fields) | {"task_options"}, f"spec: unexpected key(s) {sorted(set(s) - set(fields) - {'task_options'})}")
+    optional = {"task_options", "aero_model"}  # absent in older artefacts: {} and "linear"
+    need(set(s) <= set(fields) | optional, f"spec: unexpected key(s) {sorted(set(s) - set(fields) - optional)}")
+    need(s.get("aero_model", "linear") in AERO_MODELS, f"spec.aero_model = {s.get('aero_model')!r}: one of {list(AERO_MODELS)}")
     opts = s.get("task_options", {})
     need(isinstance(opts, dict) and all(isinstance(k, str) and isinstance(v, (str, int, float, bool)) for k, v in opts.items()),
          "spec.task_options must be an object of scalar values")
@@ -403,7 +405,7 @@ def _check_body(body: Mapping[str, Any], where: str) -> tuple[LoopSpec, dict[str
     need(0.0 < s["dt"] <= 1.0, f"spec.dt = {s['dt']} s: allowed range (0, 1]")
     need(0.0 < s["action_scale_deg"] <= 90.0, f"spec.action_scale_deg = {s['action_scale_deg']}: allowed range (0, 90]")
     spec = LoopSpec(s["task"], tuple(s["free_dofs"]), tuple(s["obs_labels"]), tuple(s["action_names"]), float(s["dt"]),
-                    tuple(float(v) for v in s["airspeed_range"]), float(s["action_scale_deg"]), dict(opts))
+                    tuple(float(v) for v in s["airspeed_range"]), float(s["action_scale_deg"]), dict(opts), str(s.get("aero_model", "linear")))
     sen = body["sensors"]
     need(isinstance(sen, dict) and set(sen) == set(_SENSOR_KEYS), f"sensors: keys must be {sorted(_SENSOR_KEYS)}")
     for k, t in _SENSOR_KEYS.items():

@@ -24,6 +24,11 @@ from typing import Any, Callable, ClassVar, Mapping
 import numpy as np
 
 
+AERO_MODELS = ("linear", "tables", "unsteady")
+"""The aerodynamic models a loop's rig can fly: ``rig_env``'s ``aero_model`` names (the laws import nothing of
+rig_env; ``tests/test_law_artefacts.py`` checks the two lists agree)."""
+
+
 @dataclass(frozen=True)
 class LoopSpec:
     """What a law may know of the loop it flies: read off an environment, stored in a deployed artefact.
@@ -31,7 +36,9 @@ class LoopSpec:
     task: task name (``rig_env.envs.TASKS``); free_dofs: free joints (``rig_env.JOINTS`` order);
     obs_labels: names of the observation entries; action_names: names of the action entries (each
     normalised to [-1, 1] for +-``action_scale_deg``); dt: control period, s; airspeed_range: m/s;
-    task_options: the task's ``task_options`` (e.g. ``{"axis": "sway_yaw"}`` of ForcedOscillation).
+    task_options: the task's ``task_options`` (e.g. ``{"axis": "sway_yaw"}`` of ForcedOscillation);
+    aero_model: the aerodynamic model the loop's rig flies (``rig_env``'s ``aero_model``: "linear", "tables"
+    or "unsteady"), which the designed laws linearise (:func:`controllers.design.model.design_aero_model`).
     """
 
     task: str
@@ -42,6 +49,7 @@ class LoopSpec:
     airspeed_range: tuple[float, float]
     action_scale_deg: float = 40.0
     task_options: Mapping[str, Any] = field(default_factory=dict)
+    aero_model: str = "linear"
 
     @classmethod
     def from_env(cls, env: Any) -> "LoopSpec":
@@ -56,6 +64,7 @@ class LoopSpec:
             airspeed_range=tuple(float(v) for v in vec.airspeed_range),
             action_scale_deg=float(vec.action_scale_deg),
             task_options=dict(vec.config.task_options),
+            aero_model=str(vec.aero_model),
         )
 
     @property

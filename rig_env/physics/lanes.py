@@ -103,11 +103,15 @@ def lane_shape(tabs: tuple[np.ndarray, ...], flags: int) -> tuple[int, int, int]
     """The lane kernel's last three arguments for a model with ``flags`` and tables ``tabs``
     (``RigParams.tables()``): (model, n_hawk, n_comp), model 0 linear, 1 the high-incidence tables
     (F_NONLINEAR), 2 with the flow-separation states too (F_UNSTEADY); n_hawk and n_comp the breakpoints of
-    the Hawk's and the compensator's tables (0 for the linear model, which never reads them).  The kernel
-    compiles one version per value (numba's ``literally``): :func:`lane_tables`."""
-    if not flags & L.F_NONLINEAR:
-        return 0, 0, 0
-    return (2 if flags & L.F_UNSTEADY else 1), int(np.size(tabs[0])), int(np.size(tabs[3]))
+    the Hawk's and the compensator's tables (0 for the linear model, which never reads them).  Each model
+    has its own kernel (:func:`kernel`), compiled for the lengths (numba's ``literally``): :func:`lane_tables`."""
+    model = model_number(flags)
+    return (0, 0, 0) if model == 0 else (model, int(np.size(tabs[0])), int(np.size(tabs[3])))
+
+
+def model_number(flags: int) -> int:
+    """0 for the linear model, 1 the high-incidence tables (F_NONLINEAR), 2 with the separation states (F_UNSTEADY)."""
+    return 0 if not flags & L.F_NONLINEAR else (2 if flags & L.F_UNSTEADY else 1)
 
 
 def lane_tables(tabs: tuple[np.ndarray, ...], model: int, n_hawk: int, n_comp: int) -> tuple:
@@ -130,17 +134,20 @@ def lane_tables(tabs: tuple[np.ndarray, ...], model: int, n_hawk: int, n_comp: i
     return (*out, ()) if model == 2 else out
 
 
-def entry_point(kernel: Any, model: int, n_hawk: int, n_comp: int) -> Callable[..., None] | None:
-    """The compiled ``kernel`` (:func:`step_lanes` or :func:`step_lanes_serial`) for the literal arguments
-    (model, n_hawk, n_comp) once it has been called with them, else None.
+def entry_point(kernel: Any, *literals: int) -> Callable[..., None] | None:
+    """The compiled ``kernel`` (a high-incidence model's, :data:`KERNELS`) for its literal arguments (the tables'
+    lengths, :func:`literal_args`) once it has been called with them, else None (and None for a kernel
+    without literal arguments: its dispatcher is fast).
 
     The dispatcher of a function with literal arguments matches a call's plain integers to no compiled
     signature and resolves the literal one in Python, about 7 ms a call (against about 20 us for the whole
     control step of eight environments); :class:`rig_env.physics.pipeline.PhysicsBatch` calls this entry
     point directly instead (the same machine code)."""
-    want = (types.literal(model), types.literal(n_hawk), types.literal(n_comp))
+    if not literals:
+        return None
+    want = tuple(types.literal(v) for v in literals)
     for sig, cres in kernel.overloads.items():
-        if tuple(sig[-3:]) == want:
+        if tuple(sig[-len(want):]) == want:
             return cres.entry_point
     return None
 
@@ -550,37 +557,103 @@ def advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub
             status[i] = st  # X[i] keeps its state from the start of the control step (written only when healthy)
 
 
-# serial twin: a separate function (numba's disk cache names an entry after the function, see integrator)
+# Each model is its own pair of functions, and each serial twin a separate function: numba's disk cache names an
+# entry after the function (see integrator) and keeps one index file per function, which two processes
+# compiling two signatures of one function at once (rig_env.precompile's children: the linear and the tables
+# kernel) would each rewrite, losing the other's entry.  The high-incidence models take the tables' lengths as
+# literal arguments (:func:`lane_shape`); the linear model reads no table and takes none.
 
 
 @njit(parallel=True, **_JIT_BATCH)
-def step_lanes(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, model, n_hawk, n_comp):
-    """Advance all environments by one control step of n_sub physics steps, blocks of W in parallel.
+def step_lanes(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params):
+    """Advance all environments by one control step of n_sub physics steps, blocks of W in parallel (the linear
+    aerodynamics; :func:`kernel` chooses the model's kernel).
 
     Arguments as :func:`rig_env.physics.integrator.step_batch`, with S the scratch of :func:`new_work`
     in place of its W, MW.  pack_params: copy P into S; False reuses the parameters S
     holds from the previous call, for a caller that knows P has not changed since (RigVectorEnv: P
-    changes only at a reset).  model, n_hawk, n_comp: :func:`lane_shape` of flags and tabs (the kernel is
-    compiled for each value: the aerodynamic model and the tables' lengths are constants in its code).
+    changes only at a reset).
     """
-    literally(model)
+    check_work(S, n_sub)
+    free = free_mask(free_idx, n_free)
+    for b in prange(S.shape[0]):
+        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S, pack_params)
+
+
+@njit(**_JIT_BATCH)
+def step_lanes_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params):
+    """Serial twin of :func:`step_lanes` (one block, or batches too small for a parallel launch)."""
+    check_work(S, n_sub)
+    free = free_mask(free_idx, n_free)
+    for b in range(S.shape[0]):
+        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S, pack_params)
+
+
+@njit(parallel=True, **_JIT_BATCH)
+def step_lanes_tables(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, n_hawk, n_comp):
+    """:func:`step_lanes` with the high-incidence tables (flags' F_NONLINEAR); n_hawk, n_comp: the tables'
+    breakpoints (:func:`lane_shape`), constants of the compiled kernel (numba's ``literally``)."""
     literally(n_hawk)
     literally(n_comp)
     check_work(S, n_sub)
     free = free_mask(free_idx, n_free)
     for b in prange(S.shape[0]):
-        lt = lane_tables(tabs, model, n_hawk, n_comp)  # built inside the loop: numba passes no tuple into it
+        lt = lane_tables(tabs, 1, n_hawk, n_comp)  # built inside the loop: numba passes no tuple into it
         advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, lt, h, n_sub, status, S, pack_params)
 
 
 @njit(**_JIT_BATCH)
-def step_lanes_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, model, n_hawk, n_comp):
-    """Serial twin of :func:`step_lanes` (one block, or batches too small for a parallel launch)."""
-    literally(model)
+def step_lanes_tables_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, n_hawk, n_comp):
+    """Serial twin of :func:`step_lanes_tables`."""
     literally(n_hawk)
     literally(n_comp)
     check_work(S, n_sub)
     free = free_mask(free_idx, n_free)
-    lt = lane_tables(tabs, model, n_hawk, n_comp)
+    lt = lane_tables(tabs, 1, n_hawk, n_comp)
     for b in range(S.shape[0]):
         advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, lt, h, n_sub, status, S, pack_params)
+
+
+@njit(parallel=True, **_JIT_BATCH)
+def step_lanes_unsteady(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, n_hawk, n_comp):
+    """:func:`step_lanes_tables` with the flow-separation states too (flags' F_UNSTEADY)."""
+    literally(n_hawk)
+    literally(n_comp)
+    check_work(S, n_sub)
+    free = free_mask(free_idx, n_free)
+    for b in prange(S.shape[0]):
+        lt = lane_tables(tabs, 2, n_hawk, n_comp)
+        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, lt, h, n_sub, status, S, pack_params)
+
+
+@njit(**_JIT_BATCH)
+def step_lanes_unsteady_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, n_hawk, n_comp):
+    """Serial twin of :func:`step_lanes_unsteady`."""
+    literally(n_hawk)
+    literally(n_comp)
+    check_work(S, n_sub)
+    free = free_mask(free_idx, n_free)
+    lt = lane_tables(tabs, 2, n_hawk, n_comp)
+    for b in range(S.shape[0]):
+        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, lt, h, n_sub, status, S, pack_params)
+
+
+KERNELS = {
+    0: (step_lanes_serial, step_lanes),
+    1: (step_lanes_tables_serial, step_lanes_tables),
+    2: (step_lanes_unsteady_serial, step_lanes_unsteady),
+}
+"""(serial, parallel) kernel of each model of :func:`lane_shape`."""
+
+
+def kernel(flags: int, parallel: bool) -> Any:
+    """The lane kernel for a model with ``flags`` (serial or parallel); it takes the tables' lengths after
+    ``pack_params`` when the model has the tables (:func:`literal_args`)."""
+    return KERNELS[model_number(flags)][1 if parallel else 0]
+
+
+def literal_args(tabs: tuple[np.ndarray, ...], flags: int) -> tuple[int, ...]:
+    """The arguments a model's lane kernel takes after ``pack_params``: none for the linear model, the tables'
+    breakpoints (n_hawk, n_comp) for the others (:func:`lane_shape`)."""
+    model, n_hawk, n_comp = lane_shape(tabs, flags)
+    return () if model == 0 else (n_hawk, n_comp)

@@ -193,7 +193,7 @@ def hold_separation(idx, U, P, X, flags, tabs):
 class Kernel:
     """A chosen physics kernel: ``kind`` (one of :data:`KINDS`), whether it is the ``parallel`` version,
     and ``step``, the numba function (arguments as :func:`rig_env.physics.integrator.step_batch`, then
-    its scratch; the lane kernel takes the flag ``pack_params`` and :func:`rig_env.physics.lanes.lane_shape` last)."""
+    its scratch; the lane kernel takes the flag ``pack_params`` and :func:`rig_env.physics.lanes.literal_args` last)."""
 
     kind: str
     parallel: bool
@@ -203,15 +203,15 @@ class Kernel:
 def choose_kernel(kind: str, flags: int, n_envs: int, parallel: bool | None = None) -> Kernel:
     """The kernel of ``kind`` ("lanes", "joint" or "dae") for a model with ``flags`` and ``n_envs`` environments.
 
-    Every kind runs every model (the lane kernel compiled for the model and the tables' lengths, which
-    :class:`PhysicsBatch` gives it: :func:`rig_env.physics.lanes.lane_shape`).  parallel: the ``prange`` version; None chooses it from
+    Every kind runs every model (the lane kernel: one function per model, :func:`rig_env.physics.lanes.kernel`,
+    compiled for the tables' lengths, which :class:`PhysicsBatch` gives it: :func:`rig_env.physics.lanes.literal_args`).  parallel: the ``prange`` version; None chooses it from
     :data:`rig_env.physics.integrator.PARALLEL_MIN_ENVS` environments on.
     """
     if kind not in KINDS:
         raise ValueError(f"kernel kind = {kind!r}; allowed: {', '.join(repr(k) for k in KINDS)}")
     par = n_envs >= integ.PARALLEL_MIN_ENVS if parallel is None else bool(parallel)
     if kind == "lanes":
-        step = lanes.step_lanes if par else lanes.step_lanes_serial
+        step = lanes.kernel(flags, par)
     elif kind == "joint":
         step = integ.step_batch if par else integ.step_serial
     else:
@@ -296,7 +296,7 @@ class PhysicsBatch:
         if kind == "lanes":
             self._work: tuple[np.ndarray, ...] = (lanes.new_work(self.n_envs, self.n_sub),)
             self._state = self.X
-            self._lane_shape = lanes.lane_shape(self.tabs, self.flags)  # the model and the tables' lengths, constants of the kernel
+            self._lane_literals = lanes.literal_args(self.tabs, self.flags)  # the tables' lengths, constants of the kernel
         elif kind == "joint":
             self._work = integ.new_work(self.n_envs)
             self._state = self.X
@@ -349,12 +349,12 @@ class PhysicsBatch:
     def step(self) -> None:
         """Advance every environment by one control step (n_sub physics steps) with the inputs in U, in place;
         environments already flagged in ``status`` stay frozen, environments that blow up are flagged."""
-        tail = (self._params_changed, *self._lane_shape) if self._lanes else ()
+        tail = (self._params_changed, *self._lane_literals) if self._lanes else ()
         step = self._entry or self.kernel.step
         step(self._state, self.dbuf, self.k0, self.delay_steps, self.P, self.U, self.flags, self.free_idx,
              self.n_free, self.tabs, self.h, self.n_sub, self.status, *self._work, *tail)
         if self._lanes and self._entry is None:  # compiled now: call its machine code directly from here on
-            self._entry = lanes.entry_point(self.kernel.step, *self._lane_shape)
+            self._entry = lanes.entry_point(self.kernel.step, *self._lane_literals)
         self._params_changed = False
         if self._dae:
             from rig_env.physics import dae
