@@ -279,6 +279,25 @@ def test_free_hawk_flies_in_the_gust_it_is_given(params):
     assert abs(model.xg[0, 1]) < 1e-4 * ag and abs(model.an[0]) < 1e-3
 
 
+def test_free_flight_reward_scales_are_the_criterions_normaliser():
+    """The reward's per-episode scales, computed at reset, are the RMS over [t0, end] of the free Hawk's response
+    to the pilot input alone, as the episode then accumulates it (the criterion's normaliser), in gusts too."""
+    n = 6
+    env = RigVectorEnv(n, task="free_flight_emulation", turbulence=0.01, airspeed=(15.0, 25.0))
+    env.reset(seed=5)
+    task = env.task
+    s_alpha, s_q = task.s_alpha.copy(), task.s_q.copy()
+    k, q2 = np.zeros(n), np.zeros(n)
+    for _ in range(env.max_steps - 1):  # all but the last step (it starts the next episodes); its terms are < 0.5 %
+        env.step(np.zeros((n, 3)))
+        on = env.t > task.t0 + 0.5 * env.dt
+        k += on
+        q2 += np.where(on, task.model.x[:, 1] ** 2, 0.0)
+    np.testing.assert_allclose(s_alpha, np.sqrt(task.r2 / k), rtol=5e-3)
+    np.testing.assert_allclose(s_q, np.sqrt(q2 / k), rtol=5e-3)
+    assert np.all(s_alpha > 0.5 * D) and np.all(s_q > 3.0 * D)
+
+
 def test_free_flight_reference_flies_the_rigs_gusts_from_the_input_on():
     """In gusts the reference moves with the environment's gust from t0 (the input's start) on and not before;
     the score's normaliser is the pilot input's response alone; calm air leaves the gust part at zero."""
