@@ -189,12 +189,13 @@ def test_laws_refuse_a_locked_driven_joint():
 GUSTS_OFF = replace(NOMINAL, airspeed=(20.0, 20.0), turbulence=0.0)
 # Thresholds: the rate measured on these 32 seeded episodes (seed 0) minus 10-15 points, so that a
 # change of law or model that loses a few episodes is caught but float-level noise is not:
-# pull-up PID 27/32, LQR 27/32; heave oscillation PID 32/32, LQR 32/32; sway PID 32/32, LQR 32/32.
-# (With 1 % gusts, a wind tunnel's turbulence level: 23/32, 28/32; 31/32, 32/32; 32/32, 32/32.)
+# pull-up PID 32/32, LQR 32/32 (27/32 each before its holds were drawn within the compensator's trim
+# authority); heave oscillation PID 32/32, LQR 32/32; sway PID 32/32, LQR 32/32.
+# (With 1 % gusts, a wind tunnel's turbulence level: 26/32, 32/32; 31/32, 32/32; 32/32, 32/32.)
 # Free-flight emulation is not reached by these laws (median emulation error 0.82 PID, 1.20 heave/sway LQR
 # > 0.5) and has no threshold here; the model-following LQR that does is tested in test_laws_emulation.py.
 THRESHOLDS = {
-    ("pull_up_push_over", ""): {"pid": 0.70, "lqr": 0.70},
+    ("pull_up_push_over", ""): {"pid": 0.85, "lqr": 0.85},
     ("forced_oscillation", "heave_pitch"): {"pid": 0.85, "lqr": 0.85},
     ("forced_oscillation", "sway_yaw"): {"pid": 0.85, "lqr": 0.85},
 }

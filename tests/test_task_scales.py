@@ -24,8 +24,9 @@ D = math.pi / 180.0
 CASES = [(name, {}) for name in TASKS] + [("forced_oscillation", {"axis": "sway_yaw"})]
 
 
-def _physical(env: RigVectorEnv, ref: np.ndarray, ang: np.ndarray, rate: np.ndarray) -> dict[str, np.ndarray]:
-    """Each appended entry's physical value (rad, rad/s, m/s^2, Hz, -) from the reference and measurements."""
+def _physical(env: RigVectorEnv, ref: np.ndarray, ang: np.ndarray, rate: np.ndarray, e_int: np.ndarray) -> dict[str, np.ndarray]:
+    """Each appended entry's physical value (rad, rad/s, m/s^2, Hz, -) from the reference and measurements;
+    e_int: the integral of the driven joint's measured error, rad s, summed here step by step."""
     task = env.task
     col = {j: k for k, j in enumerate(env.free_dofs)}
     name = env.config.task
@@ -38,7 +39,7 @@ def _physical(env: RigVectorEnv, ref: np.ndarray, ang: np.ndarray, rate: np.ndar
     if name == "pull_up_push_over":
         c = col["rig_pitch"]
         return {"heave_error": ref[:, 0] - ang[:, c], "heave_rate_ref": ref[:, 1], "heave_rate_error": ref[:, 1] - rate[:, c],
-                "accel_ref": ref[:, 2]}
+                "accel_ref": ref[:, 2], "heave_error_int": e_int}
     if name == "forced_oscillation":
         c = col[type(task).driven_joint(env.config.task_options)]
         on = ref[:, 2] > 0.0
@@ -73,11 +74,16 @@ def test_declared_scales_are_the_observations(task, opts):
     env.reset(seed=3)
     steps = min(int(round(3.0 / env.dt)), int(0.9 * env.max_steps))
     checked = {label: 0 for label in cls.ref_labels}
+    e_int = np.zeros(env.num_envs)  # the integral of the driven joint's measured error, rad s, held within +-5 deg s
+    driven = type(env.task).driven_joint(env.config.task_options)
     for k in range(steps):
         obs, *_ = env.step(rng.uniform(-0.3, 0.3, (env.num_envs, len(env.action_names))))
+        if driven is not None:
+            e = env.reference()[:, 0] - env.sensors.angles[:, env.free_dofs.index(driven)]
+            e_int = np.clip(e_int + env.dt * e, -5.0 * D, 5.0 * D)
         if k % 10 != 9:
             continue
-        phys = _physical(env, env.reference(), env.sensors.angles, env.sensors.rates)
+        phys = _physical(env, env.reference(), env.sensors.angles, env.sensors.rates, e_int)
         for m, label in enumerate(cls.ref_labels):
             scale = cls.ref_scales[label]
             o = obs[:, k0 + m].astype(np.float64)

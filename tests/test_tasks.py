@@ -66,6 +66,31 @@ def test_pull_up_push_over_reference_gives_the_commanded_normal_acceleration():
     assert np.all(np.abs(ref[:, :, 0]) <= 20.0 * D + 1e-12) and np.all(peak / 9.81 <= 0.19)
 
 
+@pytest.mark.parametrize("airspeed", [15.0, 25.0])
+def test_pull_up_holds_targets_the_compensator_can_trim(airspeed):
+    """Every drawn hold theta_1 lies in HOLDABLE_DEG, and the rig's trim (rig_env.trim, comp_elevator solved for)
+    at both ends of that range needs less than 85 % of the compensator's full deflection: the hold is within reach."""
+    lo, hi = PullUpPushOver.HOLDABLE_DEG
+    task = _task(PullUpPushOver, 4000, ("rig_pitch", "model_pitch"), airspeed=airspeed)
+    step = np.abs(task.theta_1 - task.theta_b)
+    assert np.all((lo * D - 1e-12 <= task.theta_1) & (task.theta_1 <= hi * D + 1e-12))
+    assert np.all((4.0 * D - 1e-12 <= step) & (step <= 10.0 * D + 1e-12)) and step.max() > 9.5 * D
+    full = RigVectorEnv.action_scale_deg  # deg of a normalised action of 1
+    for th in (lo, hi):
+        q0 = np.zeros(5)
+        q0[1] = th * D
+        op = rig_env.trim(rig_env.RigParams.default(), free_dofs=("rig_pitch", "model_pitch"), airspeed=airspeed,
+                          hold={"rig_pitch": th * D}, unknown_inputs=["comp_elevator"], q_guess=q0)
+        assert abs(op.controls_deg["comp_elevator"]) < 0.85 * full, (th, op.controls_deg)
+    # just past the old draws' ends the trim is beyond full deflection (no equilibrium, or more than the stop)
+    for th in (-5.0, 19.0):
+        q0 = np.zeros(5)
+        q0[1] = th * D
+        op = rig_env.trim(rig_env.RigParams.default(), free_dofs=("rig_pitch", "model_pitch"), airspeed=airspeed,
+                          hold={"rig_pitch": th * D}, unknown_inputs=["comp_elevator"], q_guess=q0, max_residual=None)
+        assert op.residual > 1e-6 or abs(op.controls_deg["comp_elevator"]) > full
+
+
 def test_bank_to_bank_reference_steps_every_four_seconds_alternating_sign():
     n = 8
     task = _task(BankToBank, n, ("rig_roll", "rig_yaw", "model_pitch", "model_yaw"), T=17.0)
@@ -252,6 +277,25 @@ def test_free_hawk_flies_in_the_gust_it_is_given(params):
         model.step(zero, np.array([ag]))
     assert model.xg[0, 0] == pytest.approx(-ag, rel=1e-3)  # weathercocked: alpha_a = 0
     assert abs(model.xg[0, 1]) < 1e-4 * ag and abs(model.an[0]) < 1e-3
+
+
+def test_free_flight_reward_scales_are_the_criterions_normaliser():
+    """The reward's per-episode scales, computed at reset, are the RMS over [t0, end] of the free Hawk's response
+    to the pilot input alone, as the episode then accumulates it (the criterion's normaliser), in gusts too."""
+    n = 6
+    env = RigVectorEnv(n, task="free_flight_emulation", turbulence=0.01, airspeed=(15.0, 25.0))
+    env.reset(seed=5)
+    task = env.task
+    s_alpha, s_q = task.s_alpha.copy(), task.s_q.copy()
+    k, q2 = np.zeros(n), np.zeros(n)
+    for _ in range(env.max_steps - 1):  # all but the last step (it starts the next episodes); its terms are < 0.5 %
+        env.step(np.zeros((n, 3)))
+        on = env.t > task.t0 + 0.5 * env.dt
+        k += on
+        q2 += np.where(on, task.model.x[:, 1] ** 2, 0.0)
+    np.testing.assert_allclose(s_alpha, np.sqrt(task.r2 / k), rtol=5e-3)
+    np.testing.assert_allclose(s_q, np.sqrt(q2 / k), rtol=5e-3)
+    assert np.all(s_alpha > 0.5 * D) and np.all(s_q > 3.0 * D)
 
 
 def test_free_flight_reference_flies_the_rigs_gusts_from_the_input_on():

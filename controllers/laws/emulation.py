@@ -27,8 +27,9 @@ time delay), so the gains see the servo and the delay the rig has.  Cost (Bryson
     J = sum e_alpha^2 / a_max^2 + e_q^2 / q_max^2 + (rig_pitch - trim)^2 / th_max^2 + u^2 / u_max(V)^2
 
 with ``e_alpha = alpha_ff - alpha`` (the rig's alpha linearised: rig pitch + model pitch - l cos(theta) rig
-pitch rate / V), ``e_q = q_ff - (rig pitch rate + model pitch rate)``; the maxima start from the task
-reward's own scales (:data:`MAX_DEVIATION`: 1.5 deg, 15 deg/s, and 15 deg of rig pitch, its stop margin)
+pitch rate / V), ``e_q = q_ff - (rig pitch rate + model pitch rate)``; the maxima start from the scales
+the task reward had before it took each episode's own (:data:`MAX_DEVIATION`: 1.5 deg, 15 deg/s, about the
+free Hawk's response RMS to a 1 deg input, and 15 deg of rig pitch, its stop margin)
 and the input's 0.5 (20 deg of flap) at 20 m/s, scaled ``20 / V`` as the other LQRs' (:data:`MAX_INPUT`);
 the e_alpha and e_q maxima are then tightened by the largest factor of :data:`WEIGHT_SCALES` whose loop
 as flown keeps :data:`TARGETS` (GM 6 dB, PM 45 deg) at every design airspeed.
