@@ -138,7 +138,7 @@ def _storer(n: int):
     return njit(**_GENERATED)(ns["store"])
 
 
-load5, load7, load10, load24, load_params = _loader(5), _loader(7), _loader(10), _loader(N_Y), _loader(L.N_PARAMS)
+load5, load7, load10, load24, load_params, load_inputs = _loader(5), _loader(7), _loader(10), _loader(N_Y), _loader(L.N_PARAMS), _loader(L.N_INPUTS)
 store7, store10, store24 = _storer(7), _storer(10), _storer(N_Y)
 
 
@@ -309,7 +309,7 @@ def physics_step(row, flags, free, tabs, h, reuse_decay):
             t = load5(row, OFF_FRIC, lane)
             fric = (t[0] if f0 else 0.0, t[1] if f1 else 0.0, t[2] if f2 else 0.0, t[3] if f3 else 0.0, t[4] if f4 else 0.0)
             k = rhs_values(
-                yt, fric, load7(row, OFF_UD, lane), load10(row, OFF_U, lane), load_params(row, OFF_P, lane), flags, free, tabs,
+                yt, fric, load7(row, OFF_UD, lane), load_inputs(row, OFF_U, lane), load_params(row, OFF_P, lane), flags, free, tabs,
             )  # fmt: skip
             store24(row, OFF_K, lane, k)
             acc = load24(row, OFF_ACC, lane)
