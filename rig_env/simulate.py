@@ -189,7 +189,8 @@ def fill_inputs(U: np.ndarray, t: float, controls: Mapping[str, Schedule], airsp
     The compensator's gust: ``comp_gust`` at t when given; else, with ``distance`` (n,) m (the convection
     distance, :func:`rig_env.turbulence.convection_distance`), the Hawk's gust schedule at t - d / V (frozen
     turbulence, V the airspeed at t, at least ``turbulence.MIN_CONVECTION_SPEED``; a function of time is
-    evaluated at each environment's delayed time, before t = 0 too; a constant is its own delayed value);
+    evaluated at each environment's delayed time, at 0 while that is negative: before the first d / V the
+    compensator meets the gust of t = 0, as in the environments; a constant is its own delayed value);
     without ``distance``, the Hawk's gust at t.  Neither gust given: both stay as they are in U (zero).
     """
     n = U.shape[0]
@@ -205,7 +206,7 @@ def fill_inputs(U: np.ndarray, t: float, controls: Mapping[str, Schedule], airsp
     if comp_gust is not None:
         U[:, comp] = _schedule_value("comp_gust", comp_gust, t, n, 3)
     elif gust is not None and distance is not None and callable(gust):
-        t_comp = t - distance / np.maximum(a, MIN_CONVECTION_SPEED)
+        t_comp = np.maximum(t - distance / np.maximum(a, MIN_CONVECTION_SPEED), 0.0)
         for tc in np.unique(t_comp):  # one call per distinct delayed time (one, unless airspeed or geometry differ)
             rows = t_comp == tc
             U[rows, comp] = _schedule_value("gust", gust, float(tc), n, 3)[rows]
@@ -250,8 +251,8 @@ def simulate(
     from the Hawk's c.g. to the compensator's aerodynamic reference (:func:`rig_env.turbulence.convection_distance`,
     1.18 m for the default rig: 0.059 s at 20 m/s) and V the airspeed at t; with ``gust_convection=False``
     the compensator meets the Hawk's gust at the same time (uniform gusts).  A function of time is called at
-    the delayed times too, negative ones before the Hawk's first gust (the air upstream at the start); a
-    constant gust is the same at both.
+    the delayed times too, at 0 while they are negative (before d / V the compensator meets the gust of
+    t = 0, as in the environments); a constant gust is the same at both.
     aero_model: "linear" (default: the stability derivatives of eq. 23), "tables" (the static high-incidence
     tables) or "unsteady" (the tables through the Hawk's flow-separation state, tau1 dx/dt + x = x0(alpha -
     tau2 alphadot): docs/MODEL.md 3.1.1); nonlinear_aero=True is the older name of "tables".
