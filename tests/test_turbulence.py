@@ -201,8 +201,9 @@ def _env_gusts(steps: int, n: int = 3, seed: int = 5, **fields) -> tuple[RigVect
 def test_env_compensator_gust_is_the_hawks_convected(model):
     """In the environment the compensator's gust at step k is the Hawk's at k - d / (V h), d = 1.18 m, V the
     episode's airspeed, h the control step, interpolated linearly between the Hawk's samples (the first one
-    before the episode); turbulence_convected=False: the Hawk's own at once."""
-    env, hawk, comp = _env_gusts(30, turbulence=0.05, turbulence_model=model, airspeed=(15.0, 25.0))
+    before the episode); turbulence_convected=False: the Hawk's own at once; by default, convected with
+    "dryden", not with "gauss_markov" (whose gusts stay as they were)."""
+    env, hawk, comp = _env_gusts(30, turbulence=0.05, turbulence_model=model, airspeed=(15.0, 25.0), turbulence_convected=True)
     assert np.abs(hawk).max() > 0.1
     for i in range(env.num_envs):
         lag = 1.18 / env.U[i, L.U_AIRSPEED] / env.dt
@@ -216,6 +217,9 @@ def test_env_compensator_gust_is_the_hawks_convected(model):
     _, hawk_u, comp_u = _env_gusts(10, turbulence=0.05, turbulence_model=model, airspeed=(15.0, 25.0), turbulence_convected=False)
     np.testing.assert_array_equal(comp_u, hawk_u)
     np.testing.assert_array_equal(hawk_u, hawk[:11])  # the Hawk's gusts do not depend on the convection
+    _, hawk_d, comp_d = _env_gusts(10, turbulence=0.05, turbulence_model=model, airspeed=(15.0, 25.0))  # the model's default
+    np.testing.assert_array_equal(hawk_d, hawk_u)
+    assert np.array_equal(comp_d, comp[:11]) == (model == "dryden") and np.array_equal(comp_d, hawk_d) == (model == "gauss_markov")
 
 
 def test_env_gauss_markov_gusts_are_the_recursion():
@@ -323,4 +327,6 @@ def test_bad_turbulence_settings_are_errors_naming_the_field(fields, words):
 
 def test_turbulence_defaults():
     c = RigEnvConfig()
-    assert c.turbulence_model == "gauss_markov" and c.turbulence_scale == TUNNEL_SCALE == 0.76 and c.turbulence_convected is True
+    assert c.turbulence_model == "gauss_markov" and c.turbulence_scale == TUNNEL_SCALE == 0.76 and c.turbulence_convected is None
+    assert not c.gusts_convected and RigEnvConfig(turbulence_model="dryden").gusts_convected
+    assert RigEnvConfig(turbulence_convected=True).gusts_convected and not RigEnvConfig(turbulence_model="dryden", turbulence_convected=False).gusts_convected

@@ -244,7 +244,7 @@ class RigVectorEnv(VectorEnv):
         self._phi = float(np.exp(-self.dt / cfg.turbulence_tau))
         gusty = cfg.turbulence > 0.0
         self._dryden = DrydenGusts(n, self.dt, cfg.turbulence_scale) if gusty and cfg.turbulence_model == "dryden" else None
-        self._history = GustHistory(n, self.dt, self._longest_delay()) if gusty and cfg.turbulence_convected else None
+        self._history = GustHistory(n, self.dt, self._longest_delay()) if gusty and cfg.gusts_convected else None
         self._schedule = cfg.pilot_inputs
         self._pilot = np.zeros((n, 3))  # the schedule's Hawk elevator, aileron, rudder, rad
 
