@@ -432,7 +432,8 @@ def rhs(t: float, y: np.ndarray, flaps: np.ndarray, u: np.ndarray, p: np.ndarray
     :func:`compensator_separation_rates`).
 
     flaps (7,) servo positions (rad, rig_env.SERVOS order: four flaps after mixing, Hawk elevator,
-    aileron, rudder); u (N_INPUTS,) with the gust (world, m/s) and airspeed (m/s); p (N_PARAMS,);
+    aileron, rudder); u (N_INPUTS,) with the Hawk's gust, the airspeed and the compensator's gust (world,
+    m/s; the Hawk flies in the tunnel flow plus U_GUST, the compensator's strips in it plus U_GUST_COMP); p (N_PARAMS,);
     flags (layout.F_*); free_idx (n_free,) joint indices; tabs from ``RigParams.tables()``.
     """
     q, qd, z = y[0:5], y[5:10], y[10:15]
@@ -444,7 +445,8 @@ def rhs(t: float, y: np.ndarray, flaps: np.ndarray, u: np.ndarray, p: np.ndarray
     Q = gravity_force(bs, p) + fixture_force(q, p) - h
     if flags & L.F_AERO:
         nonlinear = bool(flags & L.F_NONLINEAR)
-        v_air = np.array([-u[L.U_AIRSPEED], 0.0, 0.0]) + u[L.U_GUST : L.U_GUST + 3]
+        v_air = np.array([-u[L.U_AIRSPEED], 0.0, 0.0]) + u[L.U_GUST : L.U_GUST + 3]  # the air at the Hawk
+        v_air_comp = np.array([-u[L.U_AIRSPEED], 0.0, 0.0]) + u[L.U_GUST_COMP : L.U_GUST_COMP + 3]  # at the compensator
         hawk = bs[2]
         # the Hawk's alpha-dot depends on qdd: its loads are Q0 + Q_ad (g . qdd), moved into M below
         ad0, g = hawk_alpha_dot(kin, hawk, qd, v_air)
@@ -454,9 +456,9 @@ def rhs(t: float, y: np.ndarray, flaps: np.ndarray, u: np.ndarray, p: np.ndarray
             dy[15] = separation_rate(p, kin["Aa"], hawk["Jv"] @ qd - v_air, hawk["Jw"] @ qd, float(y[15]), tabs)
         Q += hawk["Jv"].T @ F + hawk["Jw"].T @ T
         M = M - np.outer(hawk["Jv"].T @ dF + hawk["Jw"].T @ dT, g)
-        Q += compensator_generalized_force(p, kin, qd, v_air, flaps, nonlinear, tabs, y[16:20] if unsteady else None)
+        Q += compensator_generalized_force(p, kin, qd, v_air_comp, flaps, nonlinear, tabs, y[16:20] if unsteady else None)
         if unsteady:
-            dy[16:20] = compensator_separation_rates(p, kin, qd, v_air, y[16:20], tabs)
+            dy[16:20] = compensator_separation_rates(p, kin, qd, v_air_comp, y[16:20], tabs)
     for j in free_idx:
         if flags & L.F_FRICTION:
             tau_f, dy[10 + j] = friction_torque(p, j, qd[j], z[j])

@@ -17,6 +17,7 @@ import numpy as np
 from rig_env.params import JOINTS, SURFACES, ParameterError, RigParams, param_batch
 from rig_env.physics import layout as L
 from rig_env.physics.pipeline import PhysicsBatch, delay_line, flags_of, rates, resolve_aero_model  # noqa: F401  (delay_line: re-exported)
+from rig_env.turbulence import MIN_CONVECTION_SPEED, convection_distance
 
 Schedule = float | Sequence[float] | np.ndarray | Callable[[float], "float | Sequence[float] | np.ndarray"]
 """A signal over time: a constant, a per-environment (or per-component: a gust's three) sequence or array,
@@ -180,8 +181,18 @@ def check_controls(controls: Mapping[str, Schedule] | None) -> dict[str, Schedul
     return controls
 
 
-def fill_inputs(U: np.ndarray, t: float, controls: Mapping[str, Schedule], airspeed: Schedule, gust: Schedule | None) -> None:
-    """Inputs of every environment at time t: surface commands (deg -> rad), gust, airspeed."""
+def fill_inputs(U: np.ndarray, t: float, controls: Mapping[str, Schedule], airspeed: Schedule, gust: Schedule | None,
+                comp_gust: Schedule | None = None, distance: np.ndarray | None = None) -> None:
+    """Inputs of every environment at time t: surface commands (deg -> rad), the Hawk's gust, airspeed and the
+    compensator's gust.
+
+    The compensator's gust: ``comp_gust`` at t when given; else, with ``distance`` (n,) m (the convection
+    distance, :func:`rig_env.turbulence.convection_distance`), the Hawk's gust schedule at t - d / V (frozen
+    turbulence, V the airspeed at t, at least ``turbulence.MIN_CONVECTION_SPEED``; a function of time is
+    evaluated at each environment's delayed time, at 0 while that is negative: before the first d / V the
+    compensator meets the gust of t = 0, as in the environments; a constant is its own delayed value);
+    without ``distance``, the Hawk's gust at t.  Neither gust given: both stay as they are in U (zero).
+    """
     n = U.shape[0]
     for k, name in enumerate(SURFACES):
         U[:, k] = np.radians(_schedule_value(f"controls[{name!r}]", controls[name], t, n)) if name in controls else 0.0
@@ -191,6 +202,16 @@ def fill_inputs(U: np.ndarray, t: float, controls: Mapping[str, Schedule], airsp
     if np.any((a < 0.0) | (a > 60.0)):
         raise ValueError(f"airspeed = {a.min():.3g}..{a.max():.3g} m/s is outside the allowed range [0, 60] m/s")
     U[:, L.U_AIRSPEED] = a
+    comp = slice(L.U_GUST_COMP, L.U_GUST_COMP + 3)
+    if comp_gust is not None:
+        U[:, comp] = _schedule_value("comp_gust", comp_gust, t, n, 3)
+    elif gust is not None and distance is not None and callable(gust):
+        t_comp = np.maximum(t - distance / np.maximum(a, MIN_CONVECTION_SPEED), 0.0)
+        for tc in np.unique(t_comp):  # one call per distinct delayed time (one, unless airspeed or geometry differ)
+            rows = t_comp == tc
+            U[rows, comp] = _schedule_value("gust", gust, float(tc), n, 3)[rows]
+    elif gust is not None:
+        U[:, comp] = U[:, L.U_GUST : L.U_GUST + 3]
 
 
 def simulate(
@@ -203,6 +224,8 @@ def simulate(
     controls: Mapping[str, Schedule] | None = None,
     airspeed: Schedule = 20.0,
     gust: Schedule | None = None,
+    comp_gust: Schedule | None = None,
+    gust_convection: bool = True,
     aero: bool = True,
     friction: bool = True,
     stops: bool = True,
@@ -222,7 +245,14 @@ def simulate(
     10 deg past its stops, locked or free; an unlimited one beyond 1e4 rad; a rate at the runaway bound).
     controls: surface name -> degrees (constant, (n_envs,) array, or function of time returning
     either), held over each control step.  airspeed: m/s (same forms).  gust: world-frame air
-    velocity added to the tunnel flow, m/s, shape (3,) or (n_envs, 3) or a function of time.
+    velocity added to the tunnel flow at the Hawk, m/s, shape (3,) or (n_envs, 3) or a function of time.
+    comp_gust: the same at the compensator (same forms); None (default): the Hawk's gust convected
+    downstream (Taylor's frozen turbulence), the gust schedule at t - d / V with d the streamwise distance
+    from the Hawk's c.g. to the compensator's aerodynamic reference (:func:`rig_env.turbulence.convection_distance`,
+    1.18 m for the default rig: 0.059 s at 20 m/s) and V the airspeed at t; with ``gust_convection=False``
+    the compensator meets the Hawk's gust at the same time (uniform gusts).  A function of time is called at
+    the delayed times too, at 0 while they are negative (before d / V the compensator meets the gust of
+    t = 0, as in the environments); a constant gust is the same at both.
     aero_model: "linear" (default: the stability derivatives of eq. 23), "tables" (the static high-incidence
     tables) or "unsteady" (the tables through the Hawk's flow-separation state, tau1 dx/dt + x = x0(alpha -
     tau2 alphadot): docs/MODEL.md 3.1.1); nonlinear_aero=True is the older name of "tables".
@@ -258,7 +288,8 @@ def simulate(
     n_t = int(round(t_final / control_dt)) + 1
     batch = PhysicsBatch(P, tabs, free_idx, flags, h, n_sub, kind=formulation)
     U = batch.U
-    fill_inputs(U, 0.0, controls, airspeed, gust)
+    distance = convection_distance(P) if gust_convection else None
+    fill_inputs(U, 0.0, controls, airspeed, gust, comp_gust, distance)
     batch.reset(np.arange(n), X[:, L.X_Q : L.X_Q + 5], X[:, L.X_QD : L.X_QD + 5])  # servos at rest at the first command
     status = batch.status
     fail_time = np.full(n, np.nan)
@@ -276,7 +307,7 @@ def simulate(
     record(0)
     for i in range(1, n_t):
         t_prev = (i - 1) * control_dt
-        fill_inputs(U, t_prev, controls, airspeed, gust)
+        fill_inputs(U, t_prev, controls, airspeed, gust, comp_gust, distance)
         before = status.copy()
         batch.step()
         newly = (status != L.S_OK) & (before == L.S_OK)

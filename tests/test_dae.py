@@ -99,6 +99,7 @@ def test_structured_solve_equals_literal_paper_system(rig):
         U = np.zeros((n, L.N_INPUTS))
         U[:, L.U_AIRSPEED] = 20.0
         U[:, L.U_GUST : L.U_GUST + 3] = rng.normal(0.0, 1.0, (n, 3))
+        U[:, L.U_GUST_COMP : L.U_GUST_COMP + 3] = rng.normal(0.0, 1.0, (n, 3))
         free = free_of(locked)
         acc = np.zeros((n, 15))
         loads = np.zeros((n, 15))

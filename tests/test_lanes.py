@@ -57,6 +57,7 @@ def run_both(X, P, delay, dbuf, free_idx, flags, steps, rng, h=0.0025, n_sub=5):
         U[:, :6] = rng.uniform(-0.5, 0.5, (n, 6))  # surface commands, rad
         U[:, L.U_GUST : L.U_GUST + 3] = rng.normal(0.0, 0.5, (n, 3))
         U[:, L.U_AIRSPEED] = rng.uniform(15.0, 25.0, n)
+        U[:, L.U_GUST_COMP : L.U_GUST_COMP + 3] = rng.normal(0.0, 0.5, (n, 3))
         I.step_serial(Xa, da, k * n_sub, delay, P, U, flags, free_idx, len(free_idx), tabs, h, n_sub, sa, Wk, MW)
         step(Xb, db, k * n_sub, delay, P, U, flags, free_idx, len(free_idx), tabs, h, n_sub, sb, S, k == 0, *lit)  # P packed once
     return Xa, Xb, sa, sb, da, db

@@ -76,12 +76,13 @@ def random_state(rng: np.random.Generator, p: np.ndarray, free_idx: np.ndarray) 
 
 
 def random_inputs(rng: np.random.Generator, case: str) -> tuple[np.ndarray, np.ndarray]:
-    """(flaps (7,) rad, u (N_INPUTS,)): servo positions to +-40 deg, gusts to +-4 m/s."""
+    """(flaps (7,) rad, u (N_INPUTS,)): servo positions to +-40 deg, gusts to +-4 m/s (the Hawk's and the compensator's)."""
     flaps = rng.uniform(-0.7, 0.7, 7)
     u = np.zeros(L.N_INPUTS)
     if case != "wind_off":
         u[L.U_AIRSPEED] = rng.uniform(5.0, 35.0)
         u[L.U_GUST : L.U_GUST + 3] = rng.uniform(-4.0, 4.0, 3)
+        u[L.U_GUST_COMP : L.U_GUST_COMP + 3] = rng.uniform(-4.0, 4.0, 3)  # the compensator's own gust, independent
     return flaps, u
 
 

@@ -46,13 +46,13 @@ def alpha_of_gust(p: np.ndarray, q: np.ndarray, gz: float) -> float:
 def locked_run(params: RigParams, q: np.ndarray, gusts: np.ndarray, x_start: float | None, control_rate: float, kind: str = "joint",
                hawk_only: bool = True) -> tuple[np.ndarray, float]:
     """The Hawk's x (or, hawk_only False, all five separation states) after every control step with every joint
-    locked at q and the vertical gust gusts[k] held over step k (x_start: every separation state at t = 0,
+    locked at q and the vertical gust gusts[k] held over step k at the Hawk and the compensator alike (x_start: every separation state at t = 0,
     None: the kernel's steady values), and the control step (s)."""
     control_dt, h, n_sub = rig_env.simulate.__globals__["rates"](control_rate, None)
     P = params.to_vector()[None, :]
     batch = PhysicsBatch(P.copy(), params.tables(), np.zeros(0, dtype=np.int64), UNSTEADY, h, n_sub, kind=kind)
     batch.U[:, L.U_AIRSPEED] = V
-    batch.U[:, L.U_GUST + 2] = gusts[0]
+    batch.U[:, L.U_GUST + 2] = batch.U[:, L.U_GUST_COMP + 2] = gusts[0]
     batch.reset(np.arange(1), q[None, :], np.zeros((1, 5)))
     if x_start is not None:
         batch.X[0, L.X_SEP : L.X_SEP + L.N_SEP] = x_start
@@ -61,7 +61,7 @@ def locked_run(params: RigParams, q: np.ndarray, gusts: np.ndarray, x_start: flo
     out = np.empty((len(gusts) + 1, L.N_SEP))
     out[0] = batch.X[0, L.X_SEP : L.X_SEP + L.N_SEP]
     for k, g in enumerate(gusts):
-        batch.U[:, L.U_GUST + 2] = g
+        batch.U[:, L.U_GUST + 2] = batch.U[:, L.U_GUST_COMP + 2] = g
         batch.step()
         out[k + 1] = batch.X[0, L.X_SEP : L.X_SEP + L.N_SEP]
     return (out[:, 0] if hawk_only else out), control_dt
@@ -253,7 +253,8 @@ def test_kernel_equals_the_numpy_model_with_the_separation_state(params):
                 u[L.U_AIRSPEED] = rng.uniform(10.0, 30.0)
                 u[L.U_GUST : L.U_GUST + 3] = rng.uniform(-3.0, 3.0, 3)
                 u[L.U_HAWK_ELEVATOR] = rng.uniform(-0.2, 0.2)
-                u[L.U_GUST : L.U_GUST + 3] = rng.uniform(-8.0, 8.0, 3)  # the compensator's panels past their stall too
+                u[L.U_GUST : L.U_GUST + 3] = rng.uniform(-8.0, 8.0, 3)
+                u[L.U_GUST_COMP : L.U_GUST_COMP + 3] = rng.uniform(-8.0, 8.0, 3)  # the compensator's panels past their stall too
                 xs = rng.uniform(0.0, 1.0, 5)
                 y = np.concatenate([q, qd, np.zeros(5), xs])
                 ref = nm.rhs(0.0, y, _flaps(u, p), u, p, UNSTEADY, idx, tabs)

@@ -22,7 +22,10 @@ Errors are ``ValueError`` naming the field and its allowed range.  ``None`` in a
 | link_delay_steps | 1 | control steps, [0, 50] | wireless telemetry delay |
 | rate_filter_hz | 10.0 | Hz, [0.1, control_rate / 2] | low-pass of the rate estimate |
 | turbulence | 0.0 | fraction of airspeed, [0, 0.3] | gust intensity (1 sigma, per axis) |
-| turbulence_tau | 0.2 | s, [0.01, 10] | gust correlation time (first-order Gauss-Markov) |
+| turbulence_model | "gauss_markov" | "gauss_markov" or "dryden" | gust spectrum: first-order Gauss-Markov per world axis (correlation time ``turbulence_tau``), or Dryden's longitudinal, lateral and vertical forms at length scale ``turbulence_scale`` (:mod:`rig_env.turbulence`) |
+| turbulence_tau | 0.2 | s, [0.01, 10] | gust correlation time (gauss_markov) |
+| turbulence_scale | 0.76 | m, [0.01, 10] | longitudinal integral scale (dryden); estimate: half the 5 ft height of the tunnel's test section (``turbulence.TUNNEL_SCALE``) |
+| turbulence_convected | None (model's) | bool | True: the compensator meets the Hawk's gust d / V later (frozen turbulence, d = 1.18 m on the default rig); False: the same gust at both at once; None: True with "dryden", False with "gauss_markov" (its gusts as they always were, bit for bit) |
 | randomise | {} | param -> (lo, hi), file units | per-episode uniform draw of rig parameters |
 | hawk_surfaces | False | bool | Hawk elevator, aileron, rudder are actions too |
 | aero_model | None (task's) | "linear", "tables" or "unsteady" | aerodynamic model: stability derivatives, static high-incidence tables, or the tables through the Hawk's flow-separation state (departure_recovery: "tables" by default) |
@@ -51,6 +54,7 @@ from typing import Any, Mapping
 from rig_env.params import JOINTS, PARAM_INDEX
 from rig_env.physics.pipeline import check_aero_model, resolve_aero_model
 from rig_env.signals import InputSchedule
+from rig_env.turbulence import SCALE_RANGE, TUNNEL_SCALE, TURBULENCE_MODELS
 
 MAX_AIRSPEED = 40.0  # m/s: the Bristol 7x5 ft tunnel's working range for the rig
 
@@ -84,7 +88,10 @@ class RigEnvConfig:
     link_delay_steps: int = 1
     rate_filter_hz: float = 10.0
     turbulence: float = 0.0
+    turbulence_model: str = "gauss_markov"
     turbulence_tau: float = 0.2
+    turbulence_scale: float = TUNNEL_SCALE
+    turbulence_convected: bool | None = None
     randomise: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     hawk_surfaces: bool = False
     aero_model: str | None = None
@@ -139,7 +146,10 @@ class RigEnvConfig:
         _range("link_delay_steps", self.link_delay_steps, 0, 50, "control steps")
         _range("rate_filter_hz", self.rate_filter_hz, 0.1, self.control_rate / 2.0, "Hz")
         _range("turbulence", self.turbulence, 0.0, 0.3, "(fraction of airspeed)")
+        if self.turbulence_model not in TURBULENCE_MODELS:
+            raise ValueError(f"turbulence_model = {self.turbulence_model!r}: one of {list(TURBULENCE_MODELS)}")
         _range("turbulence_tau", self.turbulence_tau, 0.01, 10.0, "s")
+        _range("turbulence_scale", self.turbulence_scale, SCALE_RANGE[0], SCALE_RANGE[1], "m")
         rnd: dict[str, tuple[float, float]] = {}
         for name, bounds in dict(self.randomise).items():
             if name not in PARAM_INDEX:
@@ -155,13 +165,20 @@ class RigEnvConfig:
         if self.pilot_inputs is not None and not isinstance(self.pilot_inputs, InputSchedule):
             raise ValueError(f"pilot_inputs = {self.pilot_inputs!r}: must be a rig_env.signals.InputSchedule or None "
                              "(InputSchedule.from_data / load build one from plain data)")
-        for name in ("quantise", "hawk_surfaces", "nonlinear_aero"):
+        for name in ("quantise", "hawk_surfaces", "turbulence_convected", "nonlinear_aero"):
             v = getattr(self, name)
-            if not isinstance(v, bool) and not (name == "nonlinear_aero" and v is None):
-                raise ValueError(f"{name} = {v!r}: must be True or False" + (" (or None: the task's default)" if name == "nonlinear_aero" else ""))
+            if not isinstance(v, bool) and not (name in ("nonlinear_aero", "turbulence_convected") and v is None):
+                default = {"nonlinear_aero": " (or None: the task's default)", "turbulence_convected": " (or None: the turbulence model's default)"}
+                raise ValueError(f"{name} = {v!r}: must be True or False" + default.get(name, ""))
         if self.aero_model is not None:
             check_aero_model(self.aero_model)  # ValueError naming aero_model and the allowed values
             resolve_aero_model(self.aero_model, self.nonlinear_aero)  # and the older switch must not contradict it
+
+    @property
+    def gusts_convected(self) -> bool:
+        """Whether the compensator meets the Hawk's gust d / V later: ``turbulence_convected``, or when that is
+        None, True for the "dryden" model and False for "gauss_markov" (uniform gusts, as they always were)."""
+        return self.turbulence_model == "dryden" if self.turbulence_convected is None else self.turbulence_convected
 
     def with_overrides(self, **overrides: Any) -> "RigEnvConfig":
         """A copy with fields replaced; an unknown name is a ValueError listing the valid ones."""

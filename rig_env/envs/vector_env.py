@@ -69,6 +69,7 @@ from rig_env.envs.tasks import TASKS
 from rig_env.params import JOINTS, PARAM_INDEX, RigParams, param_batch
 from rig_env.physics import layout as L
 from rig_env.physics.pipeline import PhysicsBatch, flags_of, rates, resolve_aero_model
+from rig_env.turbulence import MIN_CONVECTION_SPEED, DrydenGusts, GustHistory, convection_delay
 
 ACTION_SCALE_DEG = 40.0
 _RAD_PER_ACTION = math.radians(ACTION_SCALE_DEG)
@@ -239,8 +240,22 @@ class RigVectorEnv(VectorEnv):
         self.gust = np.zeros((n, 3))
         self.prev_action = np.zeros((n, len(self.action_names)))
         self._phi = float(np.exp(-self.dt / cfg.turbulence_tau))
+        gusty = cfg.turbulence > 0.0
+        self._dryden = DrydenGusts(n, self.dt, cfg.turbulence_scale) if gusty and cfg.turbulence_model == "dryden" else None
+        self._history = GustHistory(n, self.dt, self._longest_delay()) if gusty and cfg.gusts_convected else None
         self._schedule = cfg.pilot_inputs
         self._pilot = np.zeros((n, 3))  # the schedule's Hawk elevator, aileron, rudder, rad
+
+    def _longest_delay(self) -> float:
+        """s: the longest convection delay (:func:`rig_env.turbulence.convection_delay`) of the configuration:
+        the largest arm length and Hawk c.g. x and the smallest compensator reference x of the randomisation
+        ranges, at the lowest airspeed of the range (at least MIN_CONVECTION_SPEED)."""
+        row = self.base_row.copy()
+        for name, col, hi in (("geometry.arm_length", L.P_GEOMETRY_ARM_LENGTH, True), ("geometry.hawk_cg_x", L.P_GEOMETRY_HAWK_CG_X, True),
+                              ("geometry.comp_aero_x", L.P_GEOMETRY_COMP_AERO_X, False)):
+            if name in self.config.randomise:
+                row[col] = self.config.randomise[name][1 if hi else 0]
+        return float(convection_delay(row, max(self.airspeed_range[0], MIN_CONVECTION_SPEED))[0])
 
     # ------------------------------------------------------------------ reset
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
@@ -296,9 +311,17 @@ class RigVectorEnv(VectorEnv):
         q0, qd0 = self.task.reset(idx, rs.uniform(keys, ep, 0, rs.S_REFERENCE, self.task.n_draws))
         q0[:, self.locked] = self.q_locked[self.locked]
         qd0[:, self.locked] = 0.0
-        self.gust[idx] = self.config.turbulence * self.airspeed[idx, None] * rs.normal(keys, ep, 0, rs.S_TURBULENCE, 3)
+        if self._dryden is None:
+            self.gust[idx] = self.config.turbulence * self.airspeed[idx, None] * rs.normal(keys, ep, 0, rs.S_TURBULENCE, 3)
+        else:  # started in the stationary distribution of the episode's airspeed
+            sigma = self.config.turbulence * self.airspeed[idx]
+            self._dryden.reset(idx, self.airspeed[idx], sigma, rs.normal(keys, ep, 0, rs.S_TURBULENCE, DrydenGusts.N_NORMALS))
+            self.gust[idx] = self._dryden.gust()[idx]
+        if self._history is not None:  # the compensator's gust: the Hawk's, convection_delay later
+            self._history.reset(idx, self.gust[idx], convection_delay(self.P[idx], self.airspeed[idx]))
         self.U[idx] = 0.0  # zero surface commands: the reset below starts the servos at rest at 0
         self.U[idx, L.U_GUST : L.U_GUST + 3] = self.gust[idx]
+        self.U[idx, L.U_GUST_COMP : L.U_GUST_COMP + 3] = self.gust[idx]
         self.U[idx, L.U_AIRSPEED] = self.airspeed[idx]
         self.physics.reset(idx, q0, qd0)  # bristles zero, servos at rest at 0, delay lines zero, status ok
         self.steps[idx], self.t[idx], self.prev_action[idx] = 0, 0.0, 0.0
@@ -413,10 +436,14 @@ class RigVectorEnv(VectorEnv):
         else:
             self._scheduled_inputs(a)
         if self.config.turbulence > 0.0:
-            nz = rs.normal(self.keys, self.episode, self.steps + 1, rs.S_TURBULENCE, 3)
-            sig = self.config.turbulence * self.airspeed[:, None]
-            self.gust = self._phi * self.gust + np.sqrt(1.0 - self._phi**2) * sig * nz
+            if self._dryden is None:  # gauss_markov
+                nz = rs.normal(self.keys, self.episode, self.steps + 1, rs.S_TURBULENCE, 3)
+                sig = self.config.turbulence * self.airspeed[:, None]
+                self.gust = self._phi * self.gust + np.sqrt(1.0 - self._phi**2) * sig * nz
+            else:
+                self.gust = self._dryden.step(rs.normal(self.keys, self.episode, self.steps + 1, rs.S_TURBULENCE, DrydenGusts.N_NORMALS))
             self.U[:, L.U_GUST : L.U_GUST + 3] = self.gust
+            self.U[:, L.U_GUST_COMP : L.U_GUST_COMP + 3] = self.gust if self._history is None else self._history.push(self.gust)
         self.advance_physics()
         self.steps += 1
         self.t = self.steps * self.dt

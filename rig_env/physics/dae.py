@@ -58,7 +58,7 @@ from rig_env.physics.dae_rotations import (  # noqa: F401  (re-exported)
 from rig_env.physics.dae_solve import accelerations, project  # noqa: F401  (re-exported)
 from rig_env.physics.integrator import push_demands
 from rig_env.physics.aero import comp_separation_relax, hawk_flow, separation_relax
-from rig_env.physics.joint_space import air_velocity, frames, velocities
+from rig_env.physics.joint_space import air_velocity, comp_air_velocity, frames, velocities
 
 _JIT = dict(cache=True, error_model="numpy", _nrt=False)  # allocation-free kernels: no NRT refcounting
 _JIT_BATCH = dict(cache=True, error_model="numpy")  # batch drivers that allocate small scratch
@@ -95,7 +95,8 @@ def rhs_dae(yr, tgt, z, xs, ud, u, p, flags, free_idx, n_free, locked, n_locked,
 def half_separation_step_dae(y, u, p, tabs, h):
     """The flow-separation states y[Y_SEP:Y_SEP + 5] over h/2 at the bodies' state y (as the joint-space
     integrator's half step: :func:`rig_env.physics.aero.separation_relax` at the Hawk's flow angles,
-    :func:`rig_env.physics.aero.comp_separation_relax` at the compensator reference point's flow)."""
+    :func:`rig_env.physics.aero.comp_separation_relax` at the compensator reference point's flow in its own air,
+    U_GUST_COMP)."""
     Aa, As = body_matrices(y)
     w_a, w_s = world_rates(y, Aa, As)
     v_air = air_velocity(u)
@@ -103,7 +104,7 @@ def half_separation_step_dae(y, u, p, tabs, h):
     y[Y_SEP] = separation_relax(p, alpha, V, adot, y[Y_SEP], 0.5 * h, tabs[0], tabs[1])
     lever = sub(scale(col(As, 0), p[L.P_GEOMETRY_COMP_AERO_X]), vec3(y, Y_RS))  # ref point - arm c.g. (as dae_loads)
     v_ref = add(vec3(y, Y_VS), cross(w_s, lever))
-    c = comp_separation_relax(p, mtv(As, sub(v_ref, v_air)), mtv(As, w_s), (y[Y_SEP + 1], y[Y_SEP + 2], y[Y_SEP + 3], y[Y_SEP + 4]),
+    c = comp_separation_relax(p, mtv(As, sub(v_ref, comp_air_velocity(u))), mtv(As, w_s), (y[Y_SEP + 1], y[Y_SEP + 2], y[Y_SEP + 3], y[Y_SEP + 4]),
                               0.5 * h, tabs[3], tabs[4])
     for k in range(4):
         y[Y_SEP + 1 + k] = c[k]

@@ -302,8 +302,26 @@ def potential_energy(q, p):
 
 @njit(**_JIT)
 def air_velocity(u):
-    """Air velocity (world, m/s): the tunnel flow along -x plus the gust."""
+    """Air velocity at the Hawk (world, m/s): the tunnel flow along -x plus the Hawk's gust (U_GUST)."""
     return (-u[L.U_AIRSPEED] + u[L.U_GUST], u[L.U_GUST + 1], u[L.U_GUST + 2])
+
+
+@njit(**_JIT)
+def comp_air_velocity(u):
+    """Air velocity at the compensator (world, m/s): the tunnel flow along -x plus the compensator's own gust
+    (U_GUST_COMP: the Hawk's convected downstream, :mod:`rig_env.turbulence`, or whatever a caller sets)."""
+    return (-u[L.U_AIRSPEED] + u[L.U_GUST_COMP], u[L.U_GUST_COMP + 1], u[L.U_GUST_COMP + 2])
+
+
+@inlined(**_JIT)
+def world_to_arm(v, sp, cp, cs, ts):
+    """World vector v in arm axes, A_s^T v = Rx(phi)^T Ry(theta)^T Rz(psi)^T v; (sp, cp) = sin, cos of rig
+    yaw psi, cs = (cos, sin) of rig roll phi, ts = (cos, sin) of rig pitch theta (:func:`arm_kinematics`)."""
+    cf, sf = cs
+    ct, st = ts
+    v1 = (cp * v[0] + sp * v[1], cp * v[1] - sp * v[0], v[2])
+    v2 = (ct * v1[0] - st * v1[2], v1[1], st * v1[0] + ct * v1[2])
+    return (v2[0], cf * v2[1] + sf * v2[2], cf * v2[2] - sf * v2[1])
 
 
 @inlined(**_JIT)
@@ -416,11 +434,14 @@ def hawk_air(q, u, p, kin):
 def air_flows(q, qd, u, p):
     """What the separation states see at joint state (q, qd) and inputs u: the Hawk's angle of attack,
     airspeed and alpha-dot from the velocities (:func:`rig_env.physics.aero.hawk_flow`), and the
-    compensator's reference point velocity relative to the air and the arm's angular velocity (arm axes)."""
+    compensator's reference point velocity relative to its own air (tunnel flow and U_GUST_COMP) and the
+    arm's angular velocity (arm axes)."""
     kin = arm_kinematics(q, qd, p)
     v_air_s, v_a = hawk_air(q, u, p, kin)
     w_s = kin[5]
-    return hawk_flow(kin[0], v_a, kin[6], v_air_s), sub(cross_x(w_s, p[L.P_GEOMETRY_COMP_AERO_X]), v_air_s), w_s
+    sp, cp = vmath.sincos(q[L.J_RIG_YAW])
+    v_air_c = world_to_arm(comp_air_velocity(u), sp, cp, kin[1], kin[9])  # the compensator's own air (its gust)
+    return hawk_flow(kin[0], v_a, kin[6], v_air_s), sub(cross_x(w_s, p[L.P_GEOMETRY_COMP_AERO_X]), v_air_c), w_s
 
 
 @inlined(**_JIT)
@@ -518,7 +539,8 @@ def forces(q, qd, fric, xs, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
         D = joint_projection(add(cross(r_a, fd), md), add(cross(rho, fd), md), cs, a2, sc)
         Gv = joint_projection(cross(r_a, n), cross(rho, n), cs, a2, sc)
         x_ref = p[L.P_GEOMETRY_COMP_AERO_X]
-        fc, tc = comp_aero_arm(p, sub(cross_x(w_s, x_ref), v_air_s), w_s, flaps, nonlinear, tabs[3], tabs[4], unrolled, unsteady,
+        v_air_c = world_to_arm(comp_air_velocity(u), sp, cp, cs, ts)  # the compensator's own air: its gust U_GUST_COMP
+        fc, tc = comp_aero_arm(p, sub(cross_x(w_s, x_ref), v_air_c), w_s, flaps, nonlinear, tabs[3], tabs[4], unrolled, unsteady,
                                (xs[1], xs[2], xs[3], xs[4]))
         t_arm = add(t_arm, add(x_cross(x_ref, fc), tc))
     t_pivot = add(t_arm, add(cross(r_a, f_a), t_a))

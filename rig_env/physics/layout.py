@@ -178,7 +178,8 @@ N_SEP = 5
 N_STATE = 34
 N_SERVOS = 7
 
-# ---- inputs per control step: surface commands (rad, rig_env.SURFACES order), gust (m/s, world), airspeed (m/s)
+# ---- inputs per control step: surface commands (rad, rig_env.SURFACES order), the Hawk's gust (m/s, world), airspeed (m/s),
+#      the compensator's gust (m/s, world: the Hawk's convected downstream, rig_env.turbulence; zero when nobody sets it)
 U_COMP_AILERON = 0
 U_COMP_ELEVATOR = 1
 U_COMP_RUDDER = 2
@@ -187,7 +188,8 @@ U_HAWK_AILERON = 4
 U_HAWK_RUDDER = 5
 U_GUST = 6   # 3 components, world axes
 U_AIRSPEED = 9
-N_INPUTS = 10
+U_GUST_COMP = 10  # 3 components, world axes
+N_INPUTS = 13
 
 # ---- feature flags of a simulation
 F_AERO = 1

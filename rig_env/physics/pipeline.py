@@ -231,7 +231,8 @@ class PhysicsBatch:
                                      positions (rad) and rates (rad/s); ``layout.X_*``
     P            (n, N_PARAMS)       parameter rows, SI units and rad (``layout.P_*``)
     U            (n, N_INPUTS)       inputs held over the next control step: surface commands (rad),
-                                     gust (m/s, world), airspeed (m/s) (``layout.U_*``)
+                                     the Hawk's gust (m/s, world), airspeed (m/s), the
+                                     compensator's gust (m/s, world) (``layout.U_*``)
     dbuf         (n, n_buf, 7)       servo delay lines of limited demands, rad
     delay_steps  (n, 2) int64        compensator and Hawk servo delays, physics steps
     status       (n,) int8           0 ok, else the blow-up code (``layout.S_*``); a flagged

@@ -14,7 +14,9 @@ batch and calls the task with (n, ...) arrays at the control rate, in this order
 | time limit | ``success(q, qd, ref, metrics)`` | success flag of the envs that reached it (metrics include the task's) |
 
 Disturbances: a task's pilot inputs on the Hawk surfaces (3-2-1-1s, pulses; :meth:`Task.pilot_inputs`)
-and, for every task, the configuration's gusts (``turbulence``, ``turbulence_tau``; off by default).
+and, for every task, the configuration's gusts (``turbulence``, ``turbulence_model``, ``turbulence_tau`` or
+``turbulence_scale``, ``turbulence_convected``; off by default).  ``air(gust)`` gets the Hawk's gust; the
+compensator meets it convected downstream (:mod:`rig_env.turbulence`).
 Every reward has one form (:meth:`Task.shaped_reward`), from the task's tracking cost ``c >= 0`` (squared
 errors over their scales, in each task's docstring) and the control cost ``c_u >= 0``:
 

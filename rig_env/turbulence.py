@@ -1,0 +1,229 @@
+"""Tunnel turbulence: the Dryden gust spectrum and the gust's convection from the Hawk to the compensator.
+
+**Dryden spectrum** (MIL-F-8785C; Hoblit, Gust Loads on Aircraft, ch. 3).  With the longitudinal integral
+scale L (m), the intensity sigma (m/s, the same on every axis: isotropic turbulence), the airspeed V and
+T = L / V (s), the gust components along the flow (u), across it (v) and vertically (w) are stationary
+Gaussian processes with the autocorrelations and one-sided power spectra (omega in rad/s,
+integral over 0 < omega < inf of Phi = sigma^2)
+
+    R_u(tau) = sigma^2 exp(-|tau| / T),                           Phi_u = sigma^2 (2 T / pi) / (1 + (T omega)^2)
+    R_v(tau) = sigma^2 (1 - |tau| / (2 T)) exp(-|tau| / T),      Phi_v = sigma^2 (T / pi) (1 + 3 (T omega)^2) / (1 + (T omega)^2)^2
+
+and w as v.  One L serves all three: the transverse correlation of isotropic turbulence follows from the
+longitudinal one, g(r) = f + (r / 2) f', which is R_v for f = exp(-r / L) (its integral scale is L / 2).
+They are the outputs of shaping filters driven by unit white noise (two-sided spectral density 1):
+
+    u: sigma sqrt(2 T) / (1 + T s),     v, w: sigma sqrt(T) (1 + sqrt(3) T s) / (1 + T s)^2.
+
+Discretisation: exact at the control step h (the sampled filter states have exactly the continuous
+process's statistics at the sample times: Astrom, Introduction to Stochastic Control Theory, ch. 3).
+u is first order, u_{k+1} = phi u_k + sigma sqrt(1 - phi^2) n_k, phi = exp(-h / T) (the
+Gauss-Markov recursion with tau = L / V).  v and w have the states x = (x1, x1'), x1'' = -a^2 x1 - 2 a x1'
++ white noise (a = 1 / T), output sigma sqrt(T) a^2 (x1 + sqrt(3) T x1'):
+
+    x_{k+1} = Phi x_k + chol(Q) n_k,   Phi = e^{-a h} [[1 + a h, h], [-a^2 h, 1 - a h]],
+    Q = int_0^h e^{-2 a s} [[s^2, s (1 - a s)], [s (1 - a s), (1 - a s)^2]] ds
+
+(Q's integrals are incomplete gamma functions, accurate for any a h), started in the stationary
+covariance diag(1 / (4 a^3), 1 / (4 a)).  Each component is held over the control step it is drawn for
+(the gust inputs' zero-order hold, as the Gauss-Markov gusts are).
+
+World axes: the tunnel flow is along -x, so the longitudinal gust u adds (-u, 0, 0) (a positive u is
+faster air); v is along +y, w along +z (down).
+
+**Convection** (Taylor's frozen turbulence): the gust field moves with the flow, so the compensator,
+d = arm_length + hawk_cg_x - comp_aero_x (m) downstream of the Hawk's c.g. on the straight arm, meets the
+air the Hawk met d / V earlier.  :class:`GustHistory` keeps each environment's Hawk gusts at the control
+rate and gives the compensator's, the Hawk's delayed by d / V, interpolated linearly between samples.
+Resolution: the gusts are held over control steps, so the compensator's gust is itself a control-rate
+signal: the delay is resolved to a fraction of a step, but no content above half the control rate exists
+to be delayed.  Linear interpolation is exact for a signal linear between samples; a sinusoid of
+frequency f is attenuated by at worst cos(pi f h) (half-way between samples): 5 % at a tenth of the
+control rate (8 Hz at 80 Hz, where, at 20 m/s and L = 0.76 m, u's spectrum is a fifth of its level at
+zero frequency and v's and w's a half).
+The distance is the straight arm's: rig yaw and pitch change the streamwise separation by their
+cosine (1 - cos 10 deg = 1.5 %), which is left out.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rig_env.physics import layout as L
+
+TURBULENCE_MODELS = ("gauss_markov", "dryden")
+"""``turbulence_model`` values: the first-order Gauss-Markov gusts of correlation time ``turbulence_tau``
+(per world axis), or the Dryden spectrum at the length scale ``turbulence_scale``."""
+
+TEST_SECTION_WIDTH = 2.134
+"""m, paper: the University of Bristol's 7 ft x 5 ft closed-section low-speed tunnel (Sec. III, Fig. 3)."""
+TEST_SECTION_HEIGHT = 1.524
+"""m, paper: 5 ft, the same tunnel."""
+TUNNEL_SCALE = 0.76
+"""m, estimate: the longitudinal integral scale of the tunnel's turbulence, taken as half the test section's
+height (TEST_SECTION_HEIGHT / 2): a tunnel's free-stream turbulence has scales of the order of its
+grid and section, the section's walls bound the largest eddies, and the integral scale is a fraction
+of the largest.  Neither the scale nor the intensity of this tunnel's turbulence is published; a
+screened tunnel's can be far smaller (cm), hence ``turbulence_scale``'s range [0.01, 10] m."""
+SCALE_RANGE = (0.01, 10.0)
+"""m: the allowed ``turbulence_scale`` (a fine screen's mesh to several test sections)."""
+MIN_CONVECTION_SPEED = 0.5
+"""m/s: the speed below which the tunnel flow counts as still (rig_env.physics.aero.MIN_AIRSPEED, where the
+aerodynamic loads stop): convection delays and Dryden time scales use at least this speed."""
+
+
+def convection_distance(P: np.ndarray) -> np.ndarray:
+    """(n,) streamwise distance (m) from the Hawk's c.g. to the compensator's aerodynamic reference point on
+    the straight arm: arm_length + hawk_cg_x - comp_aero_x, of parameter rows P (n, N_PARAMS) or (N_PARAMS,)."""
+    P = np.atleast_2d(P)
+    return P[:, L.P_GEOMETRY_ARM_LENGTH] + P[:, L.P_GEOMETRY_HAWK_CG_X] - P[:, L.P_GEOMETRY_COMP_AERO_X]
+
+
+def convection_delay(P: np.ndarray, airspeed: np.ndarray | float) -> np.ndarray:
+    """(n,) time (s) the air takes from the Hawk's c.g. to the compensator: :func:`convection_distance` / V,
+    V the airspeed (m/s, (n,) or scalar) but at least :data:`MIN_CONVECTION_SPEED`."""
+    return convection_distance(P) / np.maximum(np.asarray(airspeed, dtype=np.float64), MIN_CONVECTION_SPEED)
+
+
+def world_gust(u: np.ndarray, v: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """(n, 3) world-axes gust (m/s) of the longitudinal, lateral and vertical components (n,): (-u, v, w)."""
+    return np.stack([-u, v, w], axis=1)
+
+
+# ---------------------------------------------------------------------- the Dryden closed forms
+def dryden_psd(component: str, omega: np.ndarray | float, sigma: float, scale: float, airspeed: float) -> np.ndarray:
+    """One-sided power spectral density (m^2/s^2 per rad/s) of gust component "u", "v" or "w" at omega (rad/s)."""
+    T = scale / airspeed
+    x = (T * np.asarray(omega, dtype=np.float64)) ** 2
+    if component == "u":
+        return sigma**2 * (2.0 * T / math.pi) / (1.0 + x)
+    if component in ("v", "w"):
+        return sigma**2 * (T / math.pi) * (1.0 + 3.0 * x) / (1.0 + x) ** 2
+    raise ValueError(f"component = {component!r}: one of 'u', 'v', 'w'")
+
+
+def dryden_autocorrelation(component: str, lag: np.ndarray | float, sigma: float, scale: float, airspeed: float) -> np.ndarray:
+    """Autocorrelation (m^2/s^2) of gust component "u", "v" or "w" at time lag (s)."""
+    r = np.abs(np.asarray(lag, dtype=np.float64)) * airspeed / scale
+    if component == "u":
+        return sigma**2 * np.exp(-r)
+    if component in ("v", "w"):
+        return sigma**2 * (1.0 - 0.5 * r) * np.exp(-r)
+    raise ValueError(f"component = {component!r}: one of 'u', 'v', 'w'")
+
+
+def dryden_discretisation(airspeed: np.ndarray, scale: float, dt: float) -> dict[str, np.ndarray]:
+    """The exact discrete filters of the module docstring at step dt (s) for airspeeds (n,) m/s (at least
+    :data:`MIN_CONVECTION_SPEED`), per unit intensity.  Returns (n,) arrays: ``phi_u``, ``g_u`` (u's recursion
+    u' = phi_u u + g_u n), ``Phi`` (n, 2, 2), ``chol`` (n, 2, 2) lower factor of Q, ``c`` (n, 2) the output
+    row per unit sigma, ``P0`` (n, 2, 2) the stationary covariance of the v, w states."""
+    from scipy.special import gammainc  # the regularised lower incomplete gamma P(k, x); scipy is loaded lazily
+
+    V = np.maximum(np.asarray(airspeed, dtype=np.float64), MIN_CONVECTION_SPEED)
+    T = scale / V
+    a = 1.0 / T
+    ah = a * dt
+    phi_u = np.exp(-ah)
+    g_u = np.sqrt(-np.expm1(-2.0 * ah))
+    e = np.exp(-ah)
+    Phi = np.empty((V.size, 2, 2))
+    Phi[:, 0, 0], Phi[:, 0, 1] = e * (1.0 + ah), e * dt
+    Phi[:, 1, 0], Phi[:, 1, 1] = -e * a * a * dt, e * (1.0 - ah)
+    b = 2.0 * a  # I_k = int_0^h s^k e^{-b s} ds = k! / b^{k+1} P(k + 1, b h)
+    I0 = gammainc(1.0, b * dt) / b
+    I1 = gammainc(2.0, b * dt) / b**2
+    I2 = 2.0 * gammainc(3.0, b * dt) / b**3
+    q11, q12, q22 = I2, I1 - a * I2, I0 - 2.0 * a * I1 + a * a * I2
+    chol = np.zeros((V.size, 2, 2))
+    l11 = np.sqrt(q11)
+    l21 = q12 / l11
+    chol[:, 0, 0], chol[:, 1, 0], chol[:, 1, 1] = l11, l21, np.sqrt(np.maximum(q22 - l21 * l21, 0.0))
+    c = np.stack([np.sqrt(T) * a * a, np.sqrt(T) * a * a * math.sqrt(3.0) * T], axis=1)
+    P0 = np.zeros((V.size, 2, 2))
+    P0[:, 0, 0], P0[:, 1, 1] = 0.25 / a**3, 0.25 / a
+    return {"phi_u": phi_u, "g_u": g_u, "Phi": Phi, "chol": chol, "c": c, "P0": P0}
+
+
+class DrydenGusts:
+    """Dryden gust generators of n environments at the control step dt (s) and length scale (m).
+
+    ``reset(idx, airspeed, sigma, normals)`` starts environments idx in the stationary distribution for
+    their airspeeds (m/s) and intensities sigma (m/s), from normals (m, 5); ``step(normals)`` advances
+    all of them one control step with standard normals (n, 5) (u, then v's and w's two) and returns the
+    world gust (n, 3), m/s.  The caller supplies the random numbers (the environments' counter streams).
+    """
+
+    N_NORMALS = 5
+    """Standard normals per environment and step: u's one, v's two, w's two."""
+
+    def __init__(self, n: int, dt: float, scale: float) -> None:
+        if not (isinstance(scale, (int, float)) and SCALE_RANGE[0] <= scale <= SCALE_RANGE[1]):
+            raise ValueError(f"turbulence_scale = {scale!r} m: allowed range [{SCALE_RANGE[0]}, {SCALE_RANGE[1]}] m")
+        self.n, self.dt, self.scale = int(n), float(dt), float(scale)
+        self.sigma = np.zeros(n)
+        self.u = np.zeros(n)
+        self.xv = np.zeros((n, 2))
+        self.xw = np.zeros((n, 2))
+        self._phi_u, self._g_u = np.ones(n), np.zeros(n)
+        self._Phi = np.tile(np.eye(2), (n, 1, 1))
+        self._chol = np.zeros((n, 2, 2))
+        self._c = np.zeros((n, 2))
+
+    def reset(self, idx: np.ndarray, airspeed: np.ndarray, sigma: np.ndarray, normals: np.ndarray) -> None:
+        d = dryden_discretisation(airspeed, self.scale, self.dt)
+        self.sigma[idx] = sigma
+        self._phi_u[idx], self._g_u[idx] = d["phi_u"], d["g_u"]
+        self._Phi[idx], self._chol[idx], self._c[idx] = d["Phi"], d["chol"], d["c"]
+        s = np.sqrt(np.diagonal(d["P0"], axis1=1, axis2=2))  # stationary: independent states of these deviations
+        self.u[idx] = normals[:, 0]
+        self.xv[idx] = s * normals[:, 1:3]
+        self.xw[idx] = s * normals[:, 3:5]
+
+    def gust(self) -> np.ndarray:
+        """(n, 3) world gust (m/s) of the current states."""
+        v = np.einsum("nk,nk->n", self._c, self.xv)
+        w = np.einsum("nk,nk->n", self._c, self.xw)
+        return world_gust(self.sigma * self.u, self.sigma * v, self.sigma * w)
+
+    def step(self, normals: np.ndarray) -> np.ndarray:
+        self.u = self._phi_u * self.u + self._g_u * normals[:, 0]
+        self.xv = np.einsum("nij,nj->ni", self._Phi, self.xv) + np.einsum("nij,nj->ni", self._chol, normals[:, 1:3])
+        self.xw = np.einsum("nij,nj->ni", self._Phi, self.xw) + np.einsum("nij,nj->ni", self._chol, normals[:, 3:5])
+        return self.gust()
+
+
+class GustHistory:
+    """Each environment's Hawk gusts at the control rate (a ring buffer) and the compensator's, the Hawk's
+    delayed by the convection time and interpolated linearly in time (module docstring).
+
+    n environments, control step dt (s), max_delay (s): the longest delay kept (longer ones are clamped to
+    it: the compensator then meets the oldest gust kept); it holds n (ceil(max_delay / dt) + 2) x 3 floats
+    (9 samples at 80 Hz with airspeeds from 15 m/s up on the default rig, 191 from the 0.5 m/s floor).
+    ``reset(idx, gust, delay)`` fills environments idx's history with their first gust (m, 3) (the air
+    upstream of the Hawk before the episode is taken to be that gust) and sets their delays (m,) s;
+    ``push(gust)`` stores every environment's gust of the next control step and returns the
+    compensator's (n, 3).
+    """
+
+    def __init__(self, n: int, dt: float, max_delay: float) -> None:
+        self.dt = float(dt)
+        self.size = int(math.ceil(max_delay / dt)) + 2
+        self.buf = np.zeros((n, self.size, 3))
+        self.count = np.zeros(n, dtype=np.int64)
+        self.lag = np.zeros(n)  # delays in control steps
+
+    def reset(self, idx: np.ndarray, gust: np.ndarray, delay: np.ndarray) -> None:
+        self.buf[idx] = np.asarray(gust)[:, None, :]
+        self.count[idx] = 0
+        self.lag[idx] = np.minimum(np.asarray(delay) / self.dt, self.size - 2)
+
+    def push(self, gust: np.ndarray) -> np.ndarray:
+        self.count += 1
+        rows = np.arange(self.buf.shape[0])
+        self.buf[rows, self.count % self.size] = gust
+        s = self.count - self.lag  # the sample time of the delayed gust, in control steps
+        j = np.floor(s).astype(np.int64)
+        f = (s - j)[:, None]
+        return (1.0 - f) * self.buf[rows, j % self.size] + f * self.buf[rows, (j + 1) % self.size]
