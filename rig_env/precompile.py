@@ -87,23 +87,33 @@ def _kernel_kind(task: str, fields: Mapping[str, Any]) -> str:
     return f"{env.physics.kernel.kind}/{env.aero_model}"  # one compiled kernel per kind and aerodynamic model
 
 
+KERNEL_SECONDS = {"lanes/linear": 40.0, "lanes/tables": 55.0, "lanes/unsteady": 60.0}
+"""Rough cold-compile seconds of a group's physics kernel (serial and parallel versions) on the 2-core machine
+the defaults were measured on (``benchmarks/RESULTS.md``, "A new user's first run"); others 40 s.  Only their
+ratios matter: they balance the jobs."""
+TASK_SECONDS = 2.0
+"""... each further task of a group (its own small kernels)."""
+DESIGN_SECONDS = 12.0
+"""... the design's trim and linearisation (14 s measured on a loaded machine)."""
+
+
 def _jobs(tasks: Sequence[str], fields: Mapping[str, Any], design: bool, processes: int) -> list[dict[str, Any]]:
-    """Tasks grouped by physics kernel (each group's first task compiles that kernel: the costly part), the
-    design with the smallest group; at most ``processes`` jobs."""
+    """Tasks grouped by physics kernel and aerodynamic model (each group's first task compiles that kernel: the
+    costly part), the design a job of its own; while there are more jobs than ``processes``, the cheapest
+    (by :data:`KERNEL_SECONDS`, :data:`TASK_SECONDS`, :data:`DESIGN_SECONDS`) is folded into the next
+    cheapest, so that the longest job, which the caller waits for, is as short as the estimates allow."""
     groups: dict[str, list[str]] = {}
     for t in tasks:
         groups.setdefault(_kernel_kind(t, fields), []).append(t)
-    jobs = [{"tasks": ts, "design": False} for _, ts in sorted(groups.items(), key=lambda kv: kv[0] != "lanes/linear")]
+    jobs = [{"tasks": ts, "design": False, "cost": KERNEL_SECONDS.get(g, 40.0) + TASK_SECONDS * (len(ts) - 1)}
+            for g, ts in sorted(groups.items(), key=lambda kv: kv[0] != "lanes/linear")]
     if design:
-        if jobs:
-            min(jobs[1:] or jobs, key=lambda j: len(j["tasks"]))["design"] = True
-        else:
-            jobs.append({"tasks": [], "design": True})
-    while len(jobs) > processes:  # fold the smallest into the next smallest
-        jobs.sort(key=lambda j: len(j["tasks"]) + 2 * j["design"])
+        jobs.append({"tasks": [], "design": True, "cost": DESIGN_SECONDS})
+    while len(jobs) > processes:
+        jobs.sort(key=lambda j: j["cost"])
         a = jobs.pop(0)
-        jobs[0] = {"tasks": jobs[0]["tasks"] + a["tasks"], "design": jobs[0]["design"] or a["design"]}
-    return jobs
+        jobs[0] = {"tasks": jobs[0]["tasks"] + a["tasks"], "design": jobs[0]["design"] or a["design"], "cost": jobs[0]["cost"] + a["cost"]}
+    return [{"tasks": j["tasks"], "design": j["design"]} for j in jobs]
 
 
 def precompile(
