@@ -81,10 +81,13 @@ def _marker(spec: dict[str, Any]) -> Path | None:
 
 
 def _kernel_kind(task: str, fields: Mapping[str, Any]) -> str:
-    from rig_env.envs import RigVectorEnv
+    from rig_env.envs import TASKS
+    from rig_env.physics.pipeline import resolve_aero_model
 
-    env = RigVectorEnv(1, task=task, **fields)
-    return f"{env.physics.kernel.kind}/{env.aero_model}"  # one compiled kernel per kind and aerodynamic model
+    # from the task and the configuration, without building an environment: a RigVectorEnv's construction
+    # compiles the sensors' kernels, here in the parent before any child starts (14-16 s of a cold first run)
+    model = resolve_aero_model(fields.get("aero_model"), fields.get("nonlinear_aero"), TASKS[task].default_aero_model)
+    return f"lanes/{model}"  # every environment runs the lane kernel; one compiled kernel per aerodynamic model
 
 
 KERNEL_SECONDS = {"lanes/linear": 40.0, "lanes/tables": 55.0, "lanes/unsteady": 60.0}
