@@ -82,11 +82,13 @@ def _marker(spec: dict[str, Any]) -> Path | None:
 
 def _kernel_kind(task: str, fields: Mapping[str, Any]) -> str:
     from rig_env.envs import TASKS
+    from rig_env.envs.config import RigEnvConfig
     from rig_env.physics.pipeline import resolve_aero_model
 
-    # from the task and the configuration, without building an environment: a RigVectorEnv's construction
-    # compiles the sensors' kernels, here in the parent before any child starts (14-16 s of a cold first run)
-    model = resolve_aero_model(fields.get("aero_model"), fields.get("nonlinear_aero"), TASKS[task].default_aero_model)
+    # from the task and the configuration (validated: a ValueError names a bad field), without building an
+    # environment, whose construction compiles the sensors' kernels here in the parent before any child starts
+    cfg = RigEnvConfig().with_overrides(task=task, **fields)
+    model = resolve_aero_model(cfg.aero_model, cfg.nonlinear_aero, TASKS[task].default_aero_model)
     return f"lanes/{model}"  # every environment runs the lane kernel; one compiled kernel per aerodynamic model
 
 
