@@ -248,6 +248,12 @@ def trial(config: dict[str, Any], sweep: dict[str, Any], train: TrainTrial) -> N
     if ckpt is not None:
         ckpt.to_directory(str(run))
         book = json.loads((run / "trial.json").read_text())
+        if book.get("final"):
+            # finished before a stop: its final result reached Tune (and result.json) but the stop came before the
+            # trial function returned, so Tune restarts it from that last checkpoint.  Nothing is left to run, and
+            # reporting again would append a second final line: return, and the trial ends on the result it has.
+            shutil.rmtree(run, ignore_errors=True)
+            return
         attempt, resumed = int(book["attempt"]) + 1, int(book["timesteps"])
     argv = _argv(cfg, config["task"], int(config["seed"]), run)
     who = {"attempt": attempt, "resumed_from": resumed, "node": where["node"], "pid": where["pid"]}
