@@ -149,15 +149,8 @@ def test_lane_shape_names_the_model_and_the_tables_lengths():
 
 
 @njit(cache=False)
-def _lookup_tuples(x, xs, ys):
-    out = np.empty(x.size)
-    for i in range(x.size):
-        out[i] = A.interp(x[i], xs, ys)
-    return out
-
-
-@njit(cache=False)
-def _lookup_arrays(x, xs, ys):
+def _lookup(x, xs, ys):
+    """A.interp at every x, compiled for the tables' form (arrays: the search; tuples: the sum)."""
     out = np.empty(x.size)
     for i in range(x.size):
         out[i] = A.interp(x[i], xs, ys)
@@ -175,8 +168,8 @@ def test_the_sum_over_segments_is_the_piecewise_linear_table(which):
     x = np.concatenate([xs, 0.5 * (xs[1:] + xs[:-1]), rng.uniform(xs[0] - 0.5, xs[-1] + 0.5, 2000), [xs[0] - 3.0, xs[-1] + 3.0]])
     want = np.interp(x, xs, ys)
     xt, form = A.table_sum_form(xs, ys)
-    got_t = _lookup_tuples(x, xt, form)
-    got_a = _lookup_arrays(x, xs, ys)
+    got_t = _lookup(x, xt, form)
+    got_a = _lookup(x, xs, ys)
     np.testing.assert_allclose(got_t, want, rtol=0.0, atol=1e-14)
     np.testing.assert_allclose(got_a, want, rtol=0.0, atol=1e-15)
     np.testing.assert_allclose([A.interp(v, xt, form) for v in x[:50]], want[:50], rtol=0.0, atol=1e-14)  # Python twins

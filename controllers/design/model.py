@@ -35,6 +35,7 @@ import control
 import numpy as np
 
 from controllers.laws.axes import AXES, AXIS_OF, resolve, rotation  # noqa: F401  (re-exported: the numpy-only geometry)
+from controllers.laws.base import AERO_MODELS
 from rig_env.linear import InputMix, OperatingPoint, linearize, trim
 from rig_env.params import JOINTS, RigParams
 
@@ -68,8 +69,8 @@ def design_aero_model(aero_model: str) -> str:
     "tables"; for "unsteady" its quasi-steady form, the tables (the flow-separation states at their steady
     values x0(alpha), where the unsteady model's loads are the tables'): the laws measure no separation state,
     and a design that fed back on one could not be flown.  ValueError for any other name."""
-    if aero_model not in ("linear", "tables", "unsteady"):
-        raise ValueError(f"aero_model = {aero_model!r}; allowed: 'linear', 'tables', 'unsteady'")
+    if aero_model not in AERO_MODELS:
+        raise ValueError(f"aero_model = {aero_model!r}; allowed: {', '.join(repr(m) for m in AERO_MODELS)}")
     return "tables" if aero_model == "unsteady" else aero_model
 
 
