@@ -25,7 +25,7 @@ from scipy.optimize import least_squares
 from rig_env.params import JOINTS, SURFACES, RigParams
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
-from rig_env.physics.joint_space import accelerations, separation_rates, separation_steady
+from rig_env.physics.joint_space import ATTACHED, accelerations, separation_rates, separation_steady
 from rig_env.physics.pipeline import AERO_MODELS, check_aero_model
 from rig_env.simulate import check_controls, check_free_dofs
 
@@ -33,9 +33,10 @@ COMP_INPUTS = ("comp_aileron", "comp_elevator", "comp_rudder")
 
 
 @njit(cache=True, error_model="numpy")
-def joint_accelerations(q, qd, u, p, flags, free_idx, tabs, xs=(1.0, 1.0, 1.0, 1.0, 1.0)):
+def joint_accelerations(q, qd, u, p, flags, free_idx, tabs, xs=ATTACHED):
     """qdd (5,) for ideal servos (flaps = limited mixed demands of u), bristle states zero; xs: the
-    flow-separation states (5-tuple: the Hawk, flaps 1-4's panels; flags' F_UNSTEADY only)."""
+    aerodynamic states (7-tuple: flow separation of the Hawk and flaps 1-4's panels, the wake's sidewash and
+    downwash at the compensator; flags' F_UNSTEADY only)."""
     flaps = np.empty(7)
     for k in range(7):
         flaps[k] = sv.limited(p, k, sv.demand(u, k))
@@ -49,8 +50,15 @@ def joint_accelerations(q, qd, u, p, flags, free_idx, tabs, xs=(1.0, 1.0, 1.0, 1
     return qdd
 
 
-SEPARATION_STATES = ("hawk_separation", "flap1_separation", "flap2_separation", "flap3_separation", "flap4_separation")
-"""Names of the unsteady model's flow-separation states (layout.X_SEP order: the Hawk, the compensator's panels)."""
+SEPARATION_STATES = ("hawk_separation", "flap1_separation", "flap2_separation", "flap3_separation", "flap4_separation",
+                     "wake_sidewash", "wake_downwash")
+"""Names of the unsteady model's aerodynamic states (layout.X_SEP order: the flow separation of the Hawk and the
+compensator's panels, 1 attached, 0 separated; the Hawk's wake at the compensator, world y and z, m/s)."""
+
+
+def hawk_surfaces(u: np.ndarray, p: np.ndarray) -> tuple[float, float, float]:
+    """The Hawk's elevator, aileron and rudder (rad) of inputs u as ideal servos hold them: their limited demands."""
+    return tuple(float(sv.limited(p, k, sv.demand(u, k))) for k in (4, 5, 6))  # type: ignore[return-value]
 
 
 @dataclass(frozen=True)
@@ -124,12 +132,12 @@ def _flags(aero: bool, friction: str | bool, aero_model: str = "linear") -> int:
 
 def _qdd(q: np.ndarray, qd: np.ndarray, u: np.ndarray, p: np.ndarray, flags: int, idx: np.ndarray, tabs: tuple,
          xs: tuple | None = None) -> np.ndarray:
-    """qdd (5,) of the free joints idx; with the unsteady model the separation states are xs (5), or their
-    steady values x0 at (q, qd) when None (at an equilibrium x = x0: the loads are the tables')."""
+    """qdd (5,) of the free joints idx; with the unsteady model the aerodynamic states are xs (7), or their
+    steady values at (q, qd) when None (at an equilibrium x = x0: the loads are the tables', with the wake)."""
     if not flags & L.F_UNSTEADY:
         return joint_accelerations(q, qd, u, p, flags, idx, tabs)
     if xs is None:
-        xs = separation_steady(q, qd, u, p, tabs)
+        xs = separation_steady(q, qd, u, p, hawk_surfaces(u, p), tabs)
     return joint_accelerations(q, qd, u, p, flags, idx, tabs, tuple(float(v) for v in xs))
 
 
@@ -231,7 +239,7 @@ def trim(
     out_controls = dict(controls)
     if mix is not None:
         out_controls.update({n: math.degrees(u[c]) for n, c in zip(mix.surfaces, cols) if u[c] != 0.0})
-    sep = tuple(float(v) for v in separation_steady(q, qd, u, p, tabs)) if flags & L.F_UNSTEADY else ()
+    sep = tuple(float(v) for v in separation_steady(q, qd, u, p, hawk_surfaces(u, p), tabs)) if flags & L.F_UNSTEADY else ()
     return OperatingPoint(q=q, qd=qd, controls_deg=out_controls, airspeed=float(airspeed), free_dofs=free, residual=res,
                           inputs={n: float(v[k]) for k, n in enumerate(names)}, aero_model=aero_model, separation=sep)
 
@@ -246,7 +254,7 @@ def linearize(
     eps: float = 1e-6,
 ) -> control.StateSpace:
     """Continuous-time linear model x' = A x + B u about ``op``; x = (angles, rates) of the free joints, then
-    with ``op``'s aero_model "unsteady" the flow-separation states (:data:`SEPARATION_STATES`, about x0).
+    with ``op``'s aero_model "unsteady" the aerodynamic states (:data:`SEPARATION_STATES`, about their steady values).
 
     States are named ``<joint>`` and ``<joint>_rate``; inputs are the named surfaces in rad; the
     outputs are the states.  The aerodynamic model is the operating point's (:func:`trim`'s ``aero_model``).
@@ -264,15 +272,15 @@ def linearize(
     u0 = _inputs(op.controls_deg, op.airspeed)
     flags = _flags(aero, friction, op.aero_model)
     unsteady = bool(flags & L.F_UNSTEADY)
-    x_op = np.array(separation_steady(op.q, op.qd, u0, p, tabs)) if unsteady else np.ones(L.N_SEP)
-    ns = L.N_SEP if unsteady else 0
+    x_op = np.array(separation_steady(op.q, op.qd, u0, p, hawk_surfaces(u0, p), tabs)) if unsteady else np.array(ATTACHED)
+    ns = L.N_AERO if unsteady else 0
     m = 2 * n + ns
 
     def f(q: np.ndarray, qd: np.ndarray, u: np.ndarray, xs: np.ndarray = x_op) -> np.ndarray:
-        """(free accelerations, separation rates if unsteady) at (q, qd, u) and separation states xs (5,)."""
+        """(free accelerations, aerodynamic states' rates if unsteady) at (q, qd, u) and aerodynamic states xs (7,)."""
         t = tuple(float(v) for v in xs)
         acc = _qdd(q, qd, u, p, flags, idx, tabs, t)[idx]
-        return np.append(acc, separation_rates(q, qd, u, p, t, tabs)) if unsteady else acc
+        return np.append(acc, separation_rates(q, qd, u, p, t, hawk_surfaces(u, p), tabs)) if unsteady else acc
 
     A = np.zeros((m, m))
     A[:n, n:2 * n] = np.eye(n)
@@ -287,7 +295,7 @@ def linearize(
                 col = (f(op.q, op.qd + dq, u0) - f(op.q, op.qd - dq, u0)) / (2 * eps)
                 A[n:, n + a] = col
     for k in range(ns):
-        dx = np.zeros(L.N_SEP)
+        dx = np.zeros(L.N_AERO)
         dx[k] = eps
         A[n:, 2 * n + k] = (f(op.q, op.qd, u0, x_op + dx) - f(op.q, op.qd, u0, x_op - dx)) / (2 * eps)
     B = np.zeros((m, len(inputs)))

@@ -425,11 +425,36 @@ def separation_rate(p: np.ndarray, Aa: np.ndarray, v_rel: np.ndarray, w: np.ndar
     return (target - x) * V / (p[L.P_HAWK_AERO_SEP_TAU1] * c)
 
 
+def wake_rates(p: np.ndarray, force: np.ndarray, wake: np.ndarray, airspeed: float) -> np.ndarray:
+    """d/dt (m/s^2) of the Hawk's wake at the compensator, wake = (sidewash, downwash) (m/s, world y and z), from
+    the Hawk's aerodynamic force (N, world): a lag with the convection time d / V towards -(k_y F_y, k_z F_z).
+    Written from the derivation (docs/MODEL.md 3.1.2), not from the kernels: the lift's horseshoe vortex of
+    semispan s = pi b / 8 gives on its centre line d behind the downwash G (1 + r/d) / (2 pi s), G = L / (2 rho V s),
+    r = hypot(d, s); over the compensator's span B a vortex pair far behind averages G / (pi B) ln((B/2 + s) / |B/2 - s|)
+    (cores of radius 0.1 s), and the compact side-force pair averages 2 Y / (pi rho V B^2)."""
+    d = p[L.P_GEOMETRY_ARM_LENGTH] + p[L.P_GEOMETRY_HAWK_CG_X] - p[L.P_GEOMETRY_COMP_AERO_X]
+    V = max(airspeed, MIN_AIRSPEED)
+    rho = p[L.P_ENVIRONMENT_AIR_DENSITY]
+    s = math.pi * p[L.P_HAWK_AERO_B] / 8.0
+    B = p[L.P_COMP_AERO_SPAN]
+    rc = 0.1 * s
+    circulation_per_newton = 1.0 / (2.0 * rho * V * s)  # G / L
+    centre_far = circulation_per_newton / (math.pi * s)  # the pair's centre-line downwash far behind, per newton
+    centre_near = circulation_per_newton * (1.0 + math.hypot(d, s) / d) / (2.0 * math.pi * s)
+    mean_far = circulation_per_newton / (math.pi * B) * 0.5 * math.log(((B / 2 + s) ** 2 + rc**2) / ((B / 2 - s) ** 2 + rc**2))
+    k_z = mean_far * centre_near / centre_far
+    k_y = 2.0 / (math.pi * rho * V * B * B)
+    f = p[L.P_HAWK_AERO_WAKE_FACTOR]
+    target = np.array([-f * k_y * force[1], -f * k_z * force[2]])
+    return (target - np.asarray(wake)) * V / d
+
+
 def rhs(t: float, y: np.ndarray, flaps: np.ndarray, u: np.ndarray, p: np.ndarray, flags: int, free_idx: np.ndarray, tabs: tuple) -> np.ndarray:
     """dy/dt (15,) of y = [q, qd, z] (15,); the arguments of :func:`rig_env.reference.continuous_rhs`.
-    With the unsteady model (flags' F_UNSTEADY) y has five more entries, the flow-separation states x of
-    the Hawk and of the compensator's panels (flaps 1-4), and dy/dt their rates (:func:`separation_rate`,
-    :func:`compensator_separation_rates`).
+    With the unsteady model (flags' F_UNSTEADY) y has seven more entries, the flow-separation states x of
+    the Hawk and of the compensator's panels (flaps 1-4) and the Hawk's wake at the compensator (sidewash,
+    downwash; m/s, world), and dy/dt their rates (:func:`separation_rate`, :func:`compensator_separation_rates`,
+    :func:`wake_rates`: the wake's target takes the Hawk's force with alpha-dot from the velocities).
 
     flaps (7,) servo positions (rad, rig_env.SERVOS order: four flaps after mixing, Hawk elevator,
     aileron, rudder); u (N_INPUTS,) with the Hawk's gust, the airspeed and the compensator's gust (world,
@@ -438,7 +463,7 @@ def rhs(t: float, y: np.ndarray, flaps: np.ndarray, u: np.ndarray, p: np.ndarray
     """
     q, qd, z = y[0:5], y[5:10], y[10:15]
     unsteady = bool(flags & L.F_UNSTEADY)
-    dy = np.zeros(20 if unsteady else 15)
+    dy = np.zeros(22 if unsteady else 15)
     kin, bs = bodies(q, qd, p)
     M, h = mass_matrix_and_bias(bs, qd)
     M += np.diag(fixture_inertia(p))
@@ -447,6 +472,8 @@ def rhs(t: float, y: np.ndarray, flaps: np.ndarray, u: np.ndarray, p: np.ndarray
         nonlinear = bool(flags & L.F_NONLINEAR)
         v_air = np.array([-u[L.U_AIRSPEED], 0.0, 0.0]) + u[L.U_GUST : L.U_GUST + 3]  # the air at the Hawk
         v_air_comp = np.array([-u[L.U_AIRSPEED], 0.0, 0.0]) + u[L.U_GUST_COMP : L.U_GUST_COMP + 3]  # at the compensator
+        if unsteady:
+            v_air_comp = v_air_comp + np.array([0.0, y[20], y[21]])  # the Hawk's wake
         hawk = bs[2]
         # the Hawk's alpha-dot depends on qdd: its loads are Q0 + Q_ad (g . qdd), moved into M below
         ad0, g = hawk_alpha_dot(kin, hawk, qd, v_air)
@@ -454,6 +481,11 @@ def rhs(t: float, y: np.ndarray, flaps: np.ndarray, u: np.ndarray, p: np.ndarray
         F, T, dF, dT = hawk_loads(p, kin["Aa"], hawk["Jv"] @ qd - v_air, hawk["Jw"] @ qd, flaps[4], flaps[5], flaps[6], nonlinear, tabs, ad0, sep)
         if unsteady:
             dy[15] = separation_rate(p, kin["Aa"], hawk["Jv"] @ qd - v_air, hawk["Jw"] @ qd, float(y[15]), tabs)
+            ub, vb, wb = kin["Aa"].T @ (hawk["Jv"] @ qd - v_air)
+            pb, qb, rb = kin["Aa"].T @ (hawk["Jw"] @ qd)
+            ad_v = qb - vb * (pb * ub + rb * wb) / (ub * ub + wb * wb) if ub * ub + wb * wb > 0 else 0.0
+            F_v = hawk_loads(p, kin["Aa"], hawk["Jv"] @ qd - v_air, hawk["Jw"] @ qd, flaps[4], flaps[5], flaps[6], nonlinear, tabs, ad_v, sep)[0]
+            dy[20:22] = wake_rates(p, F_v, y[20:22], float(u[L.U_AIRSPEED]))
         Q += hawk["Jv"].T @ F + hawk["Jw"].T @ T
         M = M - np.outer(hawk["Jv"].T @ dF + hawk["Jw"].T @ dT, g)
         Q += compensator_generalized_force(p, kin, qd, v_air_comp, flaps, nonlinear, tabs, y[16:20] if unsteady else None)

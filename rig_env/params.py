@@ -57,6 +57,7 @@ NEUTRAL_DEFAULTS: dict[str, tuple[float, str]] = {
     "hawk_aero.Clbeta_CL": (0.0, "not in the file: 0, Clbeta independent of lift, as before issue 21"),
     "hawk_aero.sep_tau1": (10.0, "not in the file: 10 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
     "hawk_aero.sep_tau2": (3.0, "not in the file: 3 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
+    "hawk_aero.wake_factor": (0.0, "not in the file: 0, no wake at the compensator, as before issue 21 item 4; used by aero_model='unsteady' only"),
     "comp_aero.sep_tau1": (10.0, "not in the file: 10 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
     "comp_aero.sep_tau2": (3.0, "not in the file: 3 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
 }
@@ -158,6 +159,9 @@ class HawkAero:
     # in chord lengths of travel c/V; used by aero_model="unsteady" only
     sep_tau1: float = _f(0.5, 100.0, "c/V")  # relaxation time of the separation point
     sep_tau2: float = _f(0.0, 50.0, "c/V")  # delay of the static separation point behind alpha
+    # issue 21 item 4 (docs/MODEL.md 3.1.2): the Hawk's wake at the compensator, a multiplier of the derived
+    # downwash and sidewash (1 the model as derived, 0 none); used by aero_model="unsteady" only
+    wake_factor: float = _f(0.0, 2.0, "-")
 
 
 @dataclass(frozen=True)

@@ -34,7 +34,7 @@ from rig_env.params import JOINTS, SURFACES, RigParams
 from rig_env.physics import friction as fr
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
-from rig_env.physics.joint_space import ATTACHED5, accelerations
+from rig_env.physics.joint_space import ATTACHED, accelerations
 from rig_env.physics.pipeline import flags_of
 from rig_env.simulate import check_controls, check_free_dofs, initial_state
 
@@ -70,7 +70,7 @@ def rhs_kernel(y, flaps, u, p, flags, free_idx, n_free, tabs, M, w, out):
     qd = y[5:10]
     z = y[10:15]
     qdd = w[_W_QDD : _W_QDD + 5]
-    accelerations(q, qd, z, ATTACHED5, flaps, u, p, flags, free_idx, n_free, tabs, M, w[_W_H : _W_H + 5], w[_W_Q : _W_Q + 5], w[_W_JV : _W_JV + 45], qdd)
+    accelerations(q, qd, z, ATTACHED, flaps, u, p, flags, free_idx, n_free, tabs, M, w[_W_H : _W_H + 5], w[_W_Q : _W_Q + 5], w[_W_JV : _W_JV + 45], qdd)
     for i in range(N_Y):
         out[i] = 0.0
     for a in range(n_free):

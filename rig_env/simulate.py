@@ -34,7 +34,8 @@ class SimResult:
     ``free_dofs`` order.  q_all: the same for all five joints (JOINTS order).  energy: kinetic +
     potential (gravity, and a test fixture's spring and weight), J.  flaps: servo positions (deg, rig_env.SERVOS order).  z: LuGre bristle states
     (rad).  separation: the flow-separation states x (1 attached, 0 separated; the Hawk, then the
-    compensator's panels of flaps 1-4: (n_t, 5); aero_model "unsteady" only, else None).  constraint_residual: max |C| per sample (DAE only, else None).  status: per-environment
+    compensator's panels of flaps 1-4: (n_t, 5); aero_model "unsteady" only, else None).  wake: the Hawk's wake
+    at the compensator, its sidewash and downwash (m/s, world y and z: (n_t, 2); "unsteady" only, else None).  constraint_residual: max |C| per sample (DAE only, else None).  status: per-environment
     code (0 ok; see ``status_text``); fail_time: time of the detected blow-up (s) or NaN.  After a
     blow-up an environment's samples hold its last finite state.
     """
@@ -55,6 +56,7 @@ class SimResult:
     physics_dt: float
     control_dt: float
     separation: np.ndarray | None = None
+    wake: np.ndarray | None = None
 
     @property
     def failed(self) -> np.ndarray:
@@ -255,7 +257,8 @@ def simulate(
     t = 0, as in the environments); a constant gust is the same at both.
     aero_model: "linear" (default: the stability derivatives of eq. 23), "tables" (the static high-incidence
     tables) or "unsteady" (the tables through the Hawk's flow-separation state, tau1 dx/dt + x = x0(alpha -
-    tau2 alphadot): docs/MODEL.md 3.1.1); nonlinear_aero=True is the older name of "tables".
+    tau2 alphadot), and the Hawk's wake at the compensator: docs/MODEL.md 3.1.1-3.1.2); nonlinear_aero=True
+    is the older name of "tables".
     formulation: "joint" (fast joint-space model) or "dae" (the paper's body-coordinate DAE).
     control_rate: Hz; physics_dt: s, default the largest step <= 2.5 ms dividing the control step.
     overrides: per-environment parameter overrides (see rig_env.param_batch).
@@ -335,6 +338,7 @@ def simulate(
         flaps=np.degrees(Xs[:, :, L.X_SERVO : L.X_SERVO + 7]),
         z=Xs[:, :, L.X_Z : L.X_Z + 5],
         separation=Xs[:, :, L.X_SEP : L.X_SEP + L.N_SEP] if flags & L.F_UNSTEADY else None,
+        wake=Xs[:, :, L.X_WAKE : L.X_WAKE + L.N_WAKE] if flags & L.F_UNSTEADY else None,
         constraint_residual=None if R is None else R.T,
     )
     if not batched:

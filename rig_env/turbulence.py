@@ -48,6 +48,7 @@ cosine (1 - cos 10 deg = 1.5 %), which is left out.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -192,6 +193,42 @@ class DrydenGusts:
         self.xv = np.einsum("nij,nj->ni", self._Phi, self.xv) + np.einsum("nij,nj->ni", self._chol, normals[:, 1:3])
         self.xw = np.einsum("nij,nj->ni", self._Phi, self.xw) + np.einsum("nij,nj->ni", self._chol, normals[:, 3:5])
         return self.gust()
+
+
+def dryden_schedule(t_final: float, *, airspeed: float = 20.0, intensity: float = 0.05, scale: float = TUNNEL_SCALE,
+                    control_rate: float = 80.0, n_envs: int = 1, seed: int = 0) -> Callable[[float], np.ndarray]:
+    """A Dryden gust for ``rig_env.simulate(gust=...)``: a function of time (s) returning the world gust (m/s),
+    (3,) for one environment or (n_envs, 3), drawn once at the control rate (Hz) over [0, t_final] s and held
+    over each control step, with sigma = ``intensity`` x ``airspeed`` (m/s; intensity a fraction, [0, 0.5])
+    on every axis and the length scale ``scale`` (m), each environment from its own stream of ``seed``
+    (numpy's default generator).  Before 0 it is the gust of 0, after t_final the last one (simulate asks for
+    delayed times, at the compensator, and nothing later).  ``simulate`` convects it to the compensator."""
+    if not (math.isfinite(t_final) and 0.0 < t_final <= 1e5):
+        raise ValueError(f"t_final = {t_final!r} s: allowed range (0, 1e5] s")
+    if not (math.isfinite(airspeed) and MIN_CONVECTION_SPEED <= airspeed <= 100.0):
+        raise ValueError(f"airspeed = {airspeed!r} m/s: allowed range [{MIN_CONVECTION_SPEED}, 100] m/s")
+    if not (math.isfinite(intensity) and 0.0 <= intensity <= 0.5):
+        raise ValueError(f"intensity = {intensity!r}: allowed range [0, 0.5] (a fraction of the airspeed)")
+    if not (math.isfinite(control_rate) and 1.0 <= control_rate <= 10000.0):
+        raise ValueError(f"control_rate = {control_rate!r} Hz: allowed range [1, 10000] Hz")
+    if not (isinstance(n_envs, int) and 1 <= n_envs <= 100000):
+        raise ValueError(f"n_envs = {n_envs!r}: an integer in [1, 100000]")
+    dt = 1.0 / control_rate
+    n_t = int(math.ceil(t_final / dt)) + 1
+    gen = DrydenGusts(n_envs, dt, scale)
+    rng = np.random.default_rng(seed)
+    normals = rng.standard_normal((n_t, n_envs, DrydenGusts.N_NORMALS))
+    gen.reset(np.arange(n_envs), np.full(n_envs, float(airspeed)), np.full(n_envs, intensity * airspeed), normals[0])
+    series = np.empty((n_t, n_envs, 3))
+    series[0] = gen.gust()
+    for k in range(1, n_t):
+        series[k] = gen.step(normals[k])
+
+    def gust(t: float) -> np.ndarray:
+        k = min(max(int(math.floor(t / dt + 1e-9)), 0), n_t - 1)
+        return series[k, 0].copy() if n_envs == 1 else series[k].copy()
+
+    return gust
 
 
 class GustHistory:

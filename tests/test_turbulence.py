@@ -8,6 +8,7 @@ autocorrelations (independent environments, Gaussian processes), not fitted to a
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -330,3 +331,29 @@ def test_turbulence_defaults():
     assert c.turbulence_model == "gauss_markov" and c.turbulence_scale == TUNNEL_SCALE == 0.76 and c.turbulence_convected is None
     assert not c.gusts_convected and RigEnvConfig(turbulence_model="dryden").gusts_convected
     assert RigEnvConfig(turbulence_convected=True).gusts_convected and not RigEnvConfig(turbulence_model="dryden", turbulence_convected=False).gusts_convected
+
+
+def test_dryden_schedule_for_simulate_has_the_spectrum_variance_and_is_reproducible():
+    """turbulence.dryden_schedule: a function of time for simulate(gust=...) whose samples have variance sigma^2
+    on every axis (4000 environments at one instant: the stationary start and the exact recursion), held over
+    each control step, the same for the same seed; simulate flies it (the compensator meets it d / V later);
+    bad settings are one-line errors naming the field and its range."""
+    from rig_env.turbulence import dryden_schedule
+
+    V, I = 20.0, 0.05
+    g = dryden_schedule(2.0, airspeed=V, intensity=I, n_envs=4000, seed=3)
+    for t in (0.0, 1.0):
+        np.testing.assert_allclose(g(t).var(axis=0), (I * V) ** 2, rtol=0.08)
+    np.testing.assert_array_equal(g(0.5), g(0.5 + 0.4 / 80.0))  # held over the control step
+    assert not np.array_equal(g(0.5), g(0.5 + 1.0 / 80.0))
+    np.testing.assert_array_equal(g(1.0), dryden_schedule(2.0, airspeed=V, intensity=I, n_envs=4000, seed=3)(1.0))
+    np.testing.assert_array_equal(g(-0.2), g(0.0))
+    one = dryden_schedule(1.0, seed=1)
+    assert one(0.3).shape == (3,)
+    r = simulate(RigParams.default(), [0.0], [0.0], 1.0, free_dofs=("rig_pitch",), gust=one, airspeed=20.0)
+    calm = simulate(RigParams.default(), [0.0], [0.0], 1.0, free_dofs=("rig_pitch",), airspeed=20.0)
+    assert np.all(np.isfinite(r.q)) and np.max(np.abs(r.q - calm.q)) > 1e-4
+    for kw, words in ((dict(intensity=0.9), "intensity = 0.9: allowed range [0, 0.5]"), (dict(airspeed=0.0), "airspeed = 0.0 m/s"),
+                      (dict(scale=50.0), "turbulence_scale = 50.0 m"), (dict(n_envs=0), "n_envs = 0")):
+        with pytest.raises(ValueError, match=re.escape(words)):
+            dryden_schedule(1.0, **kw)

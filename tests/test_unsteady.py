@@ -135,7 +135,9 @@ def test_step_response_is_first_order_with_tau1(params, kind):
 def test_compensator_panels_step_response_is_first_order(params, kind):
     """The compensator's panels, locked in a vertical gust that stalls them (about 18 deg of incidence on each
     45 deg panel): from x = 1 each relaxes to its x0 with time constant tau1 (S / span) / V_panel, V_panel its
-    in-plane airspeed (both from the numpy model: the rate is linear in x, so x0 = x + tau dx/dt)."""
+    in-plane airspeed (both from the numpy model: the rate is linear in x, so x0 = x + tau dx/dt).  The panels
+    alone: the Hawk's wake, which would change their incidence as it builds up, is off (tests/test_wake.py)."""
+    params = params.replace(**{"hawk_aero.wake_factor": 0.0})
     p, tabs = params.to_vector(), params.tables()
     q = q_at_alpha(0.0)
     g = 9.2  # m/s
@@ -240,7 +242,7 @@ def test_kernel_equals_the_numpy_model_with_the_separation_state(params):
     numpy model, at random states, separation states, gusts and both delay settings."""
     rng = np.random.default_rng(7)
     tabs = params.tables()
-    moves = np.zeros(5, dtype=int)
+    moves = np.zeros(7, dtype=int)
     for tau2 in (0.0, 3.0):
         p = params.replace(**{"hawk_aero.sep_tau2": tau2}).to_vector()
         for free in (JOINTS, ("model_pitch",), ("rig_roll", "model_pitch", "model_yaw")):
@@ -255,17 +257,20 @@ def test_kernel_equals_the_numpy_model_with_the_separation_state(params):
                 u[L.U_HAWK_ELEVATOR] = rng.uniform(-0.2, 0.2)
                 u[L.U_GUST : L.U_GUST + 3] = rng.uniform(-8.0, 8.0, 3)
                 u[L.U_GUST_COMP : L.U_GUST_COMP + 3] = rng.uniform(-8.0, 8.0, 3)  # the compensator's panels past their stall too
-                xs = rng.uniform(0.0, 1.0, 5)
+                xs = np.concatenate([rng.uniform(0.0, 1.0, 5), rng.uniform(-2.0, 2.0, 2)])  # separation, the wake (m/s)
                 y = np.concatenate([q, qd, np.zeros(5), xs])
-                ref = nm.rhs(0.0, y, _flaps(u, p), u, p, UNSTEADY, idx, tabs)
+                flaps = _flaps(u, p)
+                ref = nm.rhs(0.0, y, flaps, u, p, UNSTEADY, idx, tabs)
                 qdd = joint_accelerations(q, qd, u, p, UNSTEADY, idx, tabs, tuple(xs))
                 scale = np.abs(ref[5:10]).max()
                 np.testing.assert_allclose(qdd, ref[5:10], rtol=0, atol=1e-9 * scale)
-                np.testing.assert_allclose(separation_rates(q, qd, u, p, tuple(xs), tabs), ref[15:20], rtol=1e-9, atol=1e-9)
-                # every separation state moves the loads where its body is separated (the comparison covers its terms)
-                for k in range(5):
+                rates = separation_rates(q, qd, u, p, tuple(xs), tuple(flaps[4:7]), tabs)
+                np.testing.assert_allclose(rates, ref[15:22], rtol=1e-9, atol=1e-9)
+                # every aerodynamic state moves the loads where its body is separated, the wake wherever the
+                # rig joints are free (the comparison covers its terms)
+                for k in range(7):
                     other = xs.copy()
-                    other[k] = 1.0 - xs[k]
+                    other[k] = 1.0 - xs[k] if k < 5 else xs[k] + 1.0
                     moved = np.max(np.abs(joint_accelerations(q, qd, u, p, UNSTEADY, idx, tabs, tuple(other)) - qdd)) > 0.0
                     moves[k] += moved
     assert np.all(moves > 0), moves
@@ -282,7 +287,7 @@ def test_continuation_unsteady_equilibria_are_the_tables_and_the_lag_damps_the_s
     kw = dict(free_dofs=("model_pitch",), parameter="hawk_elevator", values=np.linspace(-15, 15, 61), airspeed=20.0, periodic=False)
     br_t = rig_env.continuation(params, aero_model="tables", **kw)
     br_u = rig_env.continuation(params, aero_model="unsteady", **kw)
-    assert br_u.states.shape[1] == 7 and br_t.states.shape[1] == 2
+    assert br_u.states.shape[1] == 9 and br_t.states.shape[1] == 2
     np.testing.assert_allclose(br_u.states[:, :2], br_t.states, atol=1e-8)
     assert br_u.hopf.size == 0
     p, tabs = params.to_vector(), params.tables()
@@ -309,14 +314,21 @@ def test_linearize_unsteady_has_the_separation_state(params):
     op_t = rig_env.trim(params, ("model_pitch",), [0, 0, 0, 0.1, 0], controls={"hawk_elevator": 2.0}, aero_model="tables")
     op_u = rig_env.trim(params, ("model_pitch",), [0, 0, 0, 0.1, 0], controls={"hawk_elevator": 2.0}, aero_model="unsteady")
     np.testing.assert_allclose(op_u.q, op_t.q, atol=1e-10)
-    assert op_u.separation == (1.0,) * 5 and op_t.separation == ()
+    assert op_u.separation[:5] == (1.0,) * 5 and op_t.separation == ()
+    assert op_u.separation[5] == pytest.approx(0.0, abs=1e-12) and op_u.separation[6] > 0.1  # the lift's downwash, m/s
     sys = rig_env.linearize(params, op_u, inputs=["hawk_elevator"])
     assert list(sys.state_labels) == ["model_pitch", "model_pitch_rate", *SEPARATION_STATES]
     A = np.asarray(sys.A)
     assert A[2, 2] == pytest.approx(-V / (params.hawk_aero.sep_tau1 * params.hawk_aero.c), rel=1e-6)
     c_comp = params.comp_aero.S / params.comp_aero.span
-    np.testing.assert_allclose(np.diag(A)[3:], -V / (params.comp_aero.sep_tau1 * c_comp), rtol=1e-6)
-    assert np.all(A[2:, :2] == 0.0)
+    kin, _ = nm.bodies(op_u.q, np.zeros(5), params.to_vector())
+    Vp = nm.compensator_panel_flow(params.to_vector(), kin, np.zeros(5), np.array([-V, 0.0, op_u.separation[6]]))[1]  # in the downwash
+    np.testing.assert_allclose(np.diag(A)[3:7], -Vp / (params.comp_aero.sep_tau1 * c_comp), rtol=1e-6)
+    d = params.geometry.arm_length + params.geometry.hawk_cg_x - params.geometry.comp_aero_x
+    np.testing.assert_allclose(np.diag(A)[7:], -V / d, rtol=1e-6)  # the wake's convection lag
+    assert np.all(A[2:8, :2] == 0.0)  # attached flow, no sidewash in pitch
+    assert A[8, 0] > 0.0  # nose up: more lift, more downwash at the compensator
+    assert np.all(A[:2, 7:] == 0.0)  # the wake reaches only the compensator, on locked joints here
     np.testing.assert_allclose(A[:2, :2], np.asarray(rig_env.linearize(params, op_t, inputs=["hawk_elevator"]).A), rtol=1e-6, atol=1e-6)
     with pytest.raises(ValueError, match=r"aero_model = 'nonlinear': allowed values: \['linear', 'tables', 'unsteady'\]"):
         rig_env.trim(params, ("model_pitch",), aero_model="nonlinear")

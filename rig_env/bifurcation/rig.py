@@ -31,7 +31,7 @@ from rig_env.bifurcation.core import Settings
 from rig_env.bifurcation.equilibria import check_values, equilibria
 from rig_env.bifurcation.periodic import orbits as orbit_branch
 from rig_env.bifurcation.result import Branch
-from rig_env.linear import SEPARATION_STATES, joint_accelerations
+from rig_env.linear import SEPARATION_STATES, hawk_surfaces, joint_accelerations
 from rig_env.params import JOINTS, PARAM_INDEX, PARAM_NAMES, SURFACES, ParameterError, RigParams, _iter_leaves
 from rig_env.physics import layout as L
 from rig_env.physics.friction import FRICTION_BASE
@@ -55,11 +55,13 @@ class AeroModel:
 AERO_MODELS: dict[str, AeroModel] = {
     "linear": AeroModel("linear", FLAGS["linear"]),
     "tables": AeroModel("tables", FLAGS["tables"]),
-    "unsteady": AeroModel("unsteady", FLAGS["unsteady"], SEPARATION_STATES, ("-",) * L.N_SEP, tuple(L.X_SEP + k for k in range(L.N_SEP))),
+    "unsteady": AeroModel("unsteady", FLAGS["unsteady"], SEPARATION_STATES, ("-",) * L.N_SEP + ("m/s",) * L.N_WAKE,
+                          tuple(L.X_SEP + k for k in range(L.N_AERO))),
 }
 """The aerodynamic models continuation knows: the linear derivatives, the high-incidence tables
-(``simulate(aero_model="tables")``) and the unsteady model, whose flow-separation states x (the Hawk's and
-the compensator panels', ``internal``, with their columns of the kernels' state vector) the continuation
+(``simulate(aero_model="tables")``) and the unsteady model, whose aerodynamic states (the flow-separation
+states x of the Hawk and the compensator's panels, the Hawk's wake at the compensator; ``internal``, with their
+columns of the kernels' state vector) the continuation
 state carries after the joint rates; :meth:`RigField.rates` takes its rate from the model (its equilibria have x = x0(alpha), where
 the loads are the tables': the unsteady model's equilibria are the tables', their stability is its own)."""
 
@@ -145,7 +147,7 @@ class RigField:
             return np.concatenate([x[self.nf : 2 * self.nf], qdd[self.idx]])
         xs = tuple(float(v) for v in x[2 * self.nf :])
         qdd = joint_accelerations(q, qd, u, p, self.flags, self.idx, self.tabs, xs)
-        return np.concatenate([x[self.nf : 2 * self.nf], qdd[self.idx], separation_rates(q, qd, u, p, xs, self.tabs)])
+        return np.concatenate([x[self.nf : 2 * self.nf], qdd[self.idx], separation_rates(q, qd, u, p, xs, hawk_surfaces(u, p), self.tabs)])
 
     def steady_internal(self, x: np.ndarray, value: float) -> np.ndarray:
         """x with its internal states at their steady values for its angles and rates (x = x0 for the unsteady model)."""
@@ -157,7 +159,7 @@ class RigField:
         q[self.idx] = x[: self.nf]
         qd[self.idx] = x[self.nf : 2 * self.nf]
         y = x.copy()
-        y[2 * self.nf :] = separation_steady(q, qd, u, p, self.tabs)
+        y[2 * self.nf :] = separation_steady(q, qd, u, p, hawk_surfaces(u, p), self.tabs)
         return y
 
     def rates_batch(self, X: np.ndarray, values: np.ndarray) -> np.ndarray:

@@ -487,6 +487,75 @@ def panel_rate(cla, flow, x, t1, t2, tab_alpha, tab_cn):
     return rate if V >= MIN_AIRSPEED else 0.0
 
 
+# ---------------------------------------------------------------------- the Hawk's wake at the compensator (aero_model="unsteady")
+# The Hawk's lift and side force leave a trailing vortex system that the air carries to the compensator,
+# d = arm_length + hawk_cg_x - comp_aero_x (1.18 m) downstream, d / V later (docs/MODEL.md 3.1.2).  The
+# lift's system is a horseshoe vortex of the elliptic wing's vortex span b' = pi b / 4 (semispan s = b' / 2),
+# circulation G = L / (rho V b'); on its centre line at distance d the Biot-Savart law gives the downwash
+# G (1 + r / d) / (2 pi s), r = sqrt(d^2 + s^2) (the two trailing vortices and the bound one; G / (pi s) far
+# behind).  The compensator's panels span B = comp_aero.span, wider than the vortices' 2 s, and outboard of a
+# trailing vortex the air goes up, so the load the panels feel is that of the downwash averaged over B: for a
+# vortex pair far behind, G / (pi B) ln((B/2 + s) / |B/2 - s|), with a vortex core of radius WAKE_CORE s
+# (ln of the squared distances with rc^2 added, so that a panel tip in a vortex stays finite).  The side
+# force's vortices (the fin's, a pair much closer than B) give, averaged over B, 2 Y / (pi rho V B^2)
+# whatever their spacing.  The wake's velocity is opposite to the force that made it.
+
+WAKE_CORE = 0.1
+"""Core radius of the Hawk's trailing vortices as a fraction of their semispan pi b / 8 (an estimate: a rolled-up
+tip vortex's core is a few per cent of the span)."""
+
+
+@inlined(**_JIT)
+def wake_distance(p):
+    """Streamwise distance (m) from the Hawk's c.g. to the compensator's reference point on the straight arm."""
+    return p[L.P_GEOMETRY_ARM_LENGTH] + p[L.P_GEOMETRY_HAWK_CG_X] - p[L.P_GEOMETRY_COMP_AERO_X]
+
+
+@inlined(**_JIT)
+def wake_gains(p, V):
+    """(k_y, k_z) (m/s per N): the sidewash and downwash velocity at the compensator, averaged over its span,
+    per unit of the Hawk's side force and lift at tunnel speed V (at least MIN_AIRSPEED), times
+    ``hawk_aero.wake_factor`` (module comment above)."""
+    d = wake_distance(p)
+    s = 0.125 * math.pi * p[L.P_HAWK_AERO_B]
+    B = p[L.P_COMP_AERO_SPAN]
+    h = 0.5 * B
+    rc2 = (WAKE_CORE * s) * (WAKE_CORE * s)
+    near = 0.5 * (1.0 + math.sqrt(d * d + s * s) / d)  # the bound vortex's share on the centre line
+    ln = vmath.log(((h + s) * (h + s) + rc2) / ((h - s) * (h - s) + rc2))
+    k = p[L.P_HAWK_AERO_WAKE_FACTOR] / (math.pi * p[L.P_ENVIRONMENT_AIR_DENSITY] * max(V, MIN_AIRSPEED) * B)
+    return k * 2.0 / B, k * near * ln / (4.0 * s)
+
+
+@inlined(**_JIT)
+def wake_relax(p, V, f_world, w, dt):
+    """The wake velocities w = (v, w) at the compensator (m/s, world y and z) after dt seconds of
+    tau dw/dt + w = -(k_y F_y, k_z F_z), tau = d / V the convection time, f_world the Hawk's aerodynamic force
+    (N, world axes) held: a first-order lag whose mean delay is the convection time (its phase lag omega tau
+    at low frequency).  Below MIN_AIRSPEED the wake decays at MIN_AIRSPEED's rate towards zero."""
+    ky, kz = wake_gains(p, V)
+    Vs = max(V, MIN_AIRSPEED)
+    decay = vmath.exp(-(dt * Vs) / wake_distance(p))
+    ty = -ky * f_world[1]
+    tz = -kz * f_world[2]
+    return ty + (w[0] - ty) * decay, tz + (w[1] - tz) * decay
+
+
+@inlined(**_JIT)
+def wake_targets(p, V, f_world):
+    """The wake velocities in steady flow (:func:`wake_relax`'s targets)."""
+    ky, kz = wake_gains(p, V)
+    return -ky * f_world[1], -kz * f_world[2]
+
+
+@inlined(**_JIT)
+def wake_rates(p, V, f_world, w):
+    """dw/dt (m/s^2) of the wake velocities (continuation and linearisation)."""
+    ty, tz = wake_targets(p, V, f_world)
+    r = max(V, MIN_AIRSPEED) / wake_distance(p)
+    return (ty - w[0]) * r, (tz - w[1]) * r
+
+
 @inlined(**_JIT)
 def strip(u, wn, vs2, qp, c, dS, rho, k_ind, cl0, cm0, cla, cma, clq, cmq, cd0, nonlinear, tab_alpha, tab_cn, unsteady, x):
     """Loads of one strip from its velocity relative to the air in the panel's axes (e_x, n, e_r): u along

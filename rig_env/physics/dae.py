@@ -57,8 +57,8 @@ from rig_env.physics.dae_rotations import (  # noqa: F401  (re-exported)
 )  # fmt: skip
 from rig_env.physics.dae_solve import accelerations, project  # noqa: F401  (re-exported)
 from rig_env.physics.integrator import push_demands
-from rig_env.physics.aero import comp_separation_relax, hawk_flow, separation_relax
-from rig_env.physics.joint_space import air_velocity, comp_air_velocity, frames, velocities
+from rig_env.physics.aero import comp_separation_relax, hawk_aero_full, hawk_flow, separation_relax, wake_relax
+from rig_env.physics.joint_space import air_velocity, comp_air, frames, velocities
 
 _JIT = dict(cache=True, error_model="numpy", _nrt=False)  # allocation-free kernels: no NRT refcounting
 _JIT_BATCH = dict(cache=True, error_model="numpy")  # batch drivers that allocate small scratch
@@ -93,21 +93,28 @@ def rhs_dae(yr, tgt, z, xs, ud, u, p, flags, free_idx, n_free, locked, n_locked,
 
 @njit(**_JIT)
 def half_separation_step_dae(y, u, p, tabs, h):
-    """The flow-separation states y[Y_SEP:Y_SEP + 5] over h/2 at the bodies' state y (as the joint-space
+    """The aerodynamic states y[Y_SEP:Y_SEP + N_AERO] over h/2 at the bodies' state y (as the joint-space
     integrator's half step: :func:`rig_env.physics.aero.separation_relax` at the Hawk's flow angles,
     :func:`rig_env.physics.aero.comp_separation_relax` at the compensator reference point's flow in its own air,
-    U_GUST_COMP)."""
+    U_GUST_COMP and the wake, :func:`rig_env.physics.aero.wake_relax` at the Hawk's aerodynamic force with its
+    surfaces at their servo positions)."""
     Aa, As = body_matrices(y)
     w_a, w_s = world_rates(y, Aa, As)
     v_air = air_velocity(u)
+    xs = (y[Y_SEP], y[Y_SEP + 1], y[Y_SEP + 2], y[Y_SEP + 3], y[Y_SEP + 4], y[Y_SEP + 5], y[Y_SEP + 6])
     alpha, V, adot = hawk_flow(Aa, vec3(y, Y_VA), w_a, v_air)
-    y[Y_SEP] = separation_relax(p, alpha, V, adot, y[Y_SEP], 0.5 * h, tabs[0], tabs[1])
+    f = Y_SERVO + 4
+    fa = hawk_aero_full(p, Aa, vec3(y, Y_VA), w_a, v_air, (0.0, 0.0, 0.0), y[f], y[f + 1], y[f + 2], True, tabs[0], tabs[1], tabs[2],
+                        True, xs[0])[0]  # fmt: skip
+    y[Y_SEP] = separation_relax(p, alpha, V, adot, xs[0], 0.5 * h, tabs[0], tabs[1])
     lever = sub(scale(col(As, 0), p[L.P_GEOMETRY_COMP_AERO_X]), vec3(y, Y_RS))  # ref point - arm c.g. (as dae_loads)
     v_ref = add(vec3(y, Y_VS), cross(w_s, lever))
-    c = comp_separation_relax(p, mtv(As, sub(v_ref, comp_air_velocity(u))), mtv(As, w_s), (y[Y_SEP + 1], y[Y_SEP + 2], y[Y_SEP + 3], y[Y_SEP + 4]),
-                              0.5 * h, tabs[3], tabs[4])
+    c = comp_separation_relax(p, mtv(As, sub(v_ref, comp_air(u, xs))), mtv(As, w_s), (xs[1], xs[2], xs[3], xs[4]), 0.5 * h, tabs[3], tabs[4])
     for k in range(4):
         y[Y_SEP + 1 + k] = c[k]
+    wk = wake_relax(p, u[L.U_AIRSPEED], fa, (xs[5], xs[6]), 0.5 * h)
+    y[Y_SEP + 5] = wk[0]
+    y[Y_SEP + 6] = wk[1]
 
 
 @njit(**_JIT)
@@ -122,7 +129,7 @@ def physics_step_dae(y, ud, u, p, flags, free_idx, n_free, locked, n_locked, tab
             z[j] = fr.advance_bristle(p, j, qd[j], z[j], 0.5 * h)
     if flags & L.F_UNSTEADY:
         half_separation_step_dae(y, u, p, tabs, h)
-    xs = (y[Y_SEP], y[Y_SEP + 1], y[Y_SEP + 2], y[Y_SEP + 3], y[Y_SEP + 4])
+    xs = (y[Y_SEP], y[Y_SEP + 1], y[Y_SEP + 2], y[Y_SEP + 3], y[Y_SEP + 4], y[Y_SEP + 5], y[Y_SEP + 6])
     y0 = w[W_Y0 : W_Y0 + N_RK]
     yt = w[W_YT : W_YT + N_RK]
     for i in range(32):
@@ -149,13 +156,6 @@ def physics_step_dae(y, ud, u, p, flags, free_idx, n_free, locked, n_locked, tab
     for i in range(14):
         y[Y_SERVO + i] = y0[32 + i]
     project(y, tgt, p, locked, n_locked, w)
-    if flags & L.F_UNSTEADY:
-        half_separation_step_dae(y, u, p, tabs, h)
-    if flags & L.F_FRICTION:
-        qd = current_joint_rates(y)
-        for a in range(n_free):
-            j = free_idx[a]
-            z[j] = fr.advance_bristle(p, j, qd[j], z[j], 0.5 * h)
     for k in range(7):
         if flags & L.F_SERVO:
             xs, vs = sv.project(p, k, y[Y_SERVO + k], y[Y_SERVO_RATE + k])
@@ -164,6 +164,13 @@ def physics_step_dae(y, ud, u, p, flags, free_idx, n_free, locked, n_locked, tab
         else:
             y[Y_SERVO + k] = ud[k]
             y[Y_SERVO_RATE + k] = 0.0
+    if flags & L.F_UNSTEADY:  # after the servos' limits, as the joint-space integrator
+        half_separation_step_dae(y, u, p, tabs, h)
+    if flags & L.F_FRICTION:
+        qd = current_joint_rates(y)
+        for a in range(n_free):
+            j = free_idx[a]
+            z[j] = fr.advance_bristle(p, j, qd[j], z[j], 0.5 * h)
 
 
 @njit(**_JIT)
@@ -287,7 +294,7 @@ def from_joint_state(X, P, Y):
             y[Y_TARGET + j] = q[j]
         for k in range(14):
             y[Y_SERVO + k] = x[L.X_SERVO + k]
-        for k in range(L.N_SEP):
+        for k in range(L.N_AERO):
             y[Y_SEP + k] = x[L.X_SEP + k]
 
 
@@ -318,7 +325,7 @@ def to_joint_state(Y, P, X):
             x[L.X_Z + j] = y[Y_Z + j]
         for k in range(14):
             x[L.X_SERVO + k] = y[Y_SERVO + k]
-        for k in range(L.N_SEP):
+        for k in range(L.N_AERO):
             x[L.X_SEP + k] = y[Y_SEP + k]
 
 
@@ -357,7 +364,7 @@ def accelerations_batch(Y, U, P, flags, free_idx, n_free, tabs, ACC, LOADS):
     for i in range(Y.shape[0]):
         y = Y[i]
         loads = accelerations(
-            y, y[Y_TARGET : Y_TARGET + 5], y[Y_Z : Y_Z + 5], (y[Y_SEP], y[Y_SEP + 1], y[Y_SEP + 2], y[Y_SEP + 3], y[Y_SEP + 4]),
+            y, y[Y_TARGET : Y_TARGET + 5], y[Y_Z : Y_Z + 5], (y[Y_SEP], y[Y_SEP + 1], y[Y_SEP + 2], y[Y_SEP + 3], y[Y_SEP + 4], y[Y_SEP + 5], y[Y_SEP + 6]),
             y[Y_SERVO : Y_SERVO + 7], U[i], P[i], flags,
             free_idx, n_free, locked, n_locked, tabs, w,
         )

@@ -5,7 +5,7 @@ compensator's inertia) and r (compensator, a point mass), Euler parameters theta
 velocities v = (Rdot_a, omega_a, Rdot_s, omega_s, Rdot_r) with body-axis angular velocities
 (:mod:`rig_env.physics.dae` gives the model).
 
-State row Y[i] (N_DAE = 61):
+State row Y[i] (N_DAE = 63):
 
     ===========  =====  ==========================================================
     Y_RA         0:3    aircraft c.g. position R_a, m (world)
@@ -22,7 +22,8 @@ State row Y[i] (N_DAE = 61):
     Y_SERVO      37:44  servo positions, rad (SERVOS order)
     Y_SERVO_RATE 44:51  servo rates, rad/s
     Y_TARGET     51:56  locked-joint target angles, rad (JOINTS order; used for locked joints only)
-    Y_SEP        56:61  flow-separation states: the Hawk, flaps 1-4's panels (layout.X_SEP; F_UNSTEADY only)
+    Y_SEP        56:63  aerodynamic states: flow separation of the Hawk and flaps 1-4's panels, the wake's sidewash and
+                        downwash at the compensator, m/s world (layout.X_SEP, N_AERO; F_UNSTEADY only)
     ===========  =====  ==========================================================
 """
 
@@ -49,7 +50,7 @@ Y_SERVO = 37
 Y_SERVO_RATE = 44
 Y_TARGET = 51
 Y_SEP = 56
-N_DAE = 61
+N_DAE = 63
 
 # RK state: Y[0:32] (coordinates, velocities) then Y[37:51] (servo positions and rates)
 N_RK = 46

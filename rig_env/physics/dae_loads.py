@@ -9,7 +9,7 @@ from rig_env.physics import layout as L
 from rig_env.physics.aero import comp_aero, hawk_aero_full
 from rig_env.physics.dae_layout import Y_RS, Y_VA, Y_VS
 from rig_env.physics.dae_rotations import add, body_matrices, col, cross, joint_angles, joint_bases, joint_rates, scale, sub, vec3, world_rates
-from rig_env.physics.joint_space import air_velocity, comp_air_velocity, joint_torque
+from rig_env.physics.joint_space import ATTACHED, air_velocity, comp_air, joint_torque
 
 _JIT = dict(cache=True, error_model="numpy", _nrt=False)  # allocation-free kernels: no NRT refcounting
 
@@ -60,7 +60,7 @@ def inertias(p):
 def applied_loads(y, z, flaps, u, p, flags, free_idx, n_free, tabs):
     """Applied loads of state y; see :func:`loads_at`."""
     Aa, As = body_matrices(y)
-    return loads_at(y, Aa, As, z, (1.0, 1.0, 1.0, 1.0, 1.0), flaps, u, p, flags, free_idx, n_free, tabs)
+    return loads_at(y, Aa, As, z, ATTACHED, flaps, u, p, flags, free_idx, n_free, tabs)
 
 
 @njit(**_JIT)
@@ -68,12 +68,12 @@ def loads_at(y, Aa, As, z, xs, flaps, u, p, flags, free_idx, n_free, tabs):
     """Applied loads (world axes): (f_a, n_a, f_s, n_s, f_r, (fd, md, n)), forces at each c.g. (N), moments
     (N m), and the Hawk's alpha-dot terms (aero.hawk_aero_full, with no acceleration known: the whole c.g.
     acceleration goes through them): force and moment per unit of n . a_a, the Hawk c.g.'s acceleration
-    along n (zero without aerodynamics).  xs: the flow-separation states (5-tuple: the Hawk, flaps 1-4's
-    panels; F_UNSTEADY).
+    along n (zero without aerodynamics).  xs: the aerodynamic states (7-tuple: flow separation of the Hawk and
+    flaps 1-4's panels, F_UNSTEADY; the wake at the compensator, world y and z, m/s, zero without it).
 
     Gravity on every body; Hawk aero at its c.g. in the Hawk's air (tunnel flow and U_GUST); compensator aero
     force at the arm point A_s [comp_aero_x 0 0]^T plus its moment, on the arm, in the compensator's air
-    (tunnel flow and U_GUST_COMP); friction and stop torques of the free joints
+    (tunnel flow, U_GUST_COMP and the Hawk's wake); friction and stop torques of the free joints
     as equal and opposite torques about the joint axes (dual bases, so that torque . relative angular
     velocity = sum tau_j qd_j).
     """
@@ -98,7 +98,7 @@ def loads_at(y, Aa, As, z, xs, flaps, u, p, flags, free_idx, n_free, tabs):
         n_a = add(n_a, ta)
         lever = sub(scale(col(As, 0), p[L.P_GEOMETRY_COMP_AERO_X]), vec3(y, Y_RS))  # ref point - arm c.g.
         v_ref = add(vec3(y, Y_VS), cross(w_s, lever))
-        fc, tc = comp_aero(p, As, v_ref, w_s, comp_air_velocity(u), flaps, nonlin, tabs[3], tabs[4], False, (flags & L.F_UNSTEADY) != 0,
+        fc, tc = comp_aero(p, As, v_ref, w_s, comp_air(u, xs), flaps, nonlin, tabs[3], tabs[4], False, (flags & L.F_UNSTEADY) != 0,
                            (xs[1], xs[2], xs[3], xs[4]))
         f_s = add(f_s, fc)
         n_s = add(n_s, add(cross(lever, fc), tc))

@@ -12,7 +12,7 @@ import numpy as np
 
 from numba import njit
 
-from rig_env.physics.joint_space import ATTACHED5, accelerations
+from rig_env.physics.joint_space import ATTACHED, accelerations
 
 _JIT = {"cache": True, "error_model": "numpy"}
 
@@ -32,7 +32,7 @@ def accelerations_at(q, qd, z, flaps, u, p, flags, free_idx, n_free, tabs, out):
     jv = np.zeros(45)
     acc = np.zeros(5)
     for i in range(q.shape[0]):
-        accelerations(q[i], qd[i], z[i], ATTACHED5, flaps[i], u[i], p, flags, free_idx, n_free, tabs, M, hvec, Q, jv, acc)
+        accelerations(q[i], qd[i], z[i], ATTACHED, flaps[i], u[i], p, flags, free_idx, n_free, tabs, M, hvec, Q, jv, acc)
         for j in range(5):
             out[i, j] = acc[j]
 

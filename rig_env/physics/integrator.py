@@ -103,14 +103,17 @@ def half_bristle_step(x, z, p, free_idx, n_free, h, w):
 
 @njit(**_JIT)
 def separation_relaxation(x, u, p, tabs, dt):
-    """The flow-separation states x[X_SEP:X_SEP + 5] over dt at the joint state of x (exact for their targets
-    held, :func:`rig_env.physics.joint_space.separation_step`); dt = h/2 on either side of the RK4 step is
-    second order overall, as the bristles' split.  Two half steps at the same state with the same inputs
-    (the end of one physics step and the start of the next, within a control step) have the same target, so
+    """The aerodynamic states x[X_SEP:X_SEP + N_AERO] (flow separation, the wake at the compensator) over dt at
+    the joint and servo state of x (exact for their targets held, :func:`rig_env.physics.joint_space.separation_step`;
+    the Hawk's surfaces at their servo positions); dt = h/2 on either side of the RK4 step is second order
+    overall, as the bristles' split.  Two half steps at the same state with the same inputs (the end of one
+    physics step and the start of the next, within a control step) have the same target, so
     :func:`physics_step` makes them one relaxation over h."""
     s = L.X_SEP
-    xs = separation_step(x[0:5], x[5:10], u, p, (x[s], x[s + 1], x[s + 2], x[s + 3], x[s + 4]), dt, tabs)
-    for k in range(5):
+    f = L.X_SERVO + 4
+    xs = separation_step(x[0:5], x[5:10], u, p, (x[s], x[s + 1], x[s + 2], x[s + 3], x[s + 4], x[s + 5], x[s + 6]),
+                         (x[f], x[f + 1], x[f + 2]), dt, tabs)  # fmt: skip
+    for k in range(L.N_AERO):
         x[s + k] = xs[k]
 
 
@@ -124,7 +127,8 @@ def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w, sep_open, 
         half_bristle_step(x, z, p, free_idx, n_free, h, w)
     if flags & L.F_UNSTEADY and sep_open:
         separation_relaxation(x, u, p, tabs, 0.5 * h)
-    xs = (x[L.X_SEP], x[L.X_SEP + 1], x[L.X_SEP + 2], x[L.X_SEP + 3], x[L.X_SEP + 4])
+    s_ = L.X_SEP
+    xs = (x[s_], x[s_ + 1], x[s_ + 2], x[s_ + 3], x[s_ + 4], x[s_ + 5], x[s_ + 6])
     y0 = w[W_Y0 : W_Y0 + N_Y]
     yt = w[W_YT : W_YT + N_Y]
     for i in range(10):
@@ -151,10 +155,6 @@ def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w, sep_open, 
         x[i] = y0[i]
     for i in range(14):
         x[L.X_SERVO + i] = y0[10 + i]
-    if flags & L.F_UNSTEADY:
-        separation_relaxation(x, u, p, tabs, sep_close)
-    if flags & L.F_FRICTION:
-        half_bristle_step(x, z, p, free_idx, n_free, h, w)
     for k in range(7):
         if flags & L.F_SERVO:
             xs, vs = sv.project(p, k, x[L.X_SERVO + k], x[L.X_SERVO_RATE + k])
@@ -163,6 +163,10 @@ def physics_step(x, ud, u, p, flags, free_idx, n_free, tabs, h, M, w, sep_open, 
         else:
             x[L.X_SERVO + k] = ud[k]
             x[L.X_SERVO_RATE + k] = 0.0
+    if flags & L.F_UNSTEADY:  # after the servos' limits: the wake's target takes the Hawk's surfaces where they end
+        separation_relaxation(x, u, p, tabs, sep_close)
+    if flags & L.F_FRICTION:
+        half_bristle_step(x, z, p, free_idx, n_free, h, w)
 
 
 @njit(**_JIT)

@@ -42,13 +42,16 @@ from rig_env.physics import layout as L
 from rig_env.physics import vmath
 from rig_env.physics.aero import (
     MIN_AIRSPEED, comp_aero_arm, comp_separation_rates, comp_separation_relax, comp_separation_targets, hawk_aero_full, hawk_flow,
-    separation_relax, separation_target,
+    separation_relax, separation_target, wake_rates, wake_relax, wake_targets,
 )  # fmt: skip
 from rig_env.physics.llvm_inline import inlined
 from rig_env.physics.vec import FASTMATH, add, col, cross, dot, inertia_world, mm, mtv, mv, rot_zy, rot_zyx, scale, sub
 
 _JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
-ATTACHED5 = (1.0, 1.0, 1.0, 1.0, 1.0)  # the separation states of a model without them (the Hawk, flaps 1-4)
+ATTACHED = (1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0)
+"""The aerodynamic states (layout.X_SEP .. + N_AERO) of a model without them: attached flow on the Hawk and
+flaps 1-4, no wake at the compensator."""
+_ZERO3 = (0.0, 0.0, 0.0)
 # the right-hand side's parts are inlined into their callers by LLVM (rig_env.physics.llvm_inline): as separate
 # functions they would exchange their tuples through memory and be optimised apart (about 1.3x per env-step)
 
@@ -313,6 +316,23 @@ def comp_air_velocity(u):
     return (-u[L.U_AIRSPEED] + u[L.U_GUST_COMP], u[L.U_GUST_COMP + 1], u[L.U_GUST_COMP + 2])
 
 
+@njit(**_JIT)
+def comp_air(u, xs):
+    """:func:`comp_air_velocity` plus the Hawk's wake (xs[5], xs[6]: sidewash and downwash, world y and z,
+    m/s; the aerodynamic states, zero without the unsteady model)."""
+    return (-u[L.U_AIRSPEED] + u[L.U_GUST_COMP], u[L.U_GUST_COMP + 1] + xs[5], u[L.U_GUST_COMP + 2] + xs[6])
+
+
+@inlined(**_JIT)
+def arm_to_world(v, sp, cp, cs, ts):
+    """Arm-axes vector v in world axes, A_s v = Rz(psi) Ry(theta) Rx(phi) v (:func:`world_to_arm`'s inverse)."""
+    cf, sf = cs
+    ct, st = ts
+    v1 = (v[0], cf * v[1] - sf * v[2], sf * v[1] + cf * v[2])
+    v2 = (ct * v1[0] + st * v1[2], v1[1], ct * v1[2] - st * v1[0])
+    return (cp * v2[0] - sp * v2[1], sp * v2[0] + cp * v2[1], v2[2])
+
+
 @inlined(**_JIT)
 def world_to_arm(v, sp, cp, cs, ts):
     """World vector v in arm axes, A_s^T v = Rx(phi)^T Ry(theta)^T Rz(psi)^T v; (sp, cp) = sin, cos of rig
@@ -431,52 +451,66 @@ def hawk_air(q, u, p, kin):
 
 
 @inlined(**_JIT)
-def air_flows(q, qd, u, p):
-    """What the separation states see at joint state (q, qd) and inputs u: the Hawk's angle of attack,
-    airspeed and alpha-dot from the velocities (:func:`rig_env.physics.aero.hawk_flow`), and the
-    compensator's reference point velocity relative to its own air (tunnel flow and U_GUST_COMP) and the
-    arm's angular velocity (arm axes)."""
+def air_flows(q, qd, u, p, xs, flaps, tabs):
+    """What the aerodynamic states see at joint state (q, qd), inputs u, aerodynamic states xs (7-tuple) and
+    the Hawk's surfaces ``flaps`` (de, da, dr; rad): the Hawk's angle of attack, airspeed and alpha-dot from
+    the velocities (:func:`rig_env.physics.aero.hawk_flow`); the compensator's reference point velocity
+    relative to its own air (tunnel flow, U_GUST_COMP and the wake xs[5:7]) and the arm's angular velocity
+    (arm axes); the Hawk's aerodynamic force in world axes (N; alpha-dot at its velocity part, the
+    separation state xs[0]), which makes the wake."""
     kin = arm_kinematics(q, qd, p)
     v_air_s, v_a = hawk_air(q, u, p, kin)
     w_s = kin[5]
     sp, cp = vmath.sincos(q[L.J_RIG_YAW])
-    v_air_c = world_to_arm(comp_air_velocity(u), sp, cp, kin[1], kin[9])  # the compensator's own air (its gust)
-    return hawk_flow(kin[0], v_a, kin[6], v_air_s), sub(cross_x(w_s, p[L.P_GEOMETRY_COMP_AERO_X]), v_air_c), w_s
+    v_air_c = world_to_arm(comp_air(u, xs), sp, cp, kin[1], kin[9])  # the compensator's own air (its gust, the wake)
+    fa = hawk_aero_full(p, kin[0], v_a, kin[6], v_air_s, _ZERO3, flaps[0], flaps[1], flaps[2], True, tabs[0], tabs[1], tabs[2], True,
+                        xs[0])[0]  # fmt: skip
+    return (hawk_flow(kin[0], v_a, kin[6], v_air_s), sub(cross_x(w_s, p[L.P_GEOMETRY_COMP_AERO_X]), v_air_c), w_s,
+            arm_to_world(fa, sp, cp, kin[1], kin[9]))  # fmt: skip
 
 
 @inlined(**_JIT)
-def separation_step(q, qd, u, p, xs, dt, tabs):
-    """The flow-separation states xs (5-tuple: the Hawk, flaps 1-4's panels) after dt seconds at joint state
-    (q, qd) and inputs u, their targets held (:func:`rig_env.physics.aero.separation_relax`,
-    :func:`rig_env.physics.aero.comp_separation_relax`)."""
-    hawk, vb0, wb = air_flows(q, qd, u, p)
+def separation_step(q, qd, u, p, xs, flaps, dt, tabs):
+    """The aerodynamic states xs (7-tuple: the flow-separation states of the Hawk and flaps 1-4's panels, the
+    wake's sidewash and downwash at the compensator) after dt seconds at joint state (q, qd), inputs u and
+    the Hawk's surfaces ``flaps`` (de, da, dr), their targets held (:func:`rig_env.physics.aero.separation_relax`,
+    :func:`rig_env.physics.aero.comp_separation_relax`, :func:`rig_env.physics.aero.wake_relax`)."""
+    hawk, vb0, wb, f_world = air_flows(q, qd, u, p, xs, flaps, tabs)
     alpha, V, adot = hawk
     c = comp_separation_relax(p, vb0, wb, (xs[1], xs[2], xs[3], xs[4]), dt, tabs[3], tabs[4])
-    return separation_relax(p, alpha, V, adot, xs[0], dt, tabs[0], tabs[1]), c[0], c[1], c[2], c[3]
+    w = wake_relax(p, u[L.U_AIRSPEED], f_world, (xs[5], xs[6]), dt)
+    return separation_relax(p, alpha, V, adot, xs[0], dt, tabs[0], tabs[1]), c[0], c[1], c[2], c[3], w[0], w[1]
 
 
 @njit(**_JIT)
-def separation_rates(q, qd, u, p, xs, tabs):
-    """dx/dt = (x0(alpha - tau2 alphadot) - x) / tau1 (1/s; tau1, tau2 in seconds: the parameters times c / V)
-    of the flow-separation states xs (5-tuple) at joint state (q, qd) and inputs u; 0 below MIN_AIRSPEED.
+def separation_rates(q, qd, u, p, xs, flaps, tabs):
+    """d/dt of the aerodynamic states xs (7-tuple, :func:`separation_step`) at joint state (q, qd), inputs u
+    and the Hawk's surfaces ``flaps``: dx/dt = (x0(alpha - tau2 alphadot) - x) / tau1 (1/s; tau1, tau2 in
+    seconds: the parameters times c / V; 0 below MIN_AIRSPEED) and the wake's (m/s^2, aero.wake_rates).
     The integrators relax the states exactly over half steps (:func:`separation_step`); this is the same
     equation for continuation and linearisation."""
-    hawk, vb0, wb = air_flows(q, qd, u, p)
+    hawk, vb0, wb, f_world = air_flows(q, qd, u, p, xs, flaps, tabs)
     alpha, V, adot = hawk
     target = separation_target(p, alpha, V, adot, tabs[0], tabs[1])
     rate = (target - xs[0]) * V / (p[L.P_HAWK_AERO_SEP_TAU1] * p[L.P_HAWK_AERO_C])
     c = comp_separation_rates(p, vb0, wb, (xs[1], xs[2], xs[3], xs[4]), tabs[3], tabs[4])
-    return rate if V >= MIN_AIRSPEED else 0.0, c[0], c[1], c[2], c[3]
+    w = wake_rates(p, u[L.U_AIRSPEED], f_world, (xs[5], xs[6]))
+    return rate if V >= MIN_AIRSPEED else 0.0, c[0], c[1], c[2], c[3], w[0], w[1]
 
 
 @njit(**_JIT)
-def separation_steady(q, qd, u, p, tabs):
-    """The flow-separation states (5-tuple) in steady flow at joint state (q, qd) and inputs u: their
-    targets x0(alpha - tau2 alphadot) (:func:`separation_step`'s, without the relaxation)."""
-    hawk, vb0, wb = air_flows(q, qd, u, p)
-    alpha, V, adot = hawk
+def separation_steady(q, qd, u, p, flaps, tabs):
+    """The aerodynamic states (7-tuple) in steady flow at joint state (q, qd), inputs u and the Hawk's surfaces
+    ``flaps``: the separation states' targets x0(alpha - tau2 alphadot) (:func:`separation_step`'s, without
+    the relaxation) and the wake's.  In that order: the Hawk's target depends on its flow alone, the wake on
+    the Hawk's force at its target, the panels' targets on the compensator's flow with the wake."""
+    hawk, vb0, wb, f_world = air_flows(q, qd, u, p, ATTACHED, flaps, tabs)
+    x_h = separation_target(p, hawk[0], hawk[1], hawk[2], tabs[0], tabs[1])
+    hawk, vb0, wb, f_world = air_flows(q, qd, u, p, (x_h, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0), flaps, tabs)
+    w = wake_targets(p, u[L.U_AIRSPEED], f_world)
+    hawk, vb0, wb, f_world = air_flows(q, qd, u, p, (x_h, 1.0, 1.0, 1.0, 1.0, w[0], w[1]), flaps, tabs)
     c = comp_separation_targets(p, vb0, wb, tabs[3], tabs[4])
-    return separation_target(p, alpha, V, adot, tabs[0], tabs[1]), c[0], c[1], c[2], c[3]
+    return x_h, c[0], c[1], c[2], c[3], w[0], w[1]
 
 
 @inlined(**_JIT)
@@ -494,8 +528,9 @@ def forces(q, qd, fric, xs, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
 
     fric: the joints' friction and test-fixture torques (:func:`applied_torques`; the lane kernel
     computes them in loops of their own, for the free joints only, so that a locked joint costs nothing).
-    xs: the flow-separation states (5-tuple: the Hawk, flaps 1-4's panels; used with flags' F_UNSTEADY and
-    nonlinear only).
+    xs: the aerodynamic states (7-tuple: the flow-separation states of the Hawk and flaps 1-4's panels, used
+    with flags' F_UNSTEADY and nonlinear only; the wake's sidewash and downwash at the compensator, world
+    m/s, zero without the unsteady model: :data:`ATTACHED`).
 
     nonlinear: the stall tables (flags' F_NONLINEAR), unrolled: the compensator's panels written out
     (the lane kernel) rather than looped over (the per-environment kernel vectorises that loop); both
@@ -539,7 +574,7 @@ def forces(q, qd, fric, xs, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
         D = joint_projection(add(cross(r_a, fd), md), add(cross(rho, fd), md), cs, a2, sc)
         Gv = joint_projection(cross(r_a, n), cross(rho, n), cs, a2, sc)
         x_ref = p[L.P_GEOMETRY_COMP_AERO_X]
-        v_air_c = world_to_arm(comp_air_velocity(u), sp, cp, cs, ts)  # the compensator's own air: its gust U_GUST_COMP
+        v_air_c = world_to_arm(comp_air(u, xs), sp, cp, cs, ts)  # the compensator's own air: its gust U_GUST_COMP, the Hawk's wake
         fc, tc = comp_aero_arm(p, sub(cross_x(w_s, x_ref), v_air_c), w_s, flaps, nonlinear, tabs[3], tabs[4], unrolled, unsteady,
                                (xs[1], xs[2], xs[3], xs[4]))
         t_arm = add(t_arm, add(x_cross(x_ref, fc), tc))
@@ -556,7 +591,7 @@ def forces(q, qd, fric, xs, flaps, u, p, flags, tabs, kin, nonlinear, unrolled):
 
 
 @inlined(**_JIT)
-def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q, xs=ATTACHED5):
+def generalized_forces(q, qd, z, flaps, u, p, flags, tabs, kin, Q, xs=ATTACHED):
     """Fill Q (5) with :func:`forces`' Q (alpha-dot at its velocity part; xs: the separation states)."""
     Qt, D, Gv = forces(q, qd, applied_torques(q, qd, z, p, flags), xs, flaps, u, p, flags, tabs, kin, (flags & L.F_NONLINEAR) != 0, False)
     for k in range(5):

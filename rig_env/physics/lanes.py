@@ -67,7 +67,7 @@ from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.integrator import N_Y, RK_C, RK_W, limited_demands
 from rig_env.physics.joint_space import (
-    ATTACHED5, fixture_torque, forces, free_mask, friction_torque, mass_matrix_terms, separation_step, solve_free_rank1,
+    ATTACHED, fixture_torque, forces, free_mask, friction_torque, mass_matrix_terms, separation_step, solve_free_rank1,
 )  # fmt: skip
 from rig_env.physics.llvm_inline import inlined
 from rig_env.physics.vmath import FASTMATH
@@ -409,9 +409,10 @@ def _relax_lanes(row, tabs, dt):
     """:func:`relax_separation`'s loop over the lanes."""
     for lane in range(W):
         x = load10(row, OFF_X, lane)
+        servo = load7(row, OFF_X + L.X_SERVO * W, lane)
         xs = separation_step(x[0:5], x[5:10], load_inputs(row, OFF_U, lane), load_params(row, OFF_P, lane),
-                             load5(row, OFF_X + L.X_SEP * W, lane), dt, tabs)
-        store5(row, OFF_X + L.X_SEP * W, lane, xs)
+                             load7(row, OFF_X + L.X_SEP * W, lane), (servo[4], servo[5], servo[6]), dt, tabs)
+        store7(row, OFF_X + L.X_SEP * W, lane, xs)
 
 
 @njit(**_JIT)
@@ -450,7 +451,7 @@ def physics_step(row, flags, free, tabs, h, reuse_decay, last):
             yt = y0 if first else axpy24(c, load24(row, OFF_K, lane), y0)
             t = load5(row, OFF_FRIC, lane)
             fric = (t[0] if f0 else 0.0, t[1] if f1 else 0.0, t[2] if f2 else 0.0, t[3] if f3 else 0.0, t[4] if f4 else 0.0)
-            xs = load5(row, OFF_X + L.X_SEP * W, lane) if unsteady else ATTACHED5
+            xs = load7(row, OFF_X + L.X_SEP * W, lane) if unsteady else ATTACHED
             k = rhs_values(
                 yt, fric, xs, load7(row, OFF_UD, lane), load_inputs(row, OFF_U, lane), load_params(row, OFF_P, lane), flags, free, tabs,
             )  # fmt: skip

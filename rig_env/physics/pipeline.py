@@ -50,7 +50,7 @@ from rig_env.params import PARAM_NAMES
 from rig_env.physics import integrator as integ
 from rig_env.physics import lanes
 from rig_env.physics import layout as L
-from rig_env.physics.joint_space import separation_steady
+from rig_env.physics.joint_space import ATTACHED, separation_steady
 
 KINDS = ("lanes", "joint", "dae")
 """Kernel kinds :func:`choose_kernel` knows (see the module docstring)."""
@@ -179,13 +179,18 @@ def hold_demands(idx, U, P, X, dbuf):
 
 @njit(cache=True, error_model="numpy", _nrt=False)
 def hold_separation(idx, U, P, X, flags, tabs):
-    """The flow-separation states X[i, X_SEP:X_SEP + 5] of environments idx (m,) in steady flow at their joint
-    state and the inputs of U (:func:`rig_env.physics.joint_space.separation_steady`) with flags' F_UNSTEADY;
-    1 (attached, and unused) without it.  In place."""
+    """The aerodynamic states X[i, X_SEP:X_SEP + N_AERO] (flow separation, the wake at the compensator) of
+    environments idx (m,) in steady flow at their joint and servo state and the inputs of U
+    (:func:`rig_env.physics.joint_space.separation_steady`) with flags' F_UNSTEADY; attached and no wake
+    (unused) without it.  In place."""
     for i in idx:
         x = X[i]
-        xs = separation_steady(x[0:5], x[5:10], U[i], P[i], tabs) if flags & L.F_UNSTEADY else (1.0, 1.0, 1.0, 1.0, 1.0)
-        for k in range(L.N_SEP):
+        f = L.X_SERVO + 4
+        if flags & L.F_UNSTEADY:
+            xs = separation_steady(x[0:5], x[5:10], U[i], P[i], (x[f], x[f + 1], x[f + 2]), tabs)
+        else:
+            xs = ATTACHED
+        for k in range(L.N_AERO):
             X[i, L.X_SEP + k] = xs[k]
 
 
