@@ -282,10 +282,6 @@ def test_trial_finished_in_the_stop_window_is_not_trained_again(ray_cluster: Any
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason=(
-    "known race, not fixed yet: a trial whose final result reached result.json just before the SIGINT is restored "
-    "from an earlier checkpoint and trained again on resume, appending a second final line (two of four CI runs "
-    "on 2026-11-26; passes when the stop misses that window)"))
 def test_sweep_stopped_and_resumed_loses_no_finished_trial(ray_cluster: Any, tmp_path: Path) -> None:
     path, cfg = _config(tmp_path, "stopped")
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
