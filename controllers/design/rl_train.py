@@ -222,7 +222,13 @@ def _train_on_ray(args: argparse.Namespace) -> int:
     ``runs/<task>_<algo>_seeds``), each seed's policy then in ``OUT/s<seed>/policy.json`` and their spread in
     ``OUT/seeds.json`` as a local ``--seeds`` run writes them."""
     from controllers.design.rl_seeds import summarise
-    from controllers.design.sweep import SweepConfig, SweepError, check, run_sweep
+    from controllers.design.sweep import (
+        SweepConfig,
+        SweepError,
+        check,
+        final_policy,
+        run_sweep,
+    )
 
     root = (args.out or Path("runs") / f"{args.task}_{args.algo}_seeds").resolve()
     seeds = args.seeds if args.seeds is not None else [args.seed]
@@ -241,13 +247,12 @@ def _train_on_ray(args: argparse.Namespace) -> int:
 
     runs = []
     for row in result["rows"]:
-        src = root / row["trial"]
-        policy = sorted(src.glob("checkpoint_*/policy.json"))
-        if row["status"] != "done" or not policy:
+        policy = final_policy(root / row["trial"])  # the row's result's policy (a trial's folder can hold others)
+        if row["status"] != "done" or policy is None:
             continue
         dest = root / f"s{row['seed']}" / "policy.json"
         dest.parent.mkdir(parents=True, exist_ok=True)
-        shutil.copy2(policy[-1], dest)
+        shutil.copy2(policy, dest)
         runs.append(dest)
     if runs:
         summarise(runs, root, f"{args.algo.upper()} on {args.task}", args.target_success)

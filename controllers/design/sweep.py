@@ -233,8 +233,55 @@ TrainTrial = Callable[[list[str], dict[str, Any], "Path | None", Any], None]
 imports this one for ``--backend ray``)."""
 
 
+RESULT_FILE = "result.json"  # Tune's log of what a trial reported, one JSON line per result, in the trial's folder
+
+
+def recorded_final(trial_dir: Path) -> dict[str, Any] | None:
+    """The first final result in ``trial_dir``'s result.json (Tune logged it: the trial is done), or None.
+
+    This, not the state Tune saves, is what says a trial finished: Tune logs a result (result.json, the trial's
+    last result) as soon as it arrives but takes in the result's checkpoint only when a separate save call
+    returns, so a sweep stopped in between is saved with the trial running and its previous checkpoint."""
+    path = trial_dir / RESULT_FILE
+    if not path.is_file():
+        return None
+    for line in path.read_text().splitlines():
+        try:
+            result = json.loads(line)
+        except ValueError:  # a line being written
+            continue
+        if isinstance(result, dict) and result.get("final"):
+            return result
+    return None
+
+
+def final_policy(trial_dir: Path) -> Path | None:
+    """The policy.json of the checkpoint reported with the trial's final result (:func:`recorded_final`), or None."""
+    final = recorded_final(trial_dir)
+    path = trial_dir / str(final.get("checkpoint_dir_name")) / "policy.json" if final is not None else None
+    return path if path is not None and path.is_file() else None
+
+
+def _persisted_final(trial_dir: Path) -> tuple[Path, dict[str, Any]] | None:
+    """A whole final checkpoint in ``trial_dir`` (its trial.json holds the final result, its policy.json reads)
+    and its trial.json; None if there is none.  Tune writes a reported checkpoint to storage before the result
+    goes to the driver, so one can be there although its result never reached result.json."""
+    for d in sorted(trial_dir.glob("checkpoint_*"), reverse=True):
+        try:
+            book = json.loads((d / "trial.json").read_text())
+            json.loads((d / "policy.json").read_text())  # copied file by file: a stop mid-copy leaves it short
+        except (OSError, ValueError):
+            continue
+        if isinstance(book, dict) and book.get("final") and isinstance(book.get("metrics"), dict):
+            return d, book
+    return None
+
+
 def trial(config: dict[str, Any], sweep: dict[str, Any], train: TrainTrial) -> None:
-    """One Tune trial: ``rig train`` of ``config`` (task, seed, hp) resumed from Tune's checkpoint if any."""
+    """One Tune trial: ``rig train`` of ``config`` (task, seed, hp) resumed from Tune's checkpoint if any.
+
+    A trial that finished before a stop is never trained again when Tune restarts it (it does when the stop came
+    before Tune took in the final checkpoint, or before the trial function returned): its final result stands."""
     where = distributed.node_setup()
     import torch
     from ray import tune
@@ -242,18 +289,29 @@ def trial(config: dict[str, Any], sweep: dict[str, Any], train: TrainTrial) -> N
     torch.set_num_threads(1)  # one CPU per trial
 
     cfg = SweepConfig(**sweep)
+    folder = cfg.folder / Path(tune.get_context().get_trial_dir()).name  # this trial's folder under the storage path
     run = Path(tempfile.mkdtemp(prefix="rig-trial-"))
     ckpt = tune.get_checkpoint()
     attempt, resumed = 1, None
+    book: dict[str, Any] = {}
     if ckpt is not None:
         ckpt.to_directory(str(run))
         book = json.loads((run / "trial.json").read_text())
-        if book.get("final"):
-            # finished before a stop: its final result reached Tune (and result.json) but the stop came before the
-            # trial function returned, so Tune restarts it from that last checkpoint.  Nothing is left to run, and
-            # reporting again would append a second final line: return, and the trial ends on the result it has.
-            shutil.rmtree(run, ignore_errors=True)
-            return
+    if book.get("final") or recorded_final(folder) is not None:
+        # Restored from its final checkpoint, or from an earlier one although result.json holds its final result
+        # (stopped before Tune took in the final checkpoint).  Nothing is left to run, and reporting again would
+        # append a second final line: return, and the sweep's table takes the trial's row from result.json.
+        shutil.rmtree(run, ignore_errors=True)
+        return
+    done = _persisted_final(folder)
+    if done is not None:
+        # its final checkpoint reached storage but its result never reached Tune: report that result, not a new one
+        shutil.rmtree(run, ignore_errors=True)
+        with tempfile.TemporaryDirectory() as d:
+            shutil.copytree(done[0], d, dirs_exist_ok=True)
+            tune.report(dict(done[1]["metrics"]), checkpoint=tune.Checkpoint.from_directory(d))
+        return
+    if ckpt is not None:
         attempt, resumed = int(book["attempt"]) + 1, int(book["timesteps"])
     argv = _argv(cfg, config["task"], int(config["seed"]), run)
     who = {"attempt": attempt, "resumed_from": resumed, "node": where["node"], "pid": where["pid"]}
@@ -268,15 +326,17 @@ def trial(config: dict[str, Any], sweep: dict[str, Any], train: TrainTrial) -> N
     train(argv, dict(config["hp"]), run if resumed is not None else None, lambda out, freq: [_report_callback(freq, report)])
     prov = json.loads((run / "policy.json").read_text())["provenance"]
     fe = prov["final_eval"]
+    final = {"success_rate": float(fe["success_rate"]), "rms_error_deg": float(fe["rms_error_deg"]),
+             "mean_return": float(fe["mean_return"]), "timesteps": int(prov["timesteps"]),
+             "wall_time_s": float(prov["wall_time_s"]), "trial_seconds": time.perf_counter() - t0, "final": True, **who}
     with tempfile.TemporaryDirectory() as d:
         for name in ("policy.json", "curve.json", "curve.png"):
             if (run / name).is_file():
                 shutil.copy2(run / name, Path(d) / name)
-        (Path(d) / "trial.json").write_text(json.dumps({"attempt": attempt, "timesteps": prov["timesteps"], "final": True, **where}))
-        tune.report({"success_rate": float(fe["success_rate"]), "rms_error_deg": float(fe["rms_error_deg"]),
-                     "mean_return": float(fe["mean_return"]), "timesteps": int(prov["timesteps"]),
-                     "wall_time_s": float(prov["wall_time_s"]), "trial_seconds": time.perf_counter() - t0, "final": True, **who},
-                    checkpoint=tune.Checkpoint.from_directory(d))
+        # the result rides with its checkpoint, so that a restart that finds the checkpoint can report it again
+        (Path(d) / "trial.json").write_text(json.dumps({"attempt": attempt, "timesteps": prov["timesteps"], "final": True,
+                                                        **where, "metrics": final}))
+        tune.report(final, checkpoint=tune.Checkpoint.from_directory(d))
     shutil.rmtree(run, ignore_errors=True)
 
 
@@ -383,29 +443,33 @@ def run_sweep(cfg: SweepConfig, *, train: TrainTrial, address: str | None = None
     return fold(cfg, grid, read_books(folder), out)
 
 
-def _status(r: Any) -> str:
-    if r.error is not None:
-        return "error"
-    return "done" if r.metrics.get("final") else "stopped"
+def _status(r: Any, final: dict[str, Any] | None) -> str:
+    if final is not None:  # its result stands whatever happened to the trial after it
+        return "done"
+    return "error" if r.error is not None else "stopped"
 
 
 def fold(cfg: SweepConfig, grid: Any, retries: list[dict[str, Any]], out: TextIO) -> dict[str, Any]:
     """The trials as one table (``sweep.csv``, ``sweep.json``, ``sweep.png``) and the best policy exported."""
     keys = list(cfg.grid)
     rows: list[dict[str, Any]] = []
-    best: tuple[Any, dict[str, Any]] | None = None
+    best: tuple[Path, dict[str, Any]] | None = None
     sign = 1.0 if METRICS[cfg.metric] == "max" else -1.0
     for r in grid:
-        m, c = r.metrics or {}, r.config
+        # a trial's result is the first final one in its result.json, not Tune's last result and checkpoint, which
+        # can be an earlier one's (recorded_final); a restart that ran it again must not replace it either
+        final, c = recorded_final(Path(r.path)), r.config
+        m = final or r.metrics or {}
         row = {"task": c["task"], "seed": c["seed"], **{k: c["hp"].get(k) for k in keys},
                "success_rate": m.get("success_rate"), "rms_error_deg": m.get("rms_error_deg"), "mean_return": m.get("mean_return"),
                "timesteps": m.get("timesteps"), "wall_time_s": m.get("wall_time_s"), "attempt": m.get("attempt"),
-               "status": _status(r), "trial": Path(r.path).name}
+               "status": _status(r, final), "trial": Path(r.path).name}
         rows.append(row)
-        if row["status"] == "done" and r.checkpoint is not None:
+        policy = final_policy(Path(r.path))
+        if final is not None and policy is not None:
             score = (sign * row[cfg.metric], -row["rms_error_deg"])
             if best is None or score > best[1]["_score"]:
-                best = (r, {**row, "_score": score})
+                best = (policy, {**row, "_score": score})
     rows.sort(key=lambda r: (r["task"], [str(r[k]) for k in keys], r["seed"]))
     summary = folder_out = cfg.folder / "summary"
     folder_out.mkdir(parents=True, exist_ok=True)
@@ -425,8 +489,7 @@ def fold(cfg: SweepConfig, grid: Any, retries: list[dict[str, Any]], out: TextIO
     result: dict[str, Any] = {"trials": len(rows), "done": sum(r["status"] == "done" for r in rows), "rows": rows, "points": points,
                               "retries": retries, "metric": cfg.metric, "best": None}
     if best is not None:
-        r, row = best
-        src = Path(r.checkpoint.path) / "policy.json"
+        src, row = best
         dest = summary / "best_policy.json"
         shutil.copy2(src, dest)
         result["best"] = {k: v for k, v in row.items() if k != "_score"} | {"policy": str(dest)}
