@@ -236,9 +236,14 @@ def hawk_loads(p: np.ndarray, Aa: np.ndarray, v_rel: np.ndarray, w: np.ndarray, 
         cm_alpha = np.interp(alpha, tabs[0], tabs[2])
         if sep is not None:
             cl_att, f0 = separation_factor(p, alpha, float(cl_alpha))
-            dcl = cl_att * ((1.0 + math.sqrt(min(max(sep, 0.0), 1.0))) ** 2 / 4.0 - f0)
+            x = min(max(sep, 0.0), 1.0)
+            dcl = cl_att * ((1.0 + math.sqrt(x)) ** 2 / 4.0 - f0)
+            x0 = (2.0 * math.sqrt(f0) - 1.0) ** 2
+            # the centre of pressure k (1 - x) chords behind where it sits in attached flow: its moment beyond the
+            # table's, which holds it at x0
+            travel = p[L.P_HAWK_AERO_SEP_CP_TRAVEL] * ((cl_alpha + dcl) * (1.0 - x) - cl_alpha * (1.0 - x0))
             cl_alpha = cl_alpha + dcl
-            cm_alpha = cm_alpha + p[L.P_HAWK_AERO_CMALPHA] / p[L.P_HAWK_AERO_CLALPHA] * dcl
+            cm_alpha = cm_alpha + p[L.P_HAWK_AERO_CMALPHA] / p[L.P_HAWK_AERO_CLALPHA] * dcl - travel
     else:
         cl_alpha = p[L.P_HAWK_AERO_CL0] + p[L.P_HAWK_AERO_CLALPHA] * (alpha - p[L.P_HAWK_AERO_ALPHA0])
         cm_alpha = p[L.P_HAWK_AERO_CM0] + p[L.P_HAWK_AERO_CMALPHA] * (alpha - p[L.P_HAWK_AERO_ALPHA0])

@@ -58,6 +58,7 @@ NEUTRAL_DEFAULTS: dict[str, tuple[float, str]] = {
     "hawk_aero.sep_tau1": (10.0, "not in the file: 10 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
     "hawk_aero.sep_tau2": (3.0, "not in the file: 3 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
     "hawk_aero.wake_factor": (0.0, "not in the file: 0, no wake at the compensator, as before issue 21 item 4; used by aero_model='unsteady' only"),
+    "hawk_aero.sep_cp_travel": (0.0, "not in the file: 0, the lift separation takes or gives back at the attached flow's aerodynamic centre, as before; used by aero_model='unsteady' only"),
     "comp_aero.sep_tau1": (10.0, "not in the file: 10 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
     "comp_aero.sep_tau2": (3.0, "not in the file: 3 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
 }
@@ -162,6 +163,9 @@ class HawkAero:
     # issue 21 item 4 (docs/MODEL.md 3.1.2): the Hawk's wake at the compensator, a multiplier of the derived
     # downwash and sidewash (1 the model as derived, 0 none); used by aero_model="unsteady" only
     wake_factor: float = _f(0.0, 2.0, "-")
+    # the travel of the normal force's centre of pressure with flow separation, aft from attached to fully separated
+    # (docs/MODEL.md 3.1.1); used by aero_model="unsteady" only (the tables hold its static part)
+    sep_cp_travel: float = _f(-0.5, 0.5, "c")
 
 
 @dataclass(frozen=True)

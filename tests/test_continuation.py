@@ -254,3 +254,19 @@ def test_rig_pitch_only_with_the_stall_tables_folds_at_the_table_nodes(params):
     pitch = np.degrees(inside.states[at, 0])
     assert list(inside.stable[at][np.argsort(pitch)]) == [True, False, True]
     assert sorted(pitch)[0] < 13.0 < sorted(pitch)[1] < 16.0 < sorted(pitch)[2]
+
+
+def test_fig9_the_hawk_cg_offset_does_not_bring_a_hopf_point(params):
+    """Fig. 9's 4-DOF case (rig roll, sway, model pitch and yaw, 15 m/s, attached flow): the paper blames its
+    limit cycle on the Hawk's c.g. offset.  Lowering the c.g. below the model gimbal from 0 to 8 cm (the
+    default 1 cm) brings the leading eigenvalue from -0.60 towards -0.45 1/s and no Hopf point
+    (docs/MODEL.md 7); moving it along the body x axis sends the trim to a model-pitch stop within 2 cm."""
+    free = ("rig_roll", "rig_yaw", "model_pitch", "model_yaw")
+    br = rig_env.continuation(params, free_dofs=free, parameter="geometry.hawk_cg_z", values=np.linspace(0.0, 0.08, 9), airspeed=15.0,
+                              periodic=False, q_guess=[0, 0, 0, 0.1, 0])
+    lead = np.array([max(e.real) for e in br.eigenvalues])
+    assert br.hopf.size == 0 and br.stable.all()
+    assert lead[0] == pytest.approx(-0.60, abs=0.01) and lead[-1] == pytest.approx(-0.45, abs=0.01) and np.all(np.diff(lead) > 0)
+    fwd = rig_env.continuation(params, free_dofs=free, parameter="geometry.hawk_cg_x", values=np.linspace(0.0, 0.02, 5), airspeed=15.0,
+                               periodic=False, q_guess=[0, 0, 0, 0.1, 0])
+    assert any(sp.kind.startswith("stop:model_pitch") for sp in fwd.special_points)

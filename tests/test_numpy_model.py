@@ -53,6 +53,7 @@ NONZERO = {
     "hawk_aero.alphadot_fraction": 0.37,
     "hawk_aero.blanked_fraction": 0.25,
     "hawk_aero.Clbeta_CL": -0.167,
+    "hawk_aero.sep_cp_travel": 0.1,  # read by the unsteady model only (tests/test_unsteady.py compares it)
 }
 PARAM_SETS = {"default": RigParams.default(), "no-zero-parameters": RigParams.default().replace(**NONZERO)}
 

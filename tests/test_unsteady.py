@@ -243,8 +243,8 @@ def test_kernel_equals_the_numpy_model_with_the_separation_state(params):
     rng = np.random.default_rng(7)
     tabs = params.tables()
     moves = np.zeros(7, dtype=int)
-    for tau2 in (0.0, 3.0):
-        p = params.replace(**{"hawk_aero.sep_tau2": tau2}).to_vector()
+    for tau2, travel in ((0.0, 0.0), (3.0, 0.0), (3.0, -0.3)):
+        p = params.replace(**{"hawk_aero.sep_tau2": tau2, "hawk_aero.sep_cp_travel": travel}).to_vector()
         for free in (JOINTS, ("model_pitch",), ("rig_roll", "model_pitch", "model_yaw")):
             idx = np.array([JOINTS.index(j) for j in free], dtype=np.int64)
             for _ in range(6):
@@ -351,3 +351,88 @@ def test_environments_take_the_aero_model_option():
         RigVectorEnv(1, task="departure_recovery", aero_model="stall")
     with pytest.raises(ValueError, match=r"nonlinear_aero = False .aero_model 'linear'. contradicts aero_model = 'unsteady'"):
         RigVectorEnv(1, task="departure_recovery", aero_model="unsteady", nonlinear_aero=False)
+
+
+# ------------------------------------------------------------------ what Fig. 8's upper limit cycle takes
+def _numpy_jacobian(P: RigParams, elevator_deg: float, state: np.ndarray) -> np.ndarray:
+    """The independent numpy model's Jacobian of (model pitch, its rate, the Hawk's separation state) at a
+    1-DOF continuation state (model pitch, rate, the seven aerodynamic states) and elevator (deg), 20 m/s."""
+    p, tabs = P.to_vector(), P.tables()
+    u = np.zeros(L.N_INPUTS)
+    u[L.U_AIRSPEED] = 20.0
+    u[L.U_HAWK_ELEVATOR] = math.radians(elevator_deg)
+    q = np.zeros(5)
+    q[3] = state[0]
+    y0 = np.concatenate([q, np.zeros(10), state[2:]])
+    sel, eps, J = [3, 8, 15], 1e-7, np.zeros((3, 3))
+    for a, i in enumerate(sel):
+        yp, ym = y0.copy(), y0.copy()
+        yp[i] += eps
+        ym[i] -= eps
+        J[:, a] = (nm.rhs(0.0, yp, _flaps(u, p), u, p, UNSTEADY, np.array([3]), tabs)[sel]
+                   - nm.rhs(0.0, ym, _flaps(u, p), u, p, UNSTEADY, np.array([3]), tabs)[sel]) / (2 * eps)  # fmt: skip
+    return J
+
+
+def test_centre_of_pressure_travel_brings_a_hopf_band_at_the_stall_onset(params):
+    """With the centre of pressure moving aft as the flow separates (``sep_cp_travel`` k > 0), the lagging
+    separation keeps it forward on the way up: a moment that leads.  Continuation over the elevator (1-DOF,
+    20 m/s): no Hopf point for k up to 0.08 c; from about 0.085 c a pair of Hopf points bounds a band of
+    unstable equilibria at the stall's onset (model pitch from 10.0 deg, where the table's lift starts to fall),
+    1.3 deg wide at k = 0.1 (from about 0.13 c it reaches the fold of the static jump at 13 deg).  Checked
+    against the independent numpy model: the upper Hopf point's leading pair on the axis at the Hopf
+    frequency, and the stability of every sampled equilibrium of the band and around it."""
+    kw = dict(free_dofs=("model_pitch",), parameter="hawk_elevator", values=np.linspace(2, -3, 101), airspeed=20.0,
+              aero_model="unsteady", periodic=False)
+    for k in (0.0, 0.04, 0.08):
+        assert rig_env.continuation(params.replace(**{"hawk_aero.sep_cp_travel": k}), **kw).hopf.size == 0
+    P = params.replace(**{"hawk_aero.sep_cp_travel": 0.1})
+    br = rig_env.continuation(P, **kw)
+    hopfs = [sp for sp in br.special_points if sp.kind == "hopf"]
+    assert len(hopfs) == 2
+    pitch = sorted(math.degrees(sp.state[0]) for sp in hopfs)
+    assert pitch[0] == pytest.approx(10.0, abs=0.1) and 1.0 < pitch[1] - pitch[0] < 1.6
+    unstable = np.degrees(br.states[~br.stable, 0])
+    band = unstable[unstable < 12.5]  # above: the static jump's middle branch (folds at 13 and 16 deg), a saddle
+    assert band.size and pitch[0] - 0.1 < band.min() and band.max() < pitch[1] + 0.1
+    # the lower one sits on the table's breakpoint at 10 deg, where x0's slope jumps and the pair jumps across
+    # the axis; the upper one is a smooth crossing.  The numpy model's stability agrees along the branch
+    upper = max(hopfs, key=lambda sp: sp.state[0])
+    lead = max(np.linalg.eigvals(_numpy_jacobian(P, upper.value, upper.state)), key=lambda e: e.real)
+    assert abs(lead.real) < 0.02 and abs(lead.imag) == pytest.approx(upper.omega, rel=1e-3)
+    checked = 0
+    for value, state, stable in zip(br.values, br.states, br.stable):
+        deg = math.degrees(state[0])
+        if 8.0 < deg < 12.5 and abs(deg - 10.0) > 0.02:
+            lead = max(np.linalg.eigvals(_numpy_jacobian(P, value, state)), key=lambda e: e.real)
+            assert (lead.real < 0.0) == stable, (deg, lead)
+            checked += 1
+    assert checked >= 5
+
+
+def test_forward_travel_gives_limit_cycles_past_the_stall_and_orbits_match_simulation(params):
+    """A centre of pressure moving forward with separation (k = -0.4, against the tables' static break) makes
+    the deep stall's pitch mode unstable: a supercritical Hopf point at -2.33 deg elevator (19.1 deg model
+    pitch), stable periodic orbits beyond it, whose amplitude and period a 40 s simulation from near the
+    equilibrium reaches (3 %, 5 %); the numpy model agrees on the Hopf point."""
+    P = params.replace(**{"hawk_aero.sep_cp_travel": -0.4})
+    br = rig_env.continuation(P, free_dofs=("model_pitch",), parameter="hawk_elevator", values=np.linspace(-1.5, -3.0, 16), airspeed=20.0,
+                              aero_model="unsteady", periodic=True)
+    assert br.hopf.size == 1 and br.hopf[0] == pytest.approx(-2.33, abs=0.02)
+    hopf = next(sp for sp in br.special_points if sp.kind == "hopf")
+    assert math.degrees(hopf.state[0]) == pytest.approx(19.1, abs=0.2)
+    lead = max(np.linalg.eigvals(_numpy_jacobian(P, hopf.value, hopf.state)), key=lambda e: e.real)
+    assert abs(lead.real) < 0.02 and abs(lead.imag) == pytest.approx(hopf.omega, rel=1e-3)
+    orbits = br.orbits[0]
+    assert orbits.stable.all()
+    k = int(np.argmin(np.abs(orbits.values + 3.0)))
+    de = float(orbits.values[k])
+    op = rig_env.trim(P, ("model_pitch",), [0, 0, 0, 0.35, 0], controls={"hawk_elevator": de}, aero_model="unsteady", airspeed=20.0)
+    r = rig_env.simulate(P, [op.q[3] + 0.02], [0.0], 40.0, free_dofs=("model_pitch",), controls={"hawk_elevator": de}, airspeed=20.0,
+                         aero_model="unsteady", friction=False, control_rate=200.0)
+    late = r.q[r.t > 30.0, 0]
+    assert 0.5 * (late.max() - late.min()) == pytest.approx(orbits.amplitudes[k, 0], rel=0.03)
+    spectrum = np.abs(np.fft.rfft(late - late.mean()))
+    period = 1.0 / np.fft.rfftfreq(late.size, r.t[1] - r.t[0])[np.argmax(spectrum)]
+    assert period == pytest.approx(orbits.periods[k], rel=0.05)
+    assert math.degrees(orbits.amplitudes[k, 0]) > 3.0  # a limit cycle of degrees, not rounding

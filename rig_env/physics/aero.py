@@ -342,12 +342,17 @@ def separated_coefficients(p, alpha, x, tab_alpha, tab_cl, tab_cm):
 
     so both equal the tables whenever x = x0(alpha) (whatever the clipping of F0), and away from it the
     lift that separation takes away or gives back acts at the attached flow's aerodynamic centre (the
-    static margin -CMalpha / CLalpha behind the c.g.)."""
+    static margin -CMalpha / CLalpha behind the c.g.).  With ``sep_cp_travel`` k the whole lift's centre of
+    pressure moves k (1 - x) chords aft as the flow separates (Leishman and Beddoes' linear form), beyond the
+    tables' static travel: CM - k (CL (1 - x) - CL_tab (1 - x0)), zero again at x = x0."""
     cl_tab = interp(alpha, tab_alpha, tab_cl)
     cm_tab = interp(alpha, tab_alpha, tab_cm)
     cl_att = attached_lift(p, alpha)
     dcl = cl_att * (kirchhoff(x) - 1.0) + lift_deficit(cl_att, cl_tab)  # cl_att (F(x) - F0), no division
-    return cl_tab + dcl, cm_tab + (p[L.P_HAWK_AERO_CMALPHA] / p[L.P_HAWK_AERO_CLALPHA]) * dcl
+    r0 = 2.0 * math.sqrt(lift_factor(cl_att, cl_tab)) - 1.0  # x0 = r0^2
+    xc = min(max(x, 0.0), 1.0)
+    travel = p[L.P_HAWK_AERO_SEP_CP_TRAVEL] * ((cl_tab + dcl) * (1.0 - xc) - cl_tab * (1.0 - r0 * r0))
+    return cl_tab + dcl, cm_tab + (p[L.P_HAWK_AERO_CMALPHA] / p[L.P_HAWK_AERO_CLALPHA]) * dcl - travel
 
 
 @inlined(**_JIT)
