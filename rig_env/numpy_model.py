@@ -258,7 +258,7 @@ def hawk_loads(p: np.ndarray, Aa: np.ndarray, v_rel: np.ndarray, w: np.ndarray, 
     CY = fin * (p[L.P_HAWK_AERO_CYBETA] * beta + p[L.P_HAWK_AERO_CYDR] * dr)
     Clb = p[L.P_HAWK_AERO_CLBETA] + p[L.P_HAWK_AERO_CLBETA_CL] * cl_alpha
     Cl = Clb * beta + p[L.P_HAWK_AERO_CLP] * p_hat + p[L.P_HAWK_AERO_CLR] * r_hat + p[L.P_HAWK_AERO_CLDA] * da + fin * p[L.P_HAWK_AERO_CLDR] * dr
-    Cn = fin * p[L.P_HAWK_AERO_CNBETA] * beta + p[L.P_HAWK_AERO_CNP] * p_hat + p[L.P_HAWK_AERO_CNR] * r_hat + p[L.P_HAWK_AERO_CNDA] * da + fin * p[L.P_HAWK_AERO_CNDR] * dr
+    Cn = (p[L.P_HAWK_AERO_CNBETA_BODY] + fin * p[L.P_HAWK_AERO_CNBETA]) * beta + p[L.P_HAWK_AERO_CNP] * p_hat + p[L.P_HAWK_AERO_CNR] * r_hat + p[L.P_HAWK_AERO_CNDA] * da + fin * p[L.P_HAWK_AERO_CNDR] * dr
     qS = 0.5 * p[L.P_ENVIRONMENT_AIR_DENSITY] * V * V * S
     lift_dir = np.array([math.sin(alpha), 0.0, -math.cos(alpha)])  # normal to the velocity in the x-z plane
     force = qS * (CL * lift_dir - CD * np.array([u, v, wz]) / V + CY * E_Y)

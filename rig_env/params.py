@@ -59,6 +59,7 @@ NEUTRAL_DEFAULTS: dict[str, tuple[float, str]] = {
     "hawk_aero.sep_tau2": (3.0, "not in the file: 3 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
     "hawk_aero.wake_factor": (0.0, "not in the file: 0, no wake at the compensator, as before issue 21 item 4; used by aero_model='unsteady' only"),
     "hawk_aero.sep_cp_travel": (0.0, "not in the file: 0, the lift separation takes or gives back at the attached flow's aerodynamic centre, as before; used by aero_model='unsteady' only"),
+    "hawk_aero.Cnbeta_body": (0.0, "not in the file: 0, no fuselage part of Cnbeta apart from the fin's, as before"),
     "comp_aero.sep_tau1": (10.0, "not in the file: 10 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
     "comp_aero.sep_tau2": (3.0, "not in the file: 3 c/V, typical of wings at low speed (Goman & Khrabrov 1994); used by aero_model='unsteady' only"),
 }
@@ -166,6 +167,8 @@ class HawkAero:
     # the travel of the normal force's centre of pressure with flow separation, aft from attached to fully separated
     # (docs/MODEL.md 3.1.1); used by aero_model="unsteady" only (the tables hold its static part)
     sep_cp_travel: float = _f(-0.5, 0.5, "c")
+    # the fuselage's share of Cnbeta, which the fin's blanking leaves (docs/MODEL.md 3.1: Cnbeta is the fin's)
+    Cnbeta_body: float = _f(-1.0, 0.5, "1/rad")
 
 
 @dataclass(frozen=True)

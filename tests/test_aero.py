@@ -187,19 +187,21 @@ def smoothstep_blanking(a, alpha_deg):
 
 def test_tail_blanking_off_below_the_break_and_falls_above(params):
     """Fin derivatives (CYbeta, Cnbeta, and the rudder's) unchanged below 12 deg, falling to a quarter by
-    18 deg (paper Sec. VII: the fuselage wake blanks the fin at the onset of the upper limit cycle)."""
+    18 deg (paper Sec. VII: the fuselage wake blanks the fin at the onset of the upper limit cycle); the
+    fuselage's Cnbeta_body is not blanked."""
     params = RigParams.consistent()  # the set with the new terms on (default_rig.toml keeps them off)
     a = params.hawk_aero
     be = math.radians(2.0)
     for alpha_deg in (0.0, 5.0, 11.9):
         CY, Cl, Cn = lateral_coefficients(params, alpha_deg)
-        assert Cn == pytest.approx(a.Cnbeta * be, rel=1e-12)
+        assert Cn == pytest.approx((a.Cnbeta_body + a.Cnbeta) * be, rel=1e-12)
         assert CY == pytest.approx(a.CYbeta * be, rel=1e-9)
+    assert a.Cnbeta_body == -0.05
     dr = math.radians(5.0)
     for alpha_deg, eta in ((15.0, 1.0 - 0.75 * 0.5), (18.0, 0.25), (25.0, 0.25)):  # the smoothstep at t = 1/2, 1, beyond
         assert smoothstep_blanking(a, alpha_deg) == pytest.approx(eta)
         CY, Cl, Cn = lateral_coefficients(params, alpha_deg)
-        assert Cn == pytest.approx(eta * a.Cnbeta * be, rel=1e-12)
+        assert Cn == pytest.approx((a.Cnbeta_body + eta * a.Cnbeta) * be, rel=1e-12)
         assert CY == pytest.approx(eta * a.CYbeta * be, rel=1e-9)
         # rudder: the difference of two deflections at zero sideslip
         CY1, Cl1, Cn1 = lateral_coefficients(params, alpha_deg, beta_deg=0.0, dr=dr)

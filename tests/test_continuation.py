@@ -260,7 +260,8 @@ def test_fig9_the_hawk_cg_offset_does_not_bring_a_hopf_point(params):
     """Fig. 9's 4-DOF case (rig roll, sway, model pitch and yaw, 15 m/s, attached flow): the paper blames its
     limit cycle on the Hawk's c.g. offset.  Lowering the c.g. below the model gimbal from 0 to 8 cm (the
     default 1 cm) brings the leading eigenvalue from -0.60 towards -0.45 1/s and no Hopf point
-    (docs/MODEL.md 7); moving it along the body x axis sends the trim to a model-pitch stop within 2 cm."""
+    (docs/MODEL.md 7); moving it along the body x axis sends the trim to a model-pitch stop within 2 cm; the
+    compensator's CLq from 75.34 down to 0 gives none either."""
     free = ("rig_roll", "rig_yaw", "model_pitch", "model_yaw")
     br = rig_env.continuation(params, free_dofs=free, parameter="geometry.hawk_cg_z", values=np.linspace(0.0, 0.08, 9), airspeed=15.0,
                               periodic=False, q_guess=[0, 0, 0, 0.1, 0])
@@ -270,3 +271,37 @@ def test_fig9_the_hawk_cg_offset_does_not_bring_a_hopf_point(params):
     fwd = rig_env.continuation(params, free_dofs=free, parameter="geometry.hawk_cg_x", values=np.linspace(0.0, 0.02, 5), airspeed=15.0,
                                periodic=False, q_guess=[0, 0, 0, 0.1, 0])
     assert any(sp.kind.startswith("stop:model_pitch") for sp in fwd.special_points)
+    # nor the compensator's suspect CLq (75.34), which in heave has a Hopf point at 25.72 (above): none in these four
+    clq = rig_env.continuation(params, free_dofs=free, parameter="comp_aero.CLq", values=np.linspace(75.34, 0.0, 12), airspeed=15.0,
+                               periodic=False, q_guess=[0, 0, 0, 0.1, 0])
+    assert clq.hopf.size == 0 and clq.stable.all()
+
+
+@pytest.mark.parametrize("elevator", [-4.0, -6.0])
+def test_fig8_yaw_divergence_of_the_blanked_hawk_is_the_closed_form(elevator):
+    """Fig. 8's yaw departure (the fin blanked above 12 deg): on the model-yaw gimbal, whose axis is the vertical,
+    the static yaw stiffness at pitch theta is qSb (Cnbeta_eff cos theta - Clbeta_eff sin theta) plus the side
+    force's moment at the c.g.'s lever, Cnbeta_eff = Cnbeta_body + eta Cnbeta.  Continuation over the
+    fuselage's Cnbeta_body (consistent set, model pitch and yaw free, the stall tables, 20 m/s) finds the
+    symmetric branch's pitchfork where that stiffness is zero (0.002).  The dihedral effect that grows with lift
+    (Clbeta_CL) holds the yaw: the departure needs Cnbeta_body below -0.105 at 19.5 deg, twice the
+    DATCOM estimate -0.05, with which the branch keeps its yaw stability up to the stop (docs/MODEL.md 7)."""
+    P = rig_env.RigParams.consistent()
+    free = ("model_pitch", "model_yaw")
+    br = rig_env.continuation(P, free_dofs=free, parameter="hawk_aero.Cnbeta_body", values=np.linspace(0.0, -0.3, 61), airspeed=20.0,
+                              controls={"hawk_elevator": elevator}, aero_model="tables", periodic=False, q_guess=[0, 0, 0, 0.35, 0])
+    (bp,) = [sp for sp in br.special_points if sp.kind == "branch_point"]
+    th = bp.state[0]
+    h, g = P.hawk_aero, P.geometry
+    cl = float(np.interp(th, P.tables()[0], P.tables()[1]))
+    t = min(max((math.degrees(th) - h.blanking_alpha_deg) / h.blanking_width_deg, 0.0), 1.0)
+    eta = 1.0 - (1.0 - h.blanked_fraction) * t * t * (3.0 - 2.0 * t)
+    clb = h.Clbeta + h.Clbeta_CL * cl
+    lever = g.hawk_cg_x * math.cos(th) + g.hawk_cg_z * math.sin(th)  # the c.g.'s streamwise offset from the yaw axis
+    expect = (clb * math.sin(th) - eta * h.CYbeta * lever / h.b) / math.cos(th) - eta * h.Cnbeta
+    assert bp.value == pytest.approx(expect, abs=0.002)
+    assert P.hawk_aero.Cnbeta_body == -0.05 and bp.value < 2 * P.hawk_aero.Cnbeta_body  # twice the DATCOM estimate
+    if elevator == -4.0:
+        along = rig_env.continuation(P, free_dofs=free, parameter="hawk_elevator", values=np.linspace(5, -8, 27), airspeed=20.0,
+                                     aero_model="tables", periodic=False)
+        assert not any(sp.kind == "branch_point" for sp in along.special_points)

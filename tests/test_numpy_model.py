@@ -54,6 +54,7 @@ NONZERO = {
     "hawk_aero.blanked_fraction": 0.25,
     "hawk_aero.Clbeta_CL": -0.167,
     "hawk_aero.sep_cp_travel": 0.1,  # read by the unsteady model only (tests/test_unsteady.py compares it)
+    "hawk_aero.Cnbeta_body": -0.05,
 }
 PARAM_SETS = {"default": RigParams.default(), "no-zero-parameters": RigParams.default().replace(**NONZERO)}
 

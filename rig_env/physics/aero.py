@@ -161,7 +161,8 @@ def hawk_aero_full(p, A, v_cg, omega, v_air, a_bias, de, da, dr, nonlinear, tab_
     Eq. (23) with the combined q derivatives split (``alphadot_fraction`` f):
     CL = CL(alpha) + (1 - f) CLq q^ + f CLq alphadot^ + CLde de, CD = CD0 + CL_v^2/(pi e AR),
     CM = CM(alpha) + (1 - f) CMq q^ + f CMq alphadot^ + CMde de, with x^ = x c/2V; plus CY, Cl, Cn in beta,
-    p, r, da, dr, the fin's terms times the blanking factor and Clbeta + Clbeta_CL CL(alpha).
+    p, r, da, dr, the fin's terms times the blanking factor (Cnbeta's fuselage part Cnbeta_body not) and
+    Clbeta + Clbeta_CL CL(alpha).
 
     unsteady (with nonlinear): CL(alpha) and CM(alpha) are :func:`separated_coefficients` at the flow-separation
     state xsep (1 attached, 0 separated), which equal the tables at xsep = x0(alpha); otherwise xsep is unused.
@@ -225,7 +226,7 @@ def hawk_aero_full(p, A, v_cg, omega, v_air, a_bias, de, da, dr, nonlinear, tab_
         + eta * (p[L.P_HAWK_AERO_CLDR] * dr)
     )
     Cn = (
-        eta * (p[L.P_HAWK_AERO_CNBETA] * beta + p[L.P_HAWK_AERO_CNDR] * dr)
+        (p[L.P_HAWK_AERO_CNBETA_BODY] + eta * p[L.P_HAWK_AERO_CNBETA]) * beta + eta * (p[L.P_HAWK_AERO_CNDR] * dr)
         + p[L.P_HAWK_AERO_CNP] * ph
         + p[L.P_HAWK_AERO_CNR] * rh
         + p[L.P_HAWK_AERO_CNDA] * da
