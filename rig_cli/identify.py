@@ -12,6 +12,7 @@ The configuration (TOML; paths relative to the configuration file's folder)::
     [options]                             # optional
     max_iter = 50                         # iterations, >= 1
     tol = 1e-6                            # relative cost change that ends the iterations, > 0
+    aero_model = "linear"                 # "linear", "tables" or "unsteady" (its separation, c.p. and wake parameters)
 
     [[record]]                            # one per record, at least one
     path = "runs/pitch_3211.csv"
@@ -44,8 +45,9 @@ from rig_env.params import DEFAULT_FILE, JOINTS, PARAM_INDEX, RigParams
 from rig_env.sysid.records import SURFACE_KINDS, FlightRecord
 
 METHODS = ("output_error", "filter_error", "equation_error")  # rig_env.sysid.fit.METHODS (kept here so parsing a config imports no model)
+AERO_MODEL_NAMES = ("linear", "tables", "unsteady")  # rig_env.physics.pipeline.AERO_MODELS' names (a test keeps them equal)
 TOP_KEYS = ("params", "method", "estimate", "options", "record")
-OPTION_KEYS = ("max_iter", "tol")
+OPTION_KEYS = ("max_iter", "tol", "aero_model")
 ESTIMATE_KEYS = ("name", "start", "bounds")
 READER_KEYS = ("columns", "free_dofs", "airspeed", "locked", "surface_kind", "setup")
 RECORD_KEYS = ("path", "name", *READER_KEYS, "segment", "resample", "smooth")
@@ -80,6 +82,7 @@ class IdentifyConfig:
     records: tuple[RecordSpec, ...]
     max_iter: int | None = None
     tol: float | None = None
+    aero_model: str | None = None
 
 
 def _unknown(where: str, got: Mapping[str, Any], allowed: tuple[str, ...]) -> None:
@@ -228,11 +231,17 @@ def load_config(path: str | Path) -> IdentifyConfig:
     tol = None if "tol" not in opts else _number("options.tol", opts["tol"])
     if tol is not None and tol <= 0:
         raise ConfigError(f"options.tol = {tol}: must be > 0")
+    aero_model = opts.get("aero_model")
+    if aero_model is not None and aero_model not in AERO_MODEL_NAMES:
+        raise ConfigError(f"options.aero_model = {aero_model!r}: allowed: {', '.join(AERO_MODEL_NAMES)}")
+    if aero_model == "unsteady" and method == "equation_error":
+        raise ConfigError("options.aero_model = 'unsteady' with method = 'equation_error': equation error regresses the measured "
+                          "states, which hold no aerodynamic states; use output_error or filter_error")
     recs = raw.get("record")
     if not isinstance(recs, list) or not recs:
         raise ConfigError("record: give at least one [[record]] table with a path")
     records = tuple(_record(base, k, r) for k, r in enumerate(recs))
-    return IdentifyConfig(path, params_file, method, names, start, bounds, records, max_iter, tol)
+    return IdentifyConfig(path, params_file, method, names, start, bounds, records, max_iter, tol, aero_model)
 
 
 def read_record(spec: RecordSpec) -> FlightRecord:
@@ -263,6 +272,8 @@ def fit_kwargs(cfg: IdentifyConfig) -> dict[str, Any]:
         kw["max_iter"] = cfg.max_iter
     if cfg.tol is not None:
         kw["tol"] = cfg.tol
+    if cfg.aero_model is not None:
+        kw["aero_model"] = cfg.aero_model
     return kw
 
 

@@ -425,6 +425,7 @@ def test_rig_identify_unconverged_fit_writes_no_params(config: Path, tmp_path: P
     (("start = -4.0", "start = 4.0"), r"estimate\[1\]: start = 4.0 is outside bounds"),
     (("tol = 1e-5", "tolerance = 1e-5"), r"options: unknown key\(s\) \['tolerance'\]; allowed: max_iter, tol"),
     (("max_iter = 7", "max_iter = 0"), "options.max_iter = 0: must be an integer >= 1"),
+    (("max_iter = 7", "aero_model = \"quasi\""), "options.aero_model = 'quasi': allowed: linear, tables, unsteady"),
     (("path = \"pitch.csv\"", "path = \"missing.csv\""), r"record\[0\].path: file not found: .*missing.csv"),
     (("airspeed = 20.0", "speed = 20.0"), r"record\[0\]: unknown key\(s\) \['speed'\]; allowed: path, name, columns"),
     (("free_dofs = [\"model_pitch\"]", "free_dofs = [\"pitch\"]"), r"record\[0\].free_dofs = \['pitch'\]: must be a non-empty list of joints"),
@@ -454,3 +455,20 @@ def test_rig_identify_failed_fit_is_one_line(config: Path, tmp_path: Path, param
     monkeypatch.setattr(sysid, "fit", boom)
     assert main(["identify", str(config), "--out", str(tmp_path / "out")]) == 2
     assert capsys.readouterr().err == "rig identify: error: the fit failed: singular information matrix\n"
+
+
+def test_rig_identify_takes_the_aero_model_and_refuses_it_with_equation_error(config: Path, tmp_path: Path, params: RigParams,
+                                                                              monkeypatch, capsys):
+    """options.aero_model reaches sysid.fit; "unsteady" with equation error is a one-line error (no aerodynamic
+    states in the measured ones)."""
+    from rig_cli.identify import fit_kwargs, load_config
+    from rig_cli.main import main
+
+    config.write_text(CONFIG.replace("tol = 1e-5", "tol = 1e-5\naero_model = \"unsteady\""))
+    assert fit_kwargs(load_config(config))["aero_model"] == "unsteady"
+    calls = _stub(monkeypatch, params)
+    config.write_text(CONFIG.replace("tol = 1e-5", "tol = 1e-5\naero_model = \"unsteady\"").replace('method = "output_error"', 'method = "equation_error"'))
+    assert main(["identify", str(config), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "options.aero_model = 'unsteady' with method = 'equation_error'" in err and err.count("\n") == 1
+    assert "fit" not in calls

@@ -94,12 +94,12 @@ class _Regression:
 
 
 def equation_error(records, params: RigParams, pset: ParameterSet, *, aero: bool | None = None, friction: bool = True, stops: bool = True,
-                   nonlinear_aero: bool = False, window: int = WINDOW, max_iter: int = 10,
+                   aero_model: str = "linear", window: int = WINDOW, max_iter: int = 10,
                    progress: Callable[[str], None] | None = None) -> tuple[Solution, list[RecordModel], list[_Regression]]:
     """Fit the parameters of ``pset`` by equation error (see the module docstring)."""
     say = progress or (lambda s: None)
     theta = pset.start.copy()
-    models = [RecordModel(r, params, aero=aero, friction=friction, stops=stops, nonlinear_aero=nonlinear_aero) for r in records]
+    models = [RecordModel(r, params, aero=aero, friction=friction, stops=stops, aero_model=aero_model) for r in records]
     regs = [_Regression(m, theta, pset, window, friction) for m in models]
     history: list[float] = []
     converged, message, it = False, "maximum number of iterations reached", 0

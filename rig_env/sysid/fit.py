@@ -44,6 +44,7 @@ def fit(
     friction: bool = True,
     stops: bool = True,
     nonlinear_aero: bool = False,
+    aero_model: str | None = None,
     max_iter: int = 30,
     tol: float = 1e-6,
     differences: str = "forward",
@@ -59,8 +60,11 @@ def fit(
     parameters, output error) or "measured" (taken from the record's first samples); biases: estimate a
     constant bias per record and output (output error); process_noise: filter error's start values,
     {joint: std of the process noise on its acceleration, rad/s^2} (default from the records);
-    aero (None: on, except for wind-off records, airspeed 0 throughout), friction, stops, nonlinear_aero:
-    the model's terms; max_iter, tol: the optimiser's limits;
+    aero (None: on, except for wind-off records, airspeed 0 throughout), friction, stops: the model's terms;
+    aero_model: "linear" (default), "tables" or "unsteady" (the unsteady model's parameters, its
+    flow-separation time constants, centre-of-pressure travel and wake, act only there; not with equation
+    error, which regresses measured states and has no aerodynamic states to take), ``nonlinear_aero=True`` the
+    older name of "tables"; max_iter, tol: the optimiser's limits;
     progress: called with a one-line message per iteration.
     """
     if method not in METHODS:
@@ -74,6 +78,9 @@ def fit(
     recs = [records] if isinstance(records, FlightRecord) else list(records)
     if not recs or not all(isinstance(r, FlightRecord) for r in recs):
         raise RecordError("records: give one or more FlightRecord objects")
+    from rig_env.physics.pipeline import resolve_aero_model
+
+    model = resolve_aero_model(aero_model, True if nonlinear_aero else None)
     pset = ParameterSet.build(params, estimate, bounds, start)
     from rig_env.sysid.problem import Problem  # the model and its kernels: imported when a fit runs
 
@@ -82,7 +89,10 @@ def fit(
 
         if biases or initial_state != "estimate" or process_noise:
             raise ValueError("equation error regresses accelerations: it takes no biases, initial_state or process_noise")
-        sol, models, regs = equation_error(recs, params, pset, aero=aero, friction=friction, stops=stops, nonlinear_aero=nonlinear_aero,
+        if model == "unsteady":
+            raise ValueError("aero_model = 'unsteady': equation error regresses the measured states, which hold no aerodynamic "
+                             "states; use output_error or filter_error")
+        sol, models, regs = equation_error(recs, params, pset, aero=aero, friction=friction, stops=stops, aero_model=model,
                                         max_iter=max_iter, progress=progress)
         outs = tuple(tuple(f"{j}_accel" for j in m.record.free_dofs) for m in models)
         times = tuple(m.record.t[rg.keep] for m, rg in zip(models, regs))
@@ -91,7 +101,7 @@ def fit(
         from rig_env.sysid.output_error import output_error
 
         problem = Problem(recs, params, pset, initial_state=initial_state, biases=biases, aero=aero, friction=friction, stops=stops,
-                          nonlinear_aero=nonlinear_aero, differences=differences)
+                          aero_model=model, differences=differences)
         sol = output_error(problem, problem.p0, max_iter=max_iter, tol=tol, progress=progress)
     else:
         from rig_env.sysid.filter_error import filter_error
@@ -99,7 +109,7 @@ def fit(
         if biases:
             raise ValueError("biases: the filter-error method here does not estimate output biases (use output error)")
         problem = Problem(recs, params, pset, initial_state="measured", biases=False, aero=aero, friction=friction, stops=stops,
-                          nonlinear_aero=nonlinear_aero)
+                          aero_model=model)
         sol = filter_error(problem, problem.p0, process_noise=process_noise, max_iter=max_iter, tol=tol, progress=progress)
     return _result(method, problem.records, problem.outputs, problem.names[pset.k :], pset, params, sol)
 

@@ -43,14 +43,14 @@ def measured_outputs(record: FlightRecord) -> np.ndarray:
 class RecordModel:
     """The model of one record: ``run(rows, x0)`` simulates it for each parameter row and initial state.
 
-    params: the rig; aero, friction, stops, nonlinear_aero: the model's terms (servo dynamics on for commanded
+    params: the rig; aero, friction, stops, aero_model: the model's terms (servo dynamics on for commanded
     surfaces); aero None: on, except for a wind-off record (airspeed 0 throughout), whose motion through
     still air the quasi-steady tunnel-flow aerodynamics does not describe (a body swinging at rest air
     would see 90 deg of incidence).  The record must be uniformly sampled (RecordError otherwise).
     """
 
     def __init__(self, record: FlightRecord, params: RigParams, *, aero: bool | None = None, friction: bool = True,
-                 stops: bool = True, nonlinear_aero: bool = False) -> None:
+                 stops: bool = True, aero_model: str = "linear") -> None:
         dts = np.diff(record.t)
         dt = float(np.mean(dts))
         if np.max(np.abs(dts - dt)) > UNIFORM_TOL * dt:
@@ -70,7 +70,7 @@ class RecordModel:
         if aero is None:
             aero = bool(np.any(record.airspeed_series() > 0.0))
         self.aero = aero
-        self.flags = flags_of(aero, friction, stops, not actual, nonlinear_aero)
+        self.flags = flags_of(aero, friction, stops, not actual, aero_model)
         base = params.replace(**record.setup) if record.setup else params
         self.base_row = base.to_vector()
         if actual:

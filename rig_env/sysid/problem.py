@@ -63,7 +63,7 @@ class Problem:
         aero: bool | None = None,
         friction: bool = True,
         stops: bool = True,
-        nonlinear_aero: bool = False,
+        aero_model: str = "linear",
         differences: str = "forward",
     ) -> None:
         if isinstance(records, FlightRecord):
@@ -80,7 +80,7 @@ class Problem:
         self.params = params
         self.pset = pset
         self.record_names = unique_names(records)
-        self.models = [RecordModel(r, params, aero=aero, friction=friction, stops=stops, nonlinear_aero=nonlinear_aero) for r in records]
+        self.models = [RecordModel(r, params, aero=aero, friction=friction, stops=stops, aero_model=aero_model) for r in records]
         self.outputs = [output_names(r) for r in records]
         k = pset.k
         names = list(pset.names)
