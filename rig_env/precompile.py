@@ -96,21 +96,37 @@ KERNEL_SECONDS = {"lanes/linear": 40.0, "lanes/tables": 55.0, "lanes/unsteady": 
 """Rough cold-compile seconds of a group's physics kernel (serial and parallel versions) on the 2-core machine
 the defaults were measured on (``benchmarks/RESULTS.md``, "A new user's first run"); others 40 s.  Only their
 ratios matter: they balance the jobs."""
+ONE_VERSION = 0.8
+"""... the share of that when a group needs only one of the two versions (the larger part, the physics step, is shared
+by both: 58-61 s for the tables' parallel kernel alone against 73 s for both, measured on a loaded machine)."""
 TASK_SECONDS = 2.0
 """... each further task of a group (its own small kernels)."""
 DESIGN_SECONDS = 12.0
 """... the design's trim and linearisation (14 s measured on a loaded machine)."""
 
 
-def _jobs(tasks: Sequence[str], fields: Mapping[str, Any], design: bool, processes: int) -> list[dict[str, Any]]:
+def _parallel(n: int) -> bool:
+    from rig_env.physics.integrator import PARALLEL_MIN_ENVS
+
+    return int(n) >= PARALLEL_MIN_ENVS
+
+
+def _jobs(tasks: Sequence[str], fields: Mapping[str, Any], design: bool, processes: int,
+          task_sizes: Mapping[str, Sequence[int]] | None = None) -> list[dict[str, Any]]:
     """Tasks grouped by physics kernel and aerodynamic model (each group's first task compiles that kernel: the
     costly part), the design a job of its own; while there are more jobs than ``processes``, the cheapest
-    (by :data:`KERNEL_SECONDS`, :data:`TASK_SECONDS`, :data:`DESIGN_SECONDS`) is folded into the next
+    (by :data:`KERNEL_SECONDS`, :data:`ONE_VERSION`, :data:`TASK_SECONDS`, :data:`DESIGN_SECONDS`; ``task_sizes``: the
+    batch sizes each task is stepped at, default :data:`SIZES`) is folded into the next
     cheapest, so that the longest job, which the caller waits for, is as short as the estimates allow."""
     groups: dict[str, list[str]] = {}
     for t in tasks:
         groups.setdefault(_kernel_kind(t, fields), []).append(t)
-    jobs = [{"tasks": ts, "design": False, "cost": KERNEL_SECONDS.get(g, 40.0) + TASK_SECONDS * (len(ts) - 1)}
+
+    def versions(ts: list[str]) -> int:  # the physics kernel's versions (serial, parallel) the group's batches run
+        return len({_parallel(n) for t in ts for n in (task_sizes or {}).get(t, SIZES)})
+
+    jobs = [{"tasks": ts, "design": False,
+             "cost": KERNEL_SECONDS.get(g, 40.0) * (1.0 if versions(ts) > 1 else ONE_VERSION) + TASK_SECONDS * (len(ts) - 1)}
             for g, ts in sorted(groups.items(), key=lambda kv: kv[0] != "lanes/linear")]
     if design:
         jobs.append({"tasks": [], "design": True, "cost": DESIGN_SECONDS})
@@ -127,6 +143,7 @@ def precompile(
     *,
     design: bool = True,
     sizes: Sequence[int] = SIZES,
+    batch_sizes: Mapping[str, int] | None = None,
     processes: int | None = None,
     stream: TextIO | None = None,
     interval: float = 3.0,
@@ -135,7 +152,11 @@ def precompile(
 ) -> PrecompileReport:
     """Compile the kernels of ``tasks`` (with the configuration ``env_fields``) and, with ``design``, of the
     linearisation, in up to ``processes`` child processes (default: ``RIG_ENV_PRECOMPILE_PROCESSES`` if set,
-    else the CPUs, at most 3; 1 turns the parallel compile off); progress on ``stream``.  See the module docstring.  ``timeout``: seconds before a child is
+    else the CPUs, at most 3; 1 turns the parallel compile off); progress on ``stream``.  See the module docstring.
+    ``batch_sizes``: the environments of a task's batches, when the caller knows them (task name to count): that
+    task is then stepped at that size only, which compiles the one version of its physics kernel (serial or
+    parallel, :data:`rig_env.physics.integrator.PARALLEL_MIN_ENVS`) the caller will run, not both; the other
+    tasks at ``sizes``.  ``timeout``: seconds before a child is
     stopped (its kernels then compile in the caller).  ``while_waiting``: called once while the children
     compile (work of the caller's that needs no kernel, e.g. importing the plotting library)."""
     from rig_env.envs import TASKS
@@ -153,7 +174,9 @@ def precompile(
     n_proc = processes if processes is not None else max(1, min(os.cpu_count() or 1, 3))
     if not isinstance(n_proc, int) or n_proc < 1:
         raise ValueError(f"processes = {processes!r}: must be a positive integer")
-    spec = {"tasks": sorted(tasks), "fields": fields, "design": design, "sizes": sorted(int(s) for s in sizes)}
+    plain_sizes = sorted(int(s) for s in sizes)
+    task_sizes = {t: ([int((batch_sizes or {})[t])] if t in (batch_sizes or {}) else plain_sizes) for t in sorted(tasks)}
+    spec = {"tasks": sorted(tasks), "fields": fields, "design": design, "sizes": task_sizes}
     marker = _marker(spec)
     if marker is None:
         return PrecompileReport(skipped="kernels run as Python (nothing to compile)")
@@ -161,7 +184,7 @@ def precompile(
         return PrecompileReport(skipped="compiled by an earlier run")
     if n_proc < 2:
         return PrecompileReport(skipped="one process: the kernels compile where they are first used")
-    jobs = _jobs(list(tasks), _tuples(fields), design, n_proc)
+    jobs = _jobs(list(tasks), _tuples(fields), design, n_proc, task_sizes)
     t0 = time.perf_counter()
     if stream is not None:
         stream.write(f"  compiling the numba kernels in {len(jobs)} processes (once per installation; later runs load them "
@@ -169,7 +192,7 @@ def precompile(
         stream.flush()
     procs = []
     for job in jobs:
-        payload = json.dumps({**job, "fields": fields, "sizes": spec["sizes"]})
+        payload = json.dumps({**job, "fields": fields, "sizes": {t: task_sizes[t] for t in job["tasks"]}})
         # the child's messages go to a file, not a pipe: a pipe read only at the end would stall a chatty child
         log = tempfile.TemporaryFile(mode="w+")
         proc = subprocess.Popen([sys.executable, "-m", "rig_env.precompile", payload], stdout=subprocess.DEVNULL, stderr=log, text=True)
@@ -221,17 +244,22 @@ def precompile(
 
 
 def _child(payload: str) -> None:
-    """One job: step each task's environment at each size once; trim and linearise with ``design``."""
+    """One job: step each task's environment once at each of its sizes whose physics kernel version (serial or
+    parallel) an earlier task of the job has not compiled yet, and at least once; trim and linearise with ``design``."""
     import numpy as np
 
     job = json.loads(payload)
     fields = _tuples(job["fields"])
+    sizes = job["sizes"]
     from rig_env.envs import RigVectorEnv
 
-    for k, task in enumerate(job["tasks"]):
-        # every size for the job's first task (the physics kernel's serial and parallel versions, compiled in one
-        # process); the later tasks share that kernel and need their own kernels once, at the largest size
-        for n in job["sizes"] if k == 0 else job["sizes"][-1:]:
+    done: set[tuple[str, bool]] = set()  # (kernel, parallel) compiled by an earlier task of this job
+    for task in job["tasks"]:
+        mine = [int(n) for n in (sizes[task] if isinstance(sizes, dict) else sizes)]
+        kind = _kernel_kind(task, fields)
+        # the tasks of a group share its physics kernel; each needs its own (small) kernels once, at the largest size
+        for n in [n for n in mine if (kind, _parallel(n)) not in done] or mine[-1:]:
+            done.add((kind, _parallel(n)))
             env = RigVectorEnv(int(n), task=task, **fields)
             env.reset(seed=0)
             env.step(np.zeros((int(n), len(env.action_names))))
