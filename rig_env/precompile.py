@@ -93,12 +93,9 @@ def _kernel_kind(task: str, fields: Mapping[str, Any]) -> str:
 
 
 KERNEL_SECONDS = {"lanes/linear": 40.0, "lanes/tables": 55.0, "lanes/unsteady": 60.0}
-"""Rough cold-compile seconds of a group's physics kernel (serial and parallel versions) on the 2-core machine
-the defaults were measured on (``benchmarks/RESULTS.md``, "A new user's first run"); others 40 s.  Only their
-ratios matter: they balance the jobs."""
-ONE_VERSION = 0.8
-"""... the share of that when a group needs only one of the two versions (the larger part, the physics step, is shared
-by both: 58-61 s for the tables' parallel kernel alone against 73 s for both, measured on a loaded machine)."""
+"""Rough cold-compile seconds of a group's physics kernel (the parallel version, compiled first; its serial twin then
+adds about a second) on the 2-core machine the defaults were measured on (``benchmarks/RESULTS.md``, "A new user's
+first run"; 36 and 49 s on a loaded one); others 40 s.  Only their ratios matter: they balance the jobs."""
 TASK_SECONDS = 2.0
 """... each further task of a group (its own small kernels)."""
 DESIGN_SECONDS = 12.0
@@ -111,22 +108,16 @@ def _parallel(n: int) -> bool:
     return int(n) >= PARALLEL_MIN_ENVS
 
 
-def _jobs(tasks: Sequence[str], fields: Mapping[str, Any], design: bool, processes: int,
-          task_sizes: Mapping[str, Sequence[int]] | None = None) -> list[dict[str, Any]]:
+def _jobs(tasks: Sequence[str], fields: Mapping[str, Any], design: bool, processes: int) -> list[dict[str, Any]]:
     """Tasks grouped by physics kernel and aerodynamic model (each group's first task compiles that kernel: the
     costly part), the design a job of its own; while there are more jobs than ``processes``, the cheapest
-    (by :data:`KERNEL_SECONDS`, :data:`ONE_VERSION`, :data:`TASK_SECONDS`, :data:`DESIGN_SECONDS`; ``task_sizes``: the
-    batch sizes each task is stepped at, default :data:`SIZES`) is folded into the next
+    (by :data:`KERNEL_SECONDS`, :data:`TASK_SECONDS`, :data:`DESIGN_SECONDS`) is folded into the next
     cheapest, so that the longest job, which the caller waits for, is as short as the estimates allow."""
     groups: dict[str, list[str]] = {}
     for t in tasks:
         groups.setdefault(_kernel_kind(t, fields), []).append(t)
 
-    def versions(ts: list[str]) -> int:  # the physics kernel's versions (serial, parallel) the group's batches run
-        return len({_parallel(n) for t in ts for n in (task_sizes or {}).get(t, SIZES)})
-
-    jobs = [{"tasks": ts, "design": False,
-             "cost": KERNEL_SECONDS.get(g, 40.0) * (1.0 if versions(ts) > 1 else ONE_VERSION) + TASK_SECONDS * (len(ts) - 1)}
+    jobs = [{"tasks": ts, "design": False, "cost": KERNEL_SECONDS.get(g, 40.0) + TASK_SECONDS * (len(ts) - 1)}
             for g, ts in sorted(groups.items(), key=lambda kv: kv[0] != "lanes/linear")]
     if design:
         jobs.append({"tasks": [], "design": True, "cost": DESIGN_SECONDS})
@@ -184,7 +175,7 @@ def precompile(
         return PrecompileReport(skipped="compiled by an earlier run")
     if n_proc < 2:
         return PrecompileReport(skipped="one process: the kernels compile where they are first used")
-    jobs = _jobs(list(tasks), _tuples(fields), design, n_proc, task_sizes)
+    jobs = _jobs(list(tasks), _tuples(fields), design, n_proc)
     t0 = time.perf_counter()
     if stream is not None:
         stream.write(f"  compiling the numba kernels in {len(jobs)} processes (once per installation; later runs load them "
@@ -257,8 +248,10 @@ def _child(payload: str) -> None:
     for task in job["tasks"]:
         mine = [int(n) for n in (sizes[task] if isinstance(sizes, dict) else sizes)]
         kind = _kernel_kind(task, fields)
-        # the tasks of a group share its physics kernel; each needs its own (small) kernels once, at the largest size
-        for n in [n for n in mine if (kind, _parallel(n)) not in done] or mine[-1:]:
+        # the tasks of a group share its physics kernel; each needs its own (small) kernels once, at the largest size.
+        # Largest first: the parallel version compiles the physics step, and the serial twin then adds about a second
+        # (the other way round the parallel loop adds 10-20 s)
+        for n in sorted([n for n in mine if (kind, _parallel(n)) not in done] or mine[-1:], reverse=True):
             done.add((kind, _parallel(n)))
             env = RigVectorEnv(int(n), task=task, **fields)
             env.reset(seed=0)
