@@ -93,13 +93,19 @@ def _kernel_kind(task: str, fields: Mapping[str, Any]) -> str:
 
 
 KERNEL_SECONDS = {"lanes/linear": 40.0, "lanes/tables": 55.0, "lanes/unsteady": 60.0}
-"""Rough cold-compile seconds of a group's physics kernel (serial and parallel versions) on the 2-core machine
-the defaults were measured on (``benchmarks/RESULTS.md``, "A new user's first run"); others 40 s.  Only their
-ratios matter: they balance the jobs."""
+"""Rough cold-compile seconds of a group's physics kernel (the parallel version, compiled first; its serial twin then
+adds about a second) on the 2-core machine the defaults were measured on (``benchmarks/RESULTS.md``, "A new user's
+first run"; 36 and 49 s on a loaded one); others 40 s.  Only their ratios matter: they balance the jobs."""
 TASK_SECONDS = 2.0
 """... each further task of a group (its own small kernels)."""
 DESIGN_SECONDS = 12.0
 """... the design's trim and linearisation (14 s measured on a loaded machine)."""
+
+
+def _parallel(n: int) -> bool:
+    from rig_env.physics.integrator import PARALLEL_MIN_ENVS
+
+    return int(n) >= PARALLEL_MIN_ENVS
 
 
 def _jobs(tasks: Sequence[str], fields: Mapping[str, Any], design: bool, processes: int) -> list[dict[str, Any]]:
@@ -110,6 +116,7 @@ def _jobs(tasks: Sequence[str], fields: Mapping[str, Any], design: bool, process
     groups: dict[str, list[str]] = {}
     for t in tasks:
         groups.setdefault(_kernel_kind(t, fields), []).append(t)
+
     jobs = [{"tasks": ts, "design": False, "cost": KERNEL_SECONDS.get(g, 40.0) + TASK_SECONDS * (len(ts) - 1)}
             for g, ts in sorted(groups.items(), key=lambda kv: kv[0] != "lanes/linear")]
     if design:
@@ -127,6 +134,7 @@ def precompile(
     *,
     design: bool = True,
     sizes: Sequence[int] = SIZES,
+    batch_sizes: Mapping[str, int] | None = None,
     processes: int | None = None,
     stream: TextIO | None = None,
     interval: float = 3.0,
@@ -135,7 +143,11 @@ def precompile(
 ) -> PrecompileReport:
     """Compile the kernels of ``tasks`` (with the configuration ``env_fields``) and, with ``design``, of the
     linearisation, in up to ``processes`` child processes (default: ``RIG_ENV_PRECOMPILE_PROCESSES`` if set,
-    else the CPUs, at most 3; 1 turns the parallel compile off); progress on ``stream``.  See the module docstring.  ``timeout``: seconds before a child is
+    else the CPUs, at most 3; 1 turns the parallel compile off); progress on ``stream``.  See the module docstring.
+    ``batch_sizes``: the environments of a task's batches, when the caller knows them (task name to count): that
+    task is then stepped at that size only, which compiles the one version of its physics kernel (serial or
+    parallel, :data:`rig_env.physics.integrator.PARALLEL_MIN_ENVS`) the caller will run, not both; the other
+    tasks at ``sizes``.  ``timeout``: seconds before a child is
     stopped (its kernels then compile in the caller).  ``while_waiting``: called once while the children
     compile (work of the caller's that needs no kernel, e.g. importing the plotting library)."""
     from rig_env.envs import TASKS
@@ -153,7 +165,9 @@ def precompile(
     n_proc = processes if processes is not None else max(1, min(os.cpu_count() or 1, 3))
     if not isinstance(n_proc, int) or n_proc < 1:
         raise ValueError(f"processes = {processes!r}: must be a positive integer")
-    spec = {"tasks": sorted(tasks), "fields": fields, "design": design, "sizes": sorted(int(s) for s in sizes)}
+    plain_sizes = sorted(int(s) for s in sizes)
+    task_sizes = {t: ([int((batch_sizes or {})[t])] if t in (batch_sizes or {}) else plain_sizes) for t in sorted(tasks)}
+    spec = {"tasks": sorted(tasks), "fields": fields, "design": design, "sizes": task_sizes}
     marker = _marker(spec)
     if marker is None:
         return PrecompileReport(skipped="kernels run as Python (nothing to compile)")
@@ -169,7 +183,7 @@ def precompile(
         stream.flush()
     procs = []
     for job in jobs:
-        payload = json.dumps({**job, "fields": fields, "sizes": spec["sizes"]})
+        payload = json.dumps({**job, "fields": fields, "sizes": {t: task_sizes[t] for t in job["tasks"]}})
         # the child's messages go to a file, not a pipe: a pipe read only at the end would stall a chatty child
         log = tempfile.TemporaryFile(mode="w+")
         proc = subprocess.Popen([sys.executable, "-m", "rig_env.precompile", payload], stdout=subprocess.DEVNULL, stderr=log, text=True)
@@ -221,17 +235,24 @@ def precompile(
 
 
 def _child(payload: str) -> None:
-    """One job: step each task's environment at each size once; trim and linearise with ``design``."""
+    """One job: step each task's environment once at each of its sizes whose physics kernel version (serial or
+    parallel) an earlier task of the job has not compiled yet, and at least once; trim and linearise with ``design``."""
     import numpy as np
 
     job = json.loads(payload)
     fields = _tuples(job["fields"])
+    sizes = job["sizes"]
     from rig_env.envs import RigVectorEnv
 
-    for k, task in enumerate(job["tasks"]):
-        # every size for the job's first task (the physics kernel's serial and parallel versions, compiled in one
-        # process); the later tasks share that kernel and need their own kernels once, at the largest size
-        for n in job["sizes"] if k == 0 else job["sizes"][-1:]:
+    done: set[tuple[str, bool]] = set()  # (kernel, parallel) compiled by an earlier task of this job
+    for task in job["tasks"]:
+        mine = [int(n) for n in (sizes[task] if isinstance(sizes, dict) else sizes)]
+        kind = _kernel_kind(task, fields)
+        # the tasks of a group share its physics kernel; each needs its own (small) kernels once, at the largest size.
+        # Largest first: the parallel version compiles the physics step, and the serial twin then adds about a second
+        # (the other way round the parallel loop adds 10-20 s)
+        for n in sorted([n for n in mine if (kind, _parallel(n)) not in done] or mine[-1:], reverse=True):
+            done.add((kind, _parallel(n)))
             env = RigVectorEnv(int(n), task=task, **fields)
             env.reset(seed=0)
             env.step(np.zeros((int(n), len(env.action_names))))

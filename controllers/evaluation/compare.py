@@ -163,7 +163,8 @@ def _compare(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes:
     cmp = Comparison(settings, rule=rule)
     fields0 = {**conditions[modes[0]].env_fields(), **env_params}
     # the kernels, side by side, on a fresh installation; matplotlib is imported meanwhile (the report needs it)
-    precompile(tasks, fields0, design=True, stream=prog, while_waiting=figures.preload if out_dir is not None else None)
+    precompile(tasks, fields0, design=True, stream=prog, while_waiting=figures.preload if out_dir is not None else None,
+               batch_sizes=_batch_sizes(tasks, kinds, contenders, n) if backend == "local" else None)  # ray: chunks of other sizes
     t0 = time.perf_counter()
     with compile_watch(prog):  # anything left to compile is announced while it compiles
         for task in tasks:
@@ -214,6 +215,20 @@ def _compare(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes:
         write_files(cmp, Path(out_dir), stream)
     stream.flush()
     return cmp
+
+
+def _batch_sizes(tasks: Sequence[str], kinds: Sequence[str], contenders: Sequence[Any], n: int) -> dict[str, int]:
+    """Each task's batch size (n episodes per law) as far as it is known before any law is built, for the precompiler,
+    which then compiles only the version of the physics kernel (serial or parallel) each batch runs: the kinds and the
+    task's contenders, less the trained kinds without a shipped policy for the task (skipped, see :func:`_build`).  A law
+    found unable to fly the task only when it is built (``UnsupportedTask``) is counted: a batch that turns out smaller
+    may then run the other version, compiled when first used (and announced), not wrongly."""
+    from controllers.laws.rl import MLPPolicy, policy_path
+
+    def skipped(kind: str, task: str) -> bool:
+        return all(issubclass(c, MLPPolicy) for c in CONTROLLERS[kind]) and not policy_path(task, kind).is_file()
+
+    return {t: n * max(1, sum(not skipped(k, t) for k in kinds) + sum(c.task == t for c in contenders)) for t in tasks}
 
 
 def _command(quick: bool, n: int, seed: int, tasks: list[str], kinds: list[str], modes: Sequence[str],

@@ -578,7 +578,9 @@ def step_lanes(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h,
     check_work(S, n_sub)
     free = free_mask(free_idx, n_free)
     for b in prange(S.shape[0]):
-        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S, pack_params)
+        # b as int64, the serial twin's type: the parallel loop's index is unsigned, and advance_block would be compiled
+        # a second time for it (the whole physics linked and optimised again: seconds of a cold compile)
+        advance_block(np.int64(b), X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub, status, S, pack_params)
 
 
 @njit(**_JIT_BATCH)
@@ -600,7 +602,7 @@ def step_lanes_tables(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, t
     free = free_mask(free_idx, n_free)
     for b in prange(S.shape[0]):
         lt = lane_tables(tabs, 1, n_hawk, n_comp)  # built inside the loop: numba passes no tuple into it
-        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, lt, h, n_sub, status, S, pack_params)
+        advance_block(np.int64(b), X, dbuf, k0, delay_steps, P, U, flags, free, lt, h, n_sub, status, S, pack_params)
 
 
 @njit(**_JIT_BATCH)
@@ -624,7 +626,7 @@ def step_lanes_unsteady(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free,
     free = free_mask(free_idx, n_free)
     for b in prange(S.shape[0]):
         lt = lane_tables(tabs, 2, n_hawk, n_comp)
-        advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, lt, h, n_sub, status, S, pack_params)
+        advance_block(np.int64(b), X, dbuf, k0, delay_steps, P, U, flags, free, lt, h, n_sub, status, S, pack_params)
 
 
 @njit(**_JIT_BATCH)

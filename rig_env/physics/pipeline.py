@@ -342,7 +342,10 @@ class PhysicsBatch:
         self.X[idx, L.X_Q : L.X_Q + 5] = q
         self.X[idx, L.X_QD : L.X_QD + 5] = qd
         hold_demands(idx, self.U, self.P, self.X, self.dbuf)
-        hold_separation(idx, self.U, self.P, self.X, self.flags, self.tabs)
+        if self.flags & L.F_UNSTEADY:
+            hold_separation(idx, self.U, self.P, self.X, self.flags, self.tabs)
+        else:  # what hold_separation writes without the flag, without compiling its steady-flow branch (seconds cold)
+            self.X[idx, L.X_SEP : L.X_SEP + L.N_AERO] = ATTACHED
         self.status[idx] = L.S_OK
         if self._dae:
             from rig_env.physics import dae

@@ -152,6 +152,9 @@ class VelocityVectorRoll(Task):
     def tracked(self, t, q, qd, ref):
         n = t.shape[0]
         seg, y, r, err, band = np.empty(n, dtype=np.int64), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+        # C-ordered, as every caller's copies are (RigVectorEnv.step passes views of X): one compiled signature, which
+        # the precompiler's children then compile, not two (the other compiled later in the caller)
+        q, qd = np.ascontiguousarray(q), np.ascontiguousarray(qd)
         _roll_tracked(t, q, qd, ref, self.R, self.phi0, self.Th, self.Td, self.T_START, self.T_RAMP, 5.0 * D, 2.0 * D,
                       seg, y, r, err, band)
         return seg, y, r, err, band
