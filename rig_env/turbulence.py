@@ -214,7 +214,7 @@ def dryden_schedule(t_final: float, *, airspeed: float = 20.0, intensity: float 
     if not (isinstance(n_envs, int) and 1 <= n_envs <= 100000):
         raise ValueError(f"n_envs = {n_envs!r}: an integer in [1, 100000]")
     dt = 1.0 / control_rate
-    n_t = int(math.ceil(t_final / dt)) + 1
+    n_t = math.ceil(t_final / dt) + 1
     gen = DrydenGusts(n_envs, dt, scale)
     rng = np.random.default_rng(seed)
     normals = rng.standard_normal((n_t, n_envs, DrydenGusts.N_NORMALS))
@@ -225,7 +225,7 @@ def dryden_schedule(t_final: float, *, airspeed: float = 20.0, intensity: float 
         series[k] = gen.step(normals[k])
 
     def gust(t: float) -> np.ndarray:
-        k = min(max(int(math.floor(t / dt + 1e-9)), 0), n_t - 1)
+        k = min(max(math.floor(t / dt + 1e-9), 0), n_t - 1)
         return series[k, 0].copy() if n_envs == 1 else series[k].copy()
 
     return gust

@@ -353,7 +353,7 @@ def test_dryden_schedule_for_simulate_has_the_spectrum_variance_and_is_reproduci
     r = simulate(RigParams.default(), [0.0], [0.0], 1.0, free_dofs=("rig_pitch",), gust=one, airspeed=20.0)
     calm = simulate(RigParams.default(), [0.0], [0.0], 1.0, free_dofs=("rig_pitch",), airspeed=20.0)
     assert np.all(np.isfinite(r.q)) and np.max(np.abs(r.q - calm.q)) > 1e-4
-    for kw, words in ((dict(intensity=0.9), "intensity = 0.9: allowed range [0, 0.5]"), (dict(airspeed=0.0), "airspeed = 0.0 m/s"),
-                      (dict(scale=50.0), "turbulence_scale = 50.0 m"), (dict(n_envs=0), "n_envs = 0")):
+    for kw, words in (({"intensity": 0.9}, "intensity = 0.9: allowed range [0, 0.5]"), ({"airspeed": 0.0}, "airspeed = 0.0 m/s"),
+                      ({"scale": 50.0}, "turbulence_scale = 50.0 m"), ({"n_envs": 0}, "n_envs = 0")):
         with pytest.raises(ValueError, match=re.escape(words)):
             dryden_schedule(1.0, **kw)

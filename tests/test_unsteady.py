@@ -382,8 +382,8 @@ def test_centre_of_pressure_travel_brings_a_hopf_band_at_the_stall_onset(params)
     1.3 deg wide at k = 0.1 (from about 0.13 c it reaches the fold of the static jump at 13 deg).  Checked
     against the independent numpy model: the upper Hopf point's leading pair on the axis at the Hopf
     frequency, and the stability of every sampled equilibrium of the band and around it."""
-    kw = dict(free_dofs=("model_pitch",), parameter="hawk_elevator", values=np.linspace(2, -3, 101), airspeed=20.0,
-              aero_model="unsteady", periodic=False)
+    kw = {"free_dofs": ("model_pitch",), "parameter": "hawk_elevator", "values": np.linspace(2, -3, 101), "airspeed": 20.0,
+          "aero_model": "unsteady", "periodic": False}
     for k in (0.0, 0.04, 0.08):
         assert rig_env.continuation(params.replace(**{"hawk_aero.sep_cp_travel": k}), **kw).hopf.size == 0
     P = params.replace(**{"hawk_aero.sep_cp_travel": 0.1})

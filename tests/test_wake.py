@@ -117,8 +117,7 @@ def test_wake_lags_by_the_convection_time(params, kind):
     tau = d / V
     assert tau == pytest.approx(0.059)
     p = params.to_vector()
-    kin, bs = nm.bodies(np.zeros(5), np.zeros(5), p)
-    hawk = bs[2]
+    kin, _ = nm.bodies(np.zeros(5), np.zeros(5), p)
     v_rel = -np.array([-V, 0.0, -2.0])
     F = nm.hawk_loads(p, kin["Aa"], v_rel, np.zeros(3), 0.0, 0.0, 0.0, True, params.tables(), 0.0, 1.0)[0]
     target = nm.wake_rates(p, F, np.zeros(2), V) * d / V  # the rate at zero wake times tau: the target
