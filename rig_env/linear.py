@@ -25,6 +25,7 @@ from scipy.optimize import least_squares
 from rig_env.params import JOINTS, SURFACES, RigParams
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
+from rig_env.physics.integrator import limited_demands
 from rig_env.physics.joint_space import ATTACHED, accelerations, separation_rates, separation_steady
 from rig_env.physics.pipeline import AERO_MODELS, check_aero_model
 from rig_env.simulate import check_controls, check_free_dofs
@@ -58,7 +59,8 @@ compensator's panels, 1 attached, 0 separated; the Hawk's wake at the compensato
 
 def hawk_surfaces(u: np.ndarray, p: np.ndarray) -> tuple[float, float, float]:
     """The Hawk's elevator, aileron and rudder (rad) of inputs u as ideal servos hold them: their limited demands."""
-    return tuple(float(sv.limited(p, k, sv.demand(u, k))) for k in (4, 5, 6))  # type: ignore[return-value]
+    d = limited_demands(u, p)  # the seven actuators' (rig_env.SERVOS order): the Hawk's are the last three
+    return float(d[4]), float(d[5]), float(d[6])
 
 
 @dataclass(frozen=True)

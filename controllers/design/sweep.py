@@ -255,9 +255,10 @@ def recorded_final(trial_dir: Path) -> dict[str, Any] | None:
     return None
 
 
-def final_policy(trial_dir: Path) -> Path | None:
-    """The policy.json of the checkpoint reported with the trial's final result (:func:`recorded_final`), or None."""
-    final = recorded_final(trial_dir)
+def final_policy(trial_dir: Path, final: dict[str, Any] | None = None) -> Path | None:
+    """The policy.json of the checkpoint reported with the trial's final result (``final``, or read with
+    :func:`recorded_final`), or None."""
+    final = final if final is not None else recorded_final(trial_dir)
     path = trial_dir / str(final.get("checkpoint_dir_name")) / "policy.json" if final is not None else None
     return path if path is not None and path.is_file() else None
 
@@ -465,8 +466,8 @@ def fold(cfg: SweepConfig, grid: Any, retries: list[dict[str, Any]], out: TextIO
                "timesteps": m.get("timesteps"), "wall_time_s": m.get("wall_time_s"), "attempt": m.get("attempt"),
                "status": _status(r, final), "trial": Path(r.path).name}
         rows.append(row)
-        policy = final_policy(Path(r.path))
-        if final is not None and policy is not None:
+        policy = final_policy(Path(r.path), final) if final is not None else None
+        if policy is not None:
             score = (sign * row[cfg.metric], -row["rms_error_deg"])
             if best is None or score > best[1]["_score"]:
                 best = (policy, {**row, "_score": score})

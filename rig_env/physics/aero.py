@@ -539,11 +539,8 @@ def wake_relax(p, V, f_world, w, dt):
     tau dw/dt + w = -(k_y F_y, k_z F_z), tau = d / V the convection time, f_world the Hawk's aerodynamic force
     (N, world axes) held: a first-order lag whose mean delay is the convection time (its phase lag omega tau
     at low frequency).  Below MIN_AIRSPEED the wake decays at MIN_AIRSPEED's rate towards zero."""
-    ky, kz = wake_gains(p, V)
-    Vs = max(V, MIN_AIRSPEED)
-    decay = vmath.exp(-(dt * Vs) / wake_distance(p))
-    ty = -ky * f_world[1]
-    tz = -kz * f_world[2]
+    ty, tz = wake_targets(p, V, f_world)
+    decay = vmath.exp(-(dt * max(V, MIN_AIRSPEED)) / wake_distance(p))
     return ty + (w[0] - ty) * decay, tz + (w[1] - tz) * decay
 
 

@@ -310,16 +310,11 @@ def air_velocity(u):
 
 
 @njit(**_JIT)
-def comp_air_velocity(u):
-    """Air velocity at the compensator (world, m/s): the tunnel flow along -x plus the compensator's own gust
-    (U_GUST_COMP: the Hawk's convected downstream, :mod:`rig_env.turbulence`, or whatever a caller sets)."""
-    return (-u[L.U_AIRSPEED] + u[L.U_GUST_COMP], u[L.U_GUST_COMP + 1], u[L.U_GUST_COMP + 2])
-
-
-@njit(**_JIT)
 def comp_air(u, xs):
-    """:func:`comp_air_velocity` plus the Hawk's wake (xs[5], xs[6]: sidewash and downwash, world y and z,
-    m/s; the aerodynamic states, zero without the unsteady model)."""
+    """Air velocity at the compensator (world, m/s): the tunnel flow along -x, the compensator's own gust
+    (U_GUST_COMP: the Hawk's convected downstream, :mod:`rig_env.turbulence`, or whatever a caller sets) and the
+    Hawk's wake (xs[5], xs[6]: sidewash and downwash, world y and z; aerodynamic states, zero without the unsteady
+    model)."""
     return (-u[L.U_AIRSPEED] + u[L.U_GUST_COMP], u[L.U_GUST_COMP + 1] + xs[5], u[L.U_GUST_COMP + 2] + xs[6])
 
 

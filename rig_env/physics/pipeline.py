@@ -178,18 +178,15 @@ def hold_demands(idx, U, P, X, dbuf):
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def hold_separation(idx, U, P, X, flags, tabs):
-    """The aerodynamic states X[i, X_SEP:X_SEP + N_AERO] (flow separation, the wake at the compensator) of
-    environments idx (m,) in steady flow at their joint and servo state and the inputs of U
-    (:func:`rig_env.physics.joint_space.separation_steady`) with flags' F_UNSTEADY; attached and no wake
-    (unused) without it.  In place."""
+def hold_separation(idx, U, P, X, tabs):
+    """The unsteady model's aerodynamic states X[i, X_SEP:X_SEP + N_AERO] (flow separation, the wake at the
+    compensator) of environments idx (m,) in steady flow at their joint and servo state and the inputs of U
+    (:func:`rig_env.physics.joint_space.separation_steady`).  In place.  Without that model they are the
+    constant ATTACHED, which :meth:`PhysicsBatch.reset` writes without compiling this."""
     for i in idx:
         x = X[i]
         f = L.X_SERVO + 4
-        if flags & L.F_UNSTEADY:
-            xs = separation_steady(x[0:5], x[5:10], U[i], P[i], (x[f], x[f + 1], x[f + 2]), tabs)
-        else:
-            xs = ATTACHED
+        xs = separation_steady(x[0:5], x[5:10], U[i], P[i], (x[f], x[f + 1], x[f + 2]), tabs)
         for k in range(L.N_AERO):
             X[i, L.X_SEP + k] = xs[k]
 
@@ -336,15 +333,15 @@ class PhysicsBatch:
         order; locked joints: their angle, rate 0), with bristles at zero and status ok.  The servos start
         in equilibrium with the surface commands in U[idx] (set them first): at rest at the limited
         demands, which fill the delay lines (:func:`hold_demands`; zero commands: servos at zero); the
-        Hawk's flow-separation state in steady flow at that state (:func:`hold_separation`)."""
+        aerodynamic states in steady flow at that state (:func:`hold_separation`; the unsteady model only)."""
         idx = np.atleast_1d(np.arange(self.n_envs)[idx])
         self.X[idx] = 0.0
         self.X[idx, L.X_Q : L.X_Q + 5] = q
         self.X[idx, L.X_QD : L.X_QD + 5] = qd
         hold_demands(idx, self.U, self.P, self.X, self.dbuf)
         if self.flags & L.F_UNSTEADY:
-            hold_separation(idx, self.U, self.P, self.X, self.flags, self.tabs)
-        else:  # what hold_separation writes without the flag, without compiling its steady-flow branch (seconds cold)
+            hold_separation(idx, self.U, self.P, self.X, self.tabs)
+        else:  # constant without the unsteady model (compiling hold_separation for it cost seconds of a cold run)
             self.X[idx, L.X_SEP : L.X_SEP + L.N_AERO] = ATTACHED
         self.status[idx] = L.S_OK
         if self._dae:
