@@ -31,6 +31,15 @@ from rig_env.physics.pipeline import AERO_MODELS, check_aero_model
 from rig_env.simulate import check_controls, check_free_dofs
 
 COMP_INPUTS = ("comp_aileron", "comp_elevator", "comp_rudder")
+GUST_INPUTS: dict[str, tuple[int, ...]] = {
+    **{f"gust_{a}": (L.U_GUST + k, L.U_GUST_COMP + k) for k, a in enumerate("xyz")},
+    **{f"hawk_gust_{a}": (L.U_GUST + k,) for k, a in enumerate("xyz")},
+    **{f"comp_gust_{a}": (L.U_GUST_COMP + k,) for k, a in enumerate("xyz")},
+}
+""":func:`linearize`'s gust inputs (m/s, world axes: x upstream, z down) and the input entries each moves:
+``gust_*`` the same gust at the Hawk and the compensator (a uniform gust; the convection delay between them,
+:mod:`rig_env.turbulence`, is left to the caller: a linear model of finite order holds no pure delay),
+``hawk_gust_*`` and ``comp_gust_*`` each body's alone."""
 
 
 @njit(cache=True, error_model="numpy")
@@ -258,12 +267,12 @@ def linearize(
     """Continuous-time linear model x' = A x + B u about ``op``; x = (angles, rates) of the free joints, then
     with ``op``'s aero_model "unsteady" the aerodynamic states (:data:`SEPARATION_STATES`, about their steady values).
 
-    States are named ``<joint>`` and ``<joint>_rate``; inputs are the named surfaces in rad; the
-    outputs are the states.  The aerodynamic model is the operating point's (:func:`trim`'s ``aero_model``).
+    States are named ``<joint>`` and ``<joint>_rate``; inputs are the named surfaces in rad and the named gusts
+    of :data:`GUST_INPUTS` in m/s; the outputs are the states.  The aerodynamic model is the operating point's (:func:`trim`'s ``aero_model``).
     """
-    unknown = [n for n in inputs if n not in SURFACES]
+    unknown = [n for n in inputs if n not in SURFACES and n not in GUST_INPUTS]
     if unknown:
-        raise ValueError(f"inputs: unknown surface(s) {unknown}; valid names: {list(SURFACES)}")
+        raise ValueError(f"inputs: unknown input(s) {unknown}; valid names: the surfaces {list(SURFACES)} and the gusts {list(GUST_INPUTS)}")
     if friction not in (False, "viscous"):
         raise ValueError("friction: allowed values are False and 'viscous'")
     free = op.free_dofs
@@ -303,7 +312,7 @@ def linearize(
     B = np.zeros((m, len(inputs)))
     for b, name in enumerate(inputs):
         du = np.zeros(L.N_INPUTS)
-        du[SURFACES.index(name)] = eps
+        du[list(GUST_INPUTS[name] if name in GUST_INPUTS else (SURFACES.index(name),))] = eps
         B[n:, b] = (f(op.q, op.qd, u0 + du) - f(op.q, op.qd, u0 - du)) / (2 * eps)
     states = [*free, *(f"{j}_rate" for j in free), *(SEPARATION_STATES if unsteady else ())]
     return control.ss(A, B, np.eye(m), np.zeros((m, len(inputs))), states=states, inputs=list(inputs), outputs=states)

@@ -44,8 +44,26 @@ def test_linear_pitch_mode_matches_theory(params):
 
 def test_linearize_rejects_bad_names(params):
     op = rig_env.trim(params, free_dofs=["model_pitch"], q_guess=[0, 0, 0, 0.1, 0])
-    with pytest.raises(ValueError, match="inputs: unknown surface"):
+    with pytest.raises(ValueError, match=r"inputs: unknown input\(s\) \['flap9'\].*gust_z"):
         rig_env.linearize(params, op, inputs=["flap9"])
+
+
+@pytest.mark.parametrize("free", [("model_pitch",), ("rig_pitch", "model_pitch")])
+def test_gust_columns_are_an_angle_of_attack_change(params, free):
+    """A uniform vertical gust w (m/s, down) at rest changes every lifting surface's angle of attack by -w / V and
+    nothing else; pitching the whole rig (the first free joint, at zero rates) changes them all by the same angle
+    and moves no air.  So d qdd / d w is -1/V times the aerodynamic part of the first joint's angle column
+    (the linearisation with aero minus without), and the uniform gust is the Hawk's plus the compensator's."""
+    V = 20.0
+    op = rig_env.trim(params, free_dofs=free, airspeed=V, q_guess=[0, 0, 0, 0.1, 0])
+    sys = rig_env.linearize(params, op, inputs=["gust_z", "hawk_gust_z", "comp_gust_z", "gust_x"])
+    n = len(free)
+    B = np.asarray(sys.B)[n:]
+    A_aero = np.asarray(sys.A)[n:, 0] - np.asarray(rig_env.linearize(params, op, aero=False).A)[n:, 0]
+    assert np.abs(B[:, 0]).max() > 0.5
+    np.testing.assert_allclose(B[:, 0], -A_aero / V, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(B[:, 0], B[:, 1] + B[:, 2], rtol=1e-6, atol=1e-8)
+    assert sys.input_labels == ["gust_z", "hawk_gust_z", "comp_gust_z", "gust_x"]
 
 
 @pytest.mark.parametrize("tiny", [0.0, 1.8e-17, -3e-15])
