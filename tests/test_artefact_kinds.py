@@ -63,7 +63,7 @@ def _state(law) -> dict[str, np.ndarray]:
     if law.kind in ("ppo", "sac"):
         return {}  # a feed-forward policy has no state
     if getattr(law, "artefact_kind", "") == "lqr_emulation":
-        return {"alpha_b": law.alpha_b, "active": law.active, "hawk": law.hawk, "pilot": law.pilot, "est": law.est, "fresh": law.fresh, "u_past": law.u_past}
+        return {"hawk": law.hawk, "pilot": law.pilot, "est": law.est, "fresh": law.fresh, "u_past": law.u_past}
     if getattr(law, "artefact_kind", "").endswith("_heave_sway"):
         r = law.ref
         st = {"ref.clock": r.clock, "ref.w_ref": r.w_ref, "ref.th_ref": r.th_ref, "ref.th_base": r.th_base, "ref.fresh": r.fresh}

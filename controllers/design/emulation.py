@@ -4,9 +4,10 @@ Imported only when a law is designed (python-control, scipy, the numba model, ``
 airspeed of a grid over ``spec.airspeed_range`` (:data:`controllers.laws.emulation.V_STEP` apart):
 
 1. :func:`continuous_model`: the rig at its zero-input trim (:func:`controllers.design.heave_sway.axis_point`,
-   plus ``rig_env.linearize``'s Hawk-elevator column there), the compensator and Hawk servos, the free
-   Hawk's short period (the task's ``FreeHawkShortPeriod.matrices``) and the pilot command, side by side
-   (the state table of :mod:`controllers.laws.emulation`).
+   plus ``rig_env.linearize``'s Hawk-elevator and uniform vertical-gust columns there), the compensator and
+   Hawk servos, the free Hawk's short period (the task's ``FreeHawkShortPeriod.matrices`` and
+   ``gust_column``), the pilot command and the gust, side by side (the state table of
+   :mod:`controllers.laws.emulation`).
 2. :func:`zoh_with_delay`: exact zero-order-hold discretisation at the control period with the loop's
    input delay (servo delay + ``link_delay_steps`` periods), the delay line appended to the state.
 3. ``control.dlqr`` with the Bryson weights of the module docstring; :func:`kalman_gain`, the estimator's.
@@ -27,13 +28,19 @@ from controllers.design.heave_sway import axis_point
 from controllers.laws.base import LoopSpec
 from controllers.laws.emulation import (
     BASE_STATES,
+    ESTIMATED,
+    MEASURED,
+    GUST_TAU,
     MAX_DEVIATION,
     MAX_INPUT,
     REF_ENTRIES,
     SIGMA_A,
     SIGMA_F,
+    SIGMA_GUST,
+    SIGMA_REF,
     SIGMA_Z,
     SIGMA_ZF,
+    SIGMA_ZR,
     TARGETS,
     TAU_PILOT,
     V_REF,
@@ -85,28 +92,39 @@ def servo_matrices(wn: float, zeta: float) -> tuple[np.ndarray, np.ndarray]:
     return np.array([[0.0, 1.0], [-wn**2, -2.0 * zeta * wn]]), np.array([0.0, wn**2])
 
 
-def continuous_model(params: RigParams, airspeed: float, dt: float, tau_pilot: float = TAU_PILOT) -> tuple[np.ndarray, np.ndarray, np.ndarray, Any]:
-    """Step 1: (A (11, 11), b (11,), q_op (5,), free-Hawk model) in the :data:`controllers.laws.emulation.BASE_STATES` order; b: heave command (normalised)."""
+def continuous_model(params: RigParams, airspeed: float, dt: float, tau_pilot: float = TAU_PILOT,
+                     tau_gust: float = GUST_TAU) -> tuple[np.ndarray, np.ndarray, np.ndarray, Any]:
+    """Step 1: (A (12, 12), b (12,), q_op (5,), free-Hawk model) in the :data:`controllers.laws.emulation.BASE_STATES` order; b: heave command (normalised).
+
+    The gust state is the vertical gust's angle of attack alpha_g = -w_g / V (world z down), a first-order
+    Gauss-Markov process of correlation time ``tau_gust``; it moves the rig through ``linearize``'s uniform
+    ``gust_z`` column (per m/s, so times -V) and the free Hawk through its ``gust_column``, as the task flies
+    the reference in the rig's air."""
     from rig_env.envs.tasks.freeflight import FreeHawkShortPeriod
 
     fd = ("rig_pitch", "model_pitch")
     P = params.to_vector()
     q_op, sys = axis_point(params, fd, airspeed)
     op = trim(params, free_dofs=fd, airspeed=float(airspeed), controls={}, q_guess=q_op)
-    b_hawk = np.asarray(linearize(params, op, inputs=["hawk_elevator"], friction="viscous").B)[:, 0]
+    B_in = np.asarray(linearize(params, op, inputs=["hawk_elevator", "gust_z"], friction="viscous").B)
+    b_hawk, b_gust = B_in[:, 0], -float(airspeed) * B_in[:, 1]  # per rad of alpha_g = -w_g / V
     ref = FreeHawkShortPeriod(1, dt)
     ref.configure(np.array([0]), np.array([float(airspeed)]), P[None])
     Am = ref.matrices(np.array([0]))[0][0]  # states alpha, q, theta, h, delta, delta'
-    A, b = np.zeros((11, 11)), np.zeros(11)
-    r, f, m, hw, w = 0, _S["flap"], _S["alpha_ff"], _S["hawk_elevator"], _S["pilot_cmd"]
+    n = len(BASE_STATES)
+    A, b = np.zeros((n, n)), np.zeros(n)
+    r, f, m, hw, w, g = 0, _S["flap"], _S["alpha_ff"], _S["hawk_elevator"], _S["pilot_cmd"], _S["gust_alpha"]
     A[r:4, r:4] = np.asarray(sys.A)
     A[r:4, f] = np.asarray(sys.B)[:, 1]  # heave column, per normalised input
     A[r:4, hw] = b_hawk
+    A[r:4, g] = b_gust
     A[f:f + 2, f:f + 2], b[f:f + 2] = servo_matrices(2 * math.pi * params.servos.compensator.natural_freq_hz, params.servos.compensator.damping)
     sub = [0, 1, 4, 5]  # alpha, q, delta, delta': theta and h do not feed back
     A[m:m + 4, m:m + 4] = Am[np.ix_(sub, sub)]  # includes the Hawk servo rows of the reference
     A[hw + 1, w] = ref.wn[0] ** 2
     A[w, w] = -1.0 / tau_pilot
+    A[m:m + 2, g] = ref.gust_column(np.array([0]))[0, :2]  # alpha, q of the free Hawk
+    A[g, g] = -1.0 / tau_gust
     return A, b, q_op, ref
 
 
@@ -121,38 +139,59 @@ def error_outputs(q_op: np.ndarray, airspeed: float, arm_length: float, n: int) 
     return C
 
 
-def kalman_gain(A_est: np.ndarray, dt: float, sigma_a: tuple[float, float], sigma_f: float, sigma_z: float, sigma_zf: float) -> np.ndarray:
-    """(6, 3) steady-state Kalman gain of the rig's (angles, rates) and the heave flap's (position, rate).
+def measurement_rows(ref: Any, n: int) -> np.ndarray:
+    """(5, n): the :data:`controllers.laws.emulation.MEASURED` quantities as rows of the design state: the two angles,
+    the heave flap, q_ff, and a_n / V = Za (alpha_ff + alpha_g) + Zq q_ff + Zd delta of the free Hawk
+    (``FreeHawkShortPeriod.normal_acceleration`` over V; ``ref`` its model at the design airspeed)."""
+    C = np.zeros((len(MEASURED), n))
+    C[0, _S["rig_pitch"]] = C[1, _S["model_pitch"]] = C[2, _S["flap"]] = C[3, _S["q_ff"]] = 1.0
+    C[4, [_S["alpha_ff"], _S["gust_alpha"], _S["q_ff"], _S["hawk_elevator"]]] = [ref.Za[0], ref.Za[0], ref.Zq[0], ref.Zd[0]]
+    return C
 
-    Model ``x+ = A_est x + (known inputs)``, ``x = (rig_pitch, model_pitch, their rates, flap, flap rate)``; process
-    noise: white accelerations of the two joints (rad/s^2, ``sigma_a``) and of the flap (normalised/s^2,
-    ``sigma_f``: the servo model's error) held over a period (``dt^2 / 2`` and ``dt`` per unit); measured: the two
-    angles (noise ``sigma_z``, rad) and the flap position (``sigma_zf``, normalised).  The a-priori covariance
-    from scipy's discrete Riccati solver; ``L = P C' (C P C' + R)^-1``, the correction applied to the prediction.
-    Measuring the flap (the plant's input, as the rig's encoders do) keeps the law's margins close to the state
-    feedback's (loop transfer recovery; an estimator driven by the commanded input alone lost some 15 deg of
-    phase margin here).
+
+def kalman_gain(A_est: np.ndarray, C_est: np.ndarray, dt: float, sigma_a: tuple[float, float] = SIGMA_A, sigma_f: float = SIGMA_F,
+                sigma_z: float = SIGMA_Z, sigma_zf: float = SIGMA_ZF, sigma_g: float = SIGMA_GUST,
+                sigma_ref: tuple[float, float] = SIGMA_REF, sigma_zr: tuple[float, float] = SIGMA_ZR) -> np.ndarray:
+    """(9, 5) steady-state Kalman gain of the :data:`controllers.laws.emulation.ESTIMATED` states from the
+    :data:`controllers.laws.emulation.MEASURED` quantities.
+
+    Model ``x+ = A_est x + (known inputs)``, ``z = C_est x + (known part)``; process noise: white accelerations of
+    the two joints (rad/s^2, ``sigma_a``) and of the flap (normalised/s^2, ``sigma_f``: the servo model's error)
+    held over a period (``dt^2 / 2`` and ``dt`` per unit), white rates of the free Hawk's alpha and q
+    (``sigma_ref``, over ``dt``: its derivatives differ from the task's by the episode's mass and air), and the
+    gust's own innovation ``sigma_g^2 (1 - a^2)``, ``a`` its one-period decay (a Gauss-Markov process of variance
+    ``sigma_g^2`` sampled exactly); measurement noise: the two angles ``sigma_z`` (rad), the flap ``sigma_zf``
+    (normalised), q_ref and a_n / V ``sigma_zr``.  The a-priori covariance from scipy's discrete Riccati solver;
+    ``L = P C' (C P C' + R)^-1``, the correction applied to the prediction.  Measuring the flap (the plant's
+    input, as the rig's encoders do) keeps the law's margins close to the state feedback's (loop transfer
+    recovery; an estimator driven by the commanded input alone lost some 15 deg of phase margin here).  The gust
+    is seen in the free Hawk's normal acceleration (its lift responds at once), and in the rig's angles as the
+    accelerations the rest of the model does not explain.
     """
     from scipy.linalg import solve_discrete_are
 
     h2 = 0.5 * dt * dt
-    Gn = np.zeros((6, 3))
-    Gn[0, 0] = Gn[1, 1] = Gn[4, 2] = h2
-    Gn[2, 0] = Gn[3, 1] = Gn[5, 2] = dt
-    Qn = Gn @ np.diag([sigma_a[0] ** 2, sigma_a[1] ** 2, sigma_f**2]) @ Gn.T
-    C = np.zeros((3, 6))
-    C[0, 0] = C[1, 1] = C[2, 4] = 1.0
-    Rn = np.diag([sigma_z**2, sigma_z**2, sigma_zf**2])
-    P = solve_discrete_are(A_est.T, C.T, Qn, Rn)
-    return P @ C.T @ np.linalg.inv(C @ P @ C.T + Rn)
+    e = {k: i for i, k in enumerate(ESTIMATED)}
+    Gn = np.zeros((len(ESTIMATED), 5))
+    Gn[e["rig_pitch"], 0] = Gn[e["model_pitch"], 1] = Gn[e["flap"], 2] = h2
+    Gn[e["rig_pitch_rate"], 0] = Gn[e["model_pitch_rate"], 1] = Gn[e["flap_rate"], 2] = dt
+    Gn[e["alpha_ff"], 3] = Gn[e["q_ff"], 4] = dt
+    Qn = Gn @ np.diag([sigma_a[0] ** 2, sigma_a[1] ** 2, sigma_f**2, sigma_ref[0] ** 2, sigma_ref[1] ** 2]) @ Gn.T
+    g = e["gust_alpha"]
+    Qn[g, g] = sigma_g**2 * (1.0 - A_est[g, g] ** 2)
+    Rn = np.diag([sigma_z**2, sigma_z**2, sigma_zf**2, sigma_zr[0] ** 2, sigma_zr[1] ** 2])
+    P = solve_discrete_are(A_est.T, C_est.T, Qn, Rn)
+    return P @ C_est.T @ np.linalg.inv(C_est @ P @ C_est.T + Rn)
 
 
-EST = [0, 1, 2, 3, _S["flap"], _S["flap"] + 1]
-"""Design-model states the estimator estimates: the rig's angles and rates, the heave flap's position and rate."""
+EST = [_S[k] for k in ESTIMATED]
+"""Design-model states the estimator estimates (:data:`controllers.laws.emulation.ESTIMATED`): the rig's angles and
+rates, the heave flap's position and rate, the gust."""
 
 
 def design_point(params: RigParams, airspeed: float, dt: float, link_delay_steps: int, md: dict[str, float], max_input: float,
-                 sigma_a: tuple[float, float] = SIGMA_A, sigma_f: float = SIGMA_F, sigma_z: float = SIGMA_Z, sigma_zf: float = SIGMA_ZF) -> dict[str, Any]:
+                 sigma_a: tuple[float, float] = SIGMA_A, sigma_f: float = SIGMA_F, sigma_z: float = SIGMA_Z, sigma_zf: float = SIGMA_ZF,
+                 sigma_g: float = SIGMA_GUST) -> dict[str, Any]:
     """Steps 1-4 at one airspeed: the augmented discrete model, the gain, the estimator's gain and the margins of the loop as flown (:func:`loop_as_flown`)."""
     A, b, q_op, ref = continuous_model(params, airspeed, dt)
     tau = params.servos.compensator.delay_s + link_delay_steps * dt
@@ -175,7 +214,8 @@ def design_point(params: RigParams, airspeed: float, dt: float, link_delay_steps
     K, _, poles = control.dlqr(Ad, Bd, Q, R)
     pt = {"airspeed": float(airspeed), "K": np.asarray(K)[0], "q_op": q_op[[1, 3]], "Ad": Ad, "Bd": Bd, "poles": np.asarray(poles), "d": d,
           "hawk_wn": float(ref.wn[0]), "hawk_zeta": float(ref.zeta[0]), "hawk_delay_steps": int(ref.delay_steps[0])}
-    pt["kalman_gain"] = kalman_gain(Ad[np.ix_(EST, EST)], dt, sigma_a, sigma_f, sigma_z, sigma_zf)
+    pt["meas_rows"] = measurement_rows(ref, N)
+    pt["kalman_gain"] = kalman_gain(Ad[np.ix_(EST, EST)], pt["meas_rows"][:, EST], dt, sigma_a, sigma_f, sigma_z, sigma_zf, sigma_g)
     pt["margins"] = loop_as_flown(pt, dt)
     return pt
 
@@ -193,16 +233,17 @@ def loop_as_flown(pt: dict[str, Any], dt: float) -> dict[str, float]:
     """
     Ad, Bd, K, d, Lk = pt["Ad"], pt["Bd"], pt["K"], pt["d"], pt["kalman_gain"]
     n = len(BASE_STATES)
-    keep = [*EST, *range(n, n + d)]  # rig, flap, delay line
+    keep = [*EST, *range(n, n + d)]  # rig, flap, gust (uncontrolled, stable), delay line
     Ap, Bp = Ad[np.ix_(keep, keep)], Bd[keep]
     m = len(keep)
-    C = np.zeros((3, m))
-    C[0, 0] = C[1, 1] = C[2, 4] = 1.0
-    plant = control.ss(Ap, Bp, C, np.zeros((3, 1)), dt)
+    C = pt["meas_rows"][:, keep]  # the free Hawk's rows: its states are kept (they do not depend on the command); the Hawk servo's part is known
+    nm = C.shape[0]
+    plant = control.ss(Ap, Bp, C, np.zeros((nm, 1)), dt)
     Kk = K[keep]
-    Mx, Nx = np.eye(m), np.zeros((m, 3))  # x_hat = Mx s + Nx z, controller state s = (p (6), delay line (d))
-    Mx[:6] -= Lk @ C[:, :m]
-    Nx[:6] = Lk
+    ne = len(EST)
+    Mx, Nx = np.eye(m), np.zeros((m, nm))  # x_hat = Mx s + Nx z, controller state s = (p (9), delay line (d))
+    Mx[:ne] -= Lk @ C[:, :m]
+    Nx[:ne] = Lk
     Ku_s, Ku_z = -Kk @ Mx, -Kk @ Nx  # u = Ku_s s + Ku_z z
     ctrl = control.ss(Ap @ Mx + np.outer(Bp[:, 0], Ku_s), Ap @ Nx + np.outer(Bp[:, 0], Ku_z), Ku_s[None, :], Ku_z[None, :], dt)
     return margins_discrete(-(ctrl * plant), dt)
@@ -281,7 +322,7 @@ def design_emulation_lqr(spec: LoopSpec, params: RigParams | None = None, *, lin
                "rig_pitch": {k: (float(v) if math.isfinite(v) else None) for k, v in p["margins"].items()}} for p in pts]
     design = {"airspeed_range": list(spec.airspeed_range), "link_delay_steps": int(link_delay_steps),
               "sigma_a": dict(zip(("rig_pitch", "model_pitch"), map(float, SIGMA_A))), "sigma_f": float(SIGMA_F), "sigma_z": float(SIGMA_Z),
-              "sigma_zf": float(SIGMA_ZF), "params_default": params_default,
+              "sigma_zf": float(SIGMA_ZF), "sigma_gust": float(SIGMA_GUST), "gust_tau": float(GUST_TAU), "params_default": params_default,
               "method": "controllers.design.emulation (explicit model following: control.dlqr on the rig and the free Hawk's short period side by side, servo and delay in)",
               "max_deviation": {k: float(v) for k, v in md.items()}, "weight_scale": scale, "targets": dict(TARGETS),
               "max_input": float(mi), "tau_pilot": float(TAU_PILOT),
@@ -289,5 +330,6 @@ def design_emulation_lqr(spec: LoopSpec, params: RigParams | None = None, *, lin
               "points": points}
     return EmulationTables(V, np.array([p["K"] for p in pts]), np.array([p["q_op"] for p in pts]), hawk_phi, hawk_gamma[0],
                            int(hawk["hawk_delay_steps"]), float(params.geometry.arm_length), ref_scales,
-                           np.array([p["Ad"][EST] for p in pts]), np.array([p["Bd"][EST, 0] for p in pts]), np.array([p["kalman_gain"] for p in pts]),
+                           np.array([p["Ad"][EST] for p in pts]), np.array([p["Bd"][EST, 0] for p in pts]), np.array([p["meas_rows"] for p in pts]),
+                           np.array([p["kalman_gain"] for p in pts]),
                            signal_scales(spec), design)
