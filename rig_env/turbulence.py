@@ -57,6 +57,10 @@ from rig_env.physics import layout as L
 TURBULENCE_MODELS = ("gauss_markov", "dryden")
 """``turbulence_model`` values: the first-order Gauss-Markov gusts of correlation time ``turbulence_tau``
 (per world axis), or the Dryden spectrum at the length scale ``turbulence_scale``."""
+SPECTRAL_MODELS = ("dryden",)
+"""The models of u, v and w gusts at a length scale (:class:`SpectralGusts`); their gusts are convected by default."""
+MIXTURES: dict[str, tuple[tuple[float, ...], tuple[float, ...]]] = {"dryden": ((1.0,), (1.0,))}
+"""Each spectral model as (weights w_i, scales lambda_i) of independent Dryden processes: Dryden is the one term."""
 
 TEST_SECTION_WIDTH = 2.134
 """m, paper: the University of Bristol's 7 ft x 5 ft closed-section low-speed tunnel (Sec. III, Fig. 3)."""
@@ -147,51 +151,74 @@ def dryden_discretisation(airspeed: np.ndarray, scale: float, dt: float) -> dict
     return {"phi_u": phi_u, "g_u": g_u, "Phi": Phi, "chol": chol, "c": c, "P0": P0}
 
 
-class DrydenGusts:
-    """Dryden gust generators of n environments at the control step dt (s) and length scale (m).
+class SpectralGusts:
+    """Dryden gust generators (``model``, one of :data:`SPECTRAL_MODELS`) of n environments at the
+    control step dt (s) and length scale (m): the sum of :data:`MIXTURES`'s independent Dryden processes of
+    scales lambda_i x scale and variances w_i sigma^2 (Dryden: the one term), each discretised exactly.
 
     ``reset(idx, airspeed, sigma, normals)`` starts environments idx in the stationary distribution for
-    their airspeeds (m/s) and intensities sigma (m/s), from normals (m, 5); ``step(normals)`` advances
-    all of them one control step with standard normals (n, 5) (u, then v's and w's two) and returns the
-    world gust (n, 3), m/s.  The caller supplies the random numbers (the environments' counter streams).
+    their airspeeds (m/s) and intensities sigma (m/s), from normals (m, n_normals); ``step(normals)`` advances
+    all of them one control step with standard normals (n, n_normals) (the N terms' u, then their v's two
+    each, then their w's two each) and returns the world gust (n, 3), m/s.  The caller supplies the random
+    numbers (the environments' counter streams).
     """
 
-    N_NORMALS = 5
-    """Standard normals per environment and step: u's one, v's two, w's two."""
-
-    def __init__(self, n: int, dt: float, scale: float) -> None:
+    def __init__(self, n: int, dt: float, scale: float, model: str = "dryden") -> None:
+        if model not in SPECTRAL_MODELS:
+            raise ValueError(f"model = {model!r}: one of {list(SPECTRAL_MODELS)}")
         if not (isinstance(scale, (int, float)) and SCALE_RANGE[0] <= scale <= SCALE_RANGE[1]):
             raise ValueError(f"turbulence_scale = {scale!r} m: allowed range [{SCALE_RANGE[0]}, {SCALE_RANGE[1]}] m")
-        self.n, self.dt, self.scale = int(n), float(dt), float(scale)
+        self.n, self.dt, self.scale, self.model = int(n), float(dt), float(scale), model
+        weights, scales = MIXTURES[model]
+        m = len(weights)
+        self.n_normals = 5 * m  # standard normals per environment and step: each term's u one, v two and w two
+        self._amp = np.sqrt(np.array(weights))  # (m,) each term's standard deviation per unit sigma
+        self._scales = self.scale * np.array(scales)  # (m,) m
         self.sigma = np.zeros(n)
-        self.u = np.zeros(n)
-        self.xv = np.zeros((n, 2))
-        self.xw = np.zeros((n, 2))
-        self._phi_u, self._g_u = np.ones(n), np.zeros(n)
-        self._Phi = np.tile(np.eye(2), (n, 1, 1))
-        self._chol = np.zeros((n, 2, 2))
-        self._c = np.zeros((n, 2))
+        self.u = np.zeros((n, m))  # each term's u per unit sigma and standard deviation
+        self.xv = np.zeros((2, n, m))  # each term's v filter states (x1, x1'), per unit sigma
+        self.xw = np.zeros((2, n, m))
+        self._phi_u, self._g_u = np.ones((n, m)), np.zeros((n, m))
+        self._Phi = np.zeros((2, 2, n, m))  # [i, j]: the (n, m) entries of the transition matrices
+        self._chol = np.zeros((2, 2, n, m))  # lower factors of Q
+        self._c = np.zeros((2, n, m))  # output rows per unit sigma, each term's standard deviation included
+
+    def _split(self, normals: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+        """normals (k, n_normals) as u's (k, m) and the (k, m) pairs of v's and w's (each term's two adjacent)."""
+        m = self._amp.size
+        return normals[:, :m], (normals[:, m : 3 * m : 2], normals[:, m + 1 : 3 * m : 2]), (normals[:, 3 * m :: 2], normals[:, 3 * m + 1 :: 2])
 
     def reset(self, idx: np.ndarray, airspeed: np.ndarray, sigma: np.ndarray, normals: np.ndarray) -> None:
-        d = dryden_discretisation(airspeed, self.scale, self.dt)
         self.sigma[idx] = sigma
-        self._phi_u[idx], self._g_u[idx] = d["phi_u"], d["g_u"]
-        self._Phi[idx], self._chol[idx], self._c[idx] = d["Phi"], d["chol"], d["c"]
-        s = np.sqrt(np.diagonal(d["P0"], axis1=1, axis2=2))  # stationary: independent states of these deviations
-        self.u[idx] = normals[:, 0]
-        self.xv[idx] = s * normals[:, 1:3]
-        self.xw[idx] = s * normals[:, 3:5]
+        nu, nv, nw = self._split(normals)
+        self.u[idx] = nu
+        for i, scale in enumerate(self._scales):
+            d = dryden_discretisation(airspeed, scale, self.dt)
+            self._phi_u[idx, i], self._g_u[idx, i] = d["phi_u"], d["g_u"]
+            for j in range(2):
+                self._c[j, idx, i] = self._amp[i] * d["c"][:, j]
+                s = np.sqrt(d["P0"][:, j, j])  # stationary: independent states of these deviations
+                self.xv[j, idx, i], self.xw[j, idx, i] = s * nv[j][:, i], s * nw[j][:, i]
+                for k in range(2):
+                    self._Phi[j, k, idx, i], self._chol[j, k, idx, i] = d["Phi"][:, j, k], d["chol"][:, j, k]
 
     def gust(self) -> np.ndarray:
         """(n, 3) world gust (m/s) of the current states."""
-        v = np.einsum("nk,nk->n", self._c, self.xv)
-        w = np.einsum("nk,nk->n", self._c, self.xw)
-        return world_gust(self.sigma * self.u, self.sigma * v, self.sigma * w)
+        c = self._c  # sums row by row (never BLAS): an environment's gust is that of a batch of one
+        u = np.sum(self.u * self._amp, axis=1)
+        v = np.sum(c[0] * self.xv[0] + c[1] * self.xv[1], axis=1)
+        w = np.sum(c[0] * self.xw[0] + c[1] * self.xw[1], axis=1)
+        return world_gust(self.sigma * u, self.sigma * v, self.sigma * w)
+
+    def _advance(self, x: np.ndarray, n: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+        """The (2, n, m) states after one step: Phi x + chol(Q) n (chol lower triangular)."""
+        P, C = self._Phi, self._chol
+        return np.stack([P[0, 0] * x[0] + P[0, 1] * x[1] + C[0, 0] * n[0], P[1, 0] * x[0] + P[1, 1] * x[1] + (C[1, 0] * n[0] + C[1, 1] * n[1])])
 
     def step(self, normals: np.ndarray) -> np.ndarray:
-        self.u = self._phi_u * self.u + self._g_u * normals[:, 0]
-        self.xv = np.einsum("nij,nj->ni", self._Phi, self.xv) + np.einsum("nij,nj->ni", self._chol, normals[:, 1:3])
-        self.xw = np.einsum("nij,nj->ni", self._Phi, self.xw) + np.einsum("nij,nj->ni", self._chol, normals[:, 3:5])
+        nu, nv, nw = self._split(normals)
+        self.u = self._phi_u * self.u + self._g_u * nu
+        self.xv, self.xw = self._advance(self.xv, nv), self._advance(self.xw, nw)
         return self.gust()
 
 
@@ -215,14 +242,13 @@ def dryden_schedule(t_final: float, *, airspeed: float = 20.0, intensity: float 
         raise ValueError(f"n_envs = {n_envs!r}: an integer in [1, 100000]")
     dt = 1.0 / control_rate
     n_t = math.ceil(t_final / dt) + 1
-    gen = DrydenGusts(n_envs, dt, scale)
-    rng = np.random.default_rng(seed)
-    normals = rng.standard_normal((n_t, n_envs, DrydenGusts.N_NORMALS))
-    gen.reset(np.arange(n_envs), np.full(n_envs, float(airspeed)), np.full(n_envs, intensity * airspeed), normals[0])
+    gen = SpectralGusts(n_envs, dt, scale)
+    rng = np.random.default_rng(seed)  # drawn step by step: the numbers of one (n_t, n_envs, n_normals) draw
+    gen.reset(np.arange(n_envs), np.full(n_envs, float(airspeed)), np.full(n_envs, intensity * airspeed), rng.standard_normal((n_envs, gen.n_normals)))
     series = np.empty((n_t, n_envs, 3))
     series[0] = gen.gust()
     for k in range(1, n_t):
-        series[k] = gen.step(normals[k])
+        series[k] = gen.step(rng.standard_normal((n_envs, gen.n_normals)))
 
     def gust(t: float) -> np.ndarray:
         k = min(max(math.floor(t / dt + 1e-9), 0), n_t - 1)

@@ -23,7 +23,7 @@ from rig_env.physics import joint_space as js
 from rig_env.physics import layout as L
 from rig_env.simulate import fill_inputs
 from rig_env.turbulence import (
-    TUNNEL_SCALE, DrydenGusts, GustHistory, convection_distance, dryden_autocorrelation, dryden_discretisation, dryden_psd,
+    TUNNEL_SCALE, GustHistory, SpectralGusts, convection_distance, dryden_autocorrelation, dryden_discretisation, dryden_psd,
 )  # fmt: skip
 
 V, SCALE, DT, SIGMA = 20.0, TUNNEL_SCALE, 1.0 / 80.0, 1.0
@@ -35,7 +35,7 @@ COMPONENTS = ("u", "v", "w")
 def dryden_run() -> np.ndarray:
     """(3, N_ENV, N_STEP + 1) the u, v, w gusts (m/s) of N_ENV independent generators at V, SCALE, DT, SIGMA."""
     rng = np.random.default_rng(20)
-    g = DrydenGusts(N_ENV, DT, SCALE)
+    g = SpectralGusts(N_ENV, DT, SCALE)
     g.reset(np.arange(N_ENV), np.full(N_ENV, V), np.full(N_ENV, SIGMA), rng.standard_normal((N_ENV, 5)))
     out = np.empty((N_STEP + 1, N_ENV, 3))
     out[0] = g.gust()
@@ -136,7 +136,7 @@ def test_dryden_generator_is_reproducible_and_scales_with_sigma():
     draws = rng.standard_normal((50, 3, 5))
     runs = []
     for sigma in (1.0, 1.0, 2.0):
-        g = DrydenGusts(3, DT, SCALE)
+        g = SpectralGusts(3, DT, SCALE)
         g.reset(np.arange(3), np.array([15.0, 20.0, 25.0]), np.full(3, sigma), draws[0])
         runs.append(np.array([g.step(d) for d in draws[1:]]))
     assert np.array_equal(runs[0], runs[1])
