@@ -351,12 +351,12 @@ def _env_gusts(steps: int, n: int = 3, seed: int = 5, **fields) -> tuple[RigVect
     return env, np.array(hawk), np.array(comp)
 
 
-@pytest.mark.parametrize("model", ["gauss_markov", "dryden"])
+@pytest.mark.parametrize("model", ["gauss_markov", "dryden", "von_karman"])
 def test_env_compensator_gust_is_the_hawks_convected(model):
     """In the environment the compensator's gust at step k is the Hawk's at k - d / (V h), d = 1.18 m, V the
     episode's airspeed, h the control step, interpolated linearly between the Hawk's samples (the first one
     before the episode); turbulence_convected=False: the Hawk's own at once; by default, convected with
-    "dryden", not with "gauss_markov" (whose gusts stay as they were)."""
+    "dryden" and "von_karman", not with "gauss_markov" (whose gusts stay as they were)."""
     env, hawk, comp = _env_gusts(30, turbulence=0.05, turbulence_model=model, airspeed=(15.0, 25.0), turbulence_convected=True)
     assert np.abs(hawk).max() > 0.1
     for i in range(env.num_envs):
@@ -373,7 +373,7 @@ def test_env_compensator_gust_is_the_hawks_convected(model):
     np.testing.assert_array_equal(hawk_u, hawk[:11])  # the Hawk's gusts do not depend on the convection
     _, hawk_d, comp_d = _env_gusts(10, turbulence=0.05, turbulence_model=model, airspeed=(15.0, 25.0))  # the model's default
     np.testing.assert_array_equal(hawk_d, hawk_u)
-    assert np.array_equal(comp_d, comp[:11]) == (model == "dryden") and np.array_equal(comp_d, hawk_d) == (model == "gauss_markov")
+    assert np.array_equal(comp_d, comp[:11]) == (model != "gauss_markov") and np.array_equal(comp_d, hawk_d) == (model == "gauss_markov")
 
 
 def test_env_gauss_markov_gusts_are_the_recursion():
@@ -389,13 +389,29 @@ def test_env_gauss_markov_gusts_are_the_recursion():
         np.testing.assert_array_equal(hawk[k], g)
 
 
-def test_env_dryden_gusts_are_reproducible_per_environment_seed():
-    """Same seed, same gusts; environment i of a batch seeded s flies the gusts of a batch of one seeded s + i."""
-    _, h1, c1 = _env_gusts(8, n=3, seed=11, turbulence=0.05, turbulence_model="dryden")
-    _, h2, c2 = _env_gusts(8, n=3, seed=11, turbulence=0.05, turbulence_model="dryden")
-    _, h3, c3 = _env_gusts(8, n=1, seed=13, turbulence=0.05, turbulence_model="dryden")
+@pytest.mark.parametrize("model", MODELS)
+def test_env_spectral_gusts_are_reproducible_per_environment_seed(model):
+    """Same seed, same gusts; environment i of a batch seeded s flies the gusts of a batch of one seeded s + i;
+    another seed, other gusts."""
+    _, h1, c1 = _env_gusts(8, n=3, seed=11, turbulence=0.05, turbulence_model=model)
+    _, h2, c2 = _env_gusts(8, n=3, seed=11, turbulence=0.05, turbulence_model=model)
+    _, h3, c3 = _env_gusts(8, n=1, seed=13, turbulence=0.05, turbulence_model=model)
     assert np.array_equal(h1, h2) and np.array_equal(c1, c2)
     assert np.array_equal(h1[:, 2], h3[:, 0]) and np.array_equal(c1[:, 2], c3[:, 0])
+    assert not np.array_equal(h1[:, 0], h3[:, 0])
+
+
+def test_env_von_karman_gusts_are_the_generator_on_the_turbulence_stream():
+    """With "von_karman" the environments' Hawk gusts are the von Karman generator's, started at the episode's
+    airspeeds with sigma = turbulence x V and driven by the environment's turbulence stream (25 normals a
+    step), bit for bit: the environment flies the generator the statistics tests check."""
+    env, hawk, _ = _env_gusts(12, turbulence=0.05, turbulence_model="von_karman", airspeed=(15.0, 25.0))
+    g = SpectralGusts(env.num_envs, env.dt, env.config.turbulence_scale, "von_karman")
+    idx = np.arange(env.num_envs)
+    g.reset(idx, env.airspeed, 0.05 * env.airspeed, rs.normal(env.keys, env.episode, 0, rs.S_TURBULENCE, 25))
+    np.testing.assert_array_equal(hawk[0], g.gust())
+    for k in range(1, hawk.shape[0]):
+        np.testing.assert_array_equal(hawk[k], g.step(rs.normal(env.keys, env.episode, k, rs.S_TURBULENCE, 25)))
 
 
 # ---------------------------------------------------------------------- the compensator's gust in the loads
@@ -477,6 +493,7 @@ def test_bad_turbulence_settings_are_errors_naming_the_field(fields, words):
         RigEnvConfig(**fields)
     for w in words:
         assert w in str(e.value)
+    assert "\n" not in str(e.value)
 
 
 def test_turbulence_defaults():
@@ -484,6 +501,8 @@ def test_turbulence_defaults():
     assert c.turbulence_model == "gauss_markov" and c.turbulence_scale == TUNNEL_SCALE == 0.76 and c.turbulence_convected is None
     assert not c.gusts_convected and RigEnvConfig(turbulence_model="dryden").gusts_convected
     assert RigEnvConfig(turbulence_convected=True).gusts_convected and not RigEnvConfig(turbulence_model="dryden", turbulence_convected=False).gusts_convected
+    assert RigEnvConfig(turbulence_model="von_karman").gusts_convected
+    assert not RigEnvConfig(turbulence_model="von_karman", turbulence_convected=False).gusts_convected
 
 
 @pytest.mark.parametrize("model", MODELS)
