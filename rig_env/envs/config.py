@@ -22,10 +22,10 @@ Errors are ``ValueError`` naming the field and its allowed range.  ``None`` in a
 | link_delay_steps | 1 | control steps, [0, 50] | wireless telemetry delay |
 | rate_filter_hz | 10.0 | Hz, [0.1, control_rate / 2] | low-pass of the rate estimate |
 | turbulence | 0.0 | fraction of airspeed, [0, 0.3] | gust intensity (1 sigma, per axis) |
-| turbulence_model | "gauss_markov" | "gauss_markov" or "dryden" | gust spectrum: first-order Gauss-Markov per world axis (correlation time ``turbulence_tau``), or Dryden's longitudinal, lateral and vertical forms at length scale ``turbulence_scale`` (:mod:`rig_env.turbulence`) |
+| turbulence_model | "gauss_markov" | "gauss_markov", "dryden" or "von_karman" | gust spectrum: first-order Gauss-Markov per world axis (correlation time ``turbulence_tau``), or Dryden's or von Karman's longitudinal, lateral and vertical forms at length scale ``turbulence_scale`` (von Karman's within 0.5 % up to T omega = 100, T = L / V: :mod:`rig_env.turbulence`) |
 | turbulence_tau | 0.2 | s, [0.01, 10] | gust correlation time (gauss_markov) |
-| turbulence_scale | 0.76 | m, [0.01, 10] | longitudinal integral scale (dryden); estimate: half the 5 ft height of the tunnel's test section (``turbulence.TUNNEL_SCALE``) |
-| turbulence_convected | None (model's) | bool | True: the compensator meets the Hawk's gust d / V later (frozen turbulence, d = 1.18 m on the default rig); False: the same gust at both at once; None: True with "dryden", False with "gauss_markov" (its gusts as they always were, bit for bit) |
+| turbulence_scale | 0.76 | m, [0.01, 10] | longitudinal integral scale L (dryden, von_karman); estimate: half the 5 ft height of the tunnel's test section (``turbulence.TUNNEL_SCALE``) |
+| turbulence_convected | None (model's) | bool | True: the compensator meets the Hawk's gust d / V later (frozen turbulence, d = 1.18 m on the default rig); False: the same gust at both at once; None: True with "dryden" and "von_karman", False with "gauss_markov" (its gusts as they always were, bit for bit) |
 | randomise | {} | param -> (lo, hi), file units | per-episode uniform draw of rig parameters |
 | hawk_surfaces | False | bool | Hawk elevator, aileron, rudder are actions too |
 | aero_model | None (task's) | "linear", "tables" or "unsteady" | aerodynamic model: stability derivatives, static high-incidence tables, or the tables through the Hawk's flow-separation state (departure_recovery: "tables" by default) |
@@ -54,7 +54,7 @@ from typing import Any, Mapping
 from rig_env.params import JOINTS, PARAM_INDEX
 from rig_env.physics.pipeline import check_aero_model, resolve_aero_model
 from rig_env.signals import InputSchedule
-from rig_env.turbulence import SCALE_RANGE, TUNNEL_SCALE, TURBULENCE_MODELS
+from rig_env.turbulence import SCALE_RANGE, SPECTRAL_MODELS, TUNNEL_SCALE, TURBULENCE_MODELS
 
 MAX_AIRSPEED = 40.0  # m/s: the Bristol 7x5 ft tunnel's working range for the rig
 
@@ -177,8 +177,9 @@ class RigEnvConfig:
     @property
     def gusts_convected(self) -> bool:
         """Whether the compensator meets the Hawk's gust d / V later: ``turbulence_convected``, or when that is
-        None, True for the "dryden" model and False for "gauss_markov" (uniform gusts, as they always were)."""
-        return self.turbulence_model == "dryden" if self.turbulence_convected is None else self.turbulence_convected
+        None, True for the "dryden" and "von_karman" models and False for "gauss_markov" (uniform gusts, as they
+        always were)."""
+        return self.turbulence_model in SPECTRAL_MODELS if self.turbulence_convected is None else self.turbulence_convected
 
     def with_overrides(self, **overrides: Any) -> "RigEnvConfig":
         """A copy with fields replaced; an unknown name is a ValueError listing the valid ones."""

@@ -69,7 +69,7 @@ from rig_env.envs.tasks import TASKS
 from rig_env.params import JOINTS, PARAM_INDEX, RigParams, param_batch
 from rig_env.physics import layout as L
 from rig_env.physics.pipeline import PhysicsBatch, flags_of, rates, resolve_aero_model
-from rig_env.turbulence import MIN_CONVECTION_SPEED, DrydenGusts, GustHistory, convection_delay
+from rig_env.turbulence import MIN_CONVECTION_SPEED, SPECTRAL_MODELS, GustHistory, SpectralGusts, convection_delay
 
 ACTION_SCALE_DEG = 40.0
 _RAD_PER_ACTION = math.radians(ACTION_SCALE_DEG)
@@ -241,7 +241,8 @@ class RigVectorEnv(VectorEnv):
         self.prev_action = np.zeros((n, len(self.action_names)))
         self._phi = float(np.exp(-self.dt / cfg.turbulence_tau))
         gusty = cfg.turbulence > 0.0
-        self._dryden = DrydenGusts(n, self.dt, cfg.turbulence_scale) if gusty and cfg.turbulence_model == "dryden" else None
+        spectral = gusty and cfg.turbulence_model in SPECTRAL_MODELS
+        self._spectral = SpectralGusts(n, self.dt, cfg.turbulence_scale, cfg.turbulence_model) if spectral else None
         self._history = GustHistory(n, self.dt, self._longest_delay()) if gusty and cfg.gusts_convected else None
         self._schedule = cfg.pilot_inputs
         self._pilot = np.zeros((n, 3))  # the schedule's Hawk elevator, aileron, rudder, rad
@@ -311,12 +312,12 @@ class RigVectorEnv(VectorEnv):
         q0, qd0 = self.task.reset(idx, rs.uniform(keys, ep, 0, rs.S_REFERENCE, self.task.n_draws))
         q0[:, self.locked] = self.q_locked[self.locked]
         qd0[:, self.locked] = 0.0
-        if self._dryden is None:
+        if self._spectral is None:
             self.gust[idx] = self.config.turbulence * self.airspeed[idx, None] * rs.normal(keys, ep, 0, rs.S_TURBULENCE, 3)
         else:  # started in the stationary distribution of the episode's airspeed
             sigma = self.config.turbulence * self.airspeed[idx]
-            self._dryden.reset(idx, self.airspeed[idx], sigma, rs.normal(keys, ep, 0, rs.S_TURBULENCE, DrydenGusts.N_NORMALS))
-            self.gust[idx] = self._dryden.gust()[idx]
+            self._spectral.reset(idx, self.airspeed[idx], sigma, rs.normal(keys, ep, 0, rs.S_TURBULENCE, self._spectral.n_normals))
+            self.gust[idx] = self._spectral.gust()[idx]
         if self._history is not None:  # the compensator's gust: the Hawk's, convection_delay later
             self._history.reset(idx, self.gust[idx], convection_delay(self.P[idx], self.airspeed[idx]))
         self.U[idx] = 0.0  # zero surface commands: the reset below starts the servos at rest at 0
@@ -436,12 +437,12 @@ class RigVectorEnv(VectorEnv):
         else:
             self._scheduled_inputs(a)
         if self.config.turbulence > 0.0:
-            if self._dryden is None:  # gauss_markov
+            if self._spectral is None:  # gauss_markov
                 nz = rs.normal(self.keys, self.episode, self.steps + 1, rs.S_TURBULENCE, 3)
                 sig = self.config.turbulence * self.airspeed[:, None]
                 self.gust = self._phi * self.gust + np.sqrt(1.0 - self._phi**2) * sig * nz
             else:
-                self.gust = self._dryden.step(rs.normal(self.keys, self.episode, self.steps + 1, rs.S_TURBULENCE, DrydenGusts.N_NORMALS))
+                self.gust = self._spectral.step(rs.normal(self.keys, self.episode, self.steps + 1, rs.S_TURBULENCE, self._spectral.n_normals))
             self.U[:, L.U_GUST : L.U_GUST + 3] = self.gust
             self.U[:, L.U_GUST_COMP : L.U_GUST_COMP + 3] = self.gust if self._history is None else self._history.push(self.gust)
         self.advance_physics()
