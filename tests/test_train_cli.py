@@ -253,6 +253,7 @@ def test_warm_start_from_the_lqr_flies_free_flight_emulation(tmp_path):
     assert cold["warm_start"] is None and warm["warm_start"]["kind"] == "lqr"
     fit = warm["warm_start"]
     assert fit["samples"] >= 20000 and fit["action_mse_after"] < 0.2 * fit["action_mse_before"]
+    assert fit["clone_eval"]["episodes"] == 4 and (tmp_path / "warm" / "warm_start.json").is_file()  # the clone before PPO
     c, w = cold["final_eval"], warm["final_eval"]
     assert w["mean_return"] > c["mean_return"] + 0.1 * w["max_return"], (c, w)
     assert w["success_rate"] >= c["success_rate"] + 0.25, (c, w)

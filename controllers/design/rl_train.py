@@ -445,7 +445,7 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
             eval_env = VecNormalize(eval_env, training=False, norm_obs=True, norm_reward=False, clip_obs=hp.clip_obs)
         model = algo_cls("MlpPolicy", env, seed=args.seed, device="cpu", verbose=0, tensorboard_log=tb, **kwargs)
         if getattr(args, "warm_start", None) is not None:
-            warm = _warm_start(args, model, env, spec, base, kept_surfaces(base.vec), num_envs)
+            warm = _warm_start(args, model, env, spec, base, kept_surfaces(base.vec), num_envs, overrides, out, hp.normalize)
         (out / RUN_FILE).write_text(json.dumps({"argv": argv, "algo": args.algo, "task": args.task, "seed": args.seed}, indent=1) + "\n")
     callbacks, tracker, progress = build_callbacks(
         eval_env, out, eval_seed=args.seed + EVAL_SEED_OFFSET, eval_freq=max(eval_every // num_envs, 1),
@@ -508,21 +508,28 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
 
 
 def _warm_start(args: argparse.Namespace, model: Any, env: Any, spec: Any, base: Any, keep: tuple[int, ...] | None,
-                num_envs: int) -> dict[str, Any]:
+                num_envs: int, overrides: dict[str, Any], out: Path, normalize: bool) -> dict[str, Any]:
     """``--warm-start LAW``: the task's designed law behaviour-cloned into ``model`` on the training stack ``env``
-    (:func:`controllers.design.rl_warmstart.warm_start`), the batch reseeded after it.  Returns the provenance
-    record (law, samples, fit)."""
+    (:func:`controllers.design.rl_warmstart.warm_start`), the batch reseeded after it; the clone is exported to
+    ``out/warm_start.json`` and evaluated on the evaluation episodes (the curve's point before PPO).  Returns the
+    provenance record (law, samples, fit, the clone's evaluation)."""
     from controllers import make_controller
+    from controllers.design.rl_export import evaluate, export_sb3
     from controllers.design.rl_warmstart import warm_start
+    from controllers.laws.artefact import save
 
     law = make_controller(args.warm_start, spec, num_envs)
     t0 = time.perf_counter()
     base.seed(args.seed)
     rec = warm_start(model, env, law, keep, args.warm_start_samples, seed=args.seed)
     base.seed(args.seed)  # PPO's learn resets the batch: the same first episodes as without the warm start
-    rec = {"kind": args.warm_start, **rec, "wall_s": round(time.perf_counter() - t0, 1)}
+    save(export_sb3(model, spec, env if normalize else None, env_overrides=overrides, action_index=keep), out / "warm_start.json")
+    clone = evaluate(make_controller("ppo", spec, args.eval_episodes, path=out / "warm_start.json"), overrides,
+                     seed=args.seed + EVAL_SEED_OFFSET)
+    rec = {"kind": args.warm_start, **rec, "clone_eval": clone, "wall_s": round(time.perf_counter() - t0, 1)}
     print(f"warm start: {rec['law']} flew {rec['samples']} steps; action MSE {rec['action_mse_before']:.4f} -> "
-          f"{rec['action_mse_after']:.4f} in {rec['wall_s']} s", flush=True)
+          f"{rec['action_mse_after']:.4f}; the clone: return {clone['mean_return']:.1f}, success "
+          f"{clone['success_rate']:.2f} ({clone['episodes']} eval episodes); {rec['wall_s']} s", flush=True)
     return rec
 
 
