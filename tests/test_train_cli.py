@@ -233,7 +233,8 @@ def test_resume_needs_a_run_folder(tmp_path):
 
 def test_warm_start_is_ppo_only(capsys):
     for argv in (["--algo", "sac", "--task", "free_flight_emulation", "--warm-start", "lqr"],
-                 ["--resume", "runs/x", "--warm-start", "lqr"]):
+                 ["--resume", "runs/x", "--warm-start", "lqr"],
+                 ["--algo", "ppo", "--task", "free_flight_emulation", "--warm-start", "lqr", "--backend", "ray"]):
         with pytest.raises(SystemExit) as e:
             parse_args(argv)
         assert e.value.code == 2 and "--warm-start" in capsys.readouterr().err

@@ -111,7 +111,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--checkpoint-every", type=int, default=200_000, help="timesteps between checkpoints")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (a line every 10 s instead)")
     p.add_argument("--ship", action="store_true", help="copy policy.json and curve.png into controllers/policies/")
-    p.add_argument("--warm-start", choices=["lqr", "pid"], default=None, metavar="LAW",
+    from controllers.design.rl_warmstart import WARM_START_LAWS
+
+    p.add_argument("--warm-start", choices=WARM_START_LAWS, default=None, metavar="LAW",
                    help="PPO only: before training, behaviour-clone the task's designed LAW (lqr, pid) into the policy "
                         "(controllers.design.rl_warmstart)")
     p.add_argument("--warm-start-samples", type=int, default=500_000, help="environment steps the law flies for --warm-start")
@@ -141,8 +143,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         p.error("--ship takes one --seed: pick the seed to ship from seeds.json and train it with --seed")
     if a.address is not None and a.backend != "ray":
         p.error(f"--address {a.address}: only with --backend ray")
-    if a.backend == "ray" and (a.resume is not None or a.ship or a.no_error_reset):
-        p.error("--backend ray trains --seeds as a sweep: no --resume (rig sweep --resume continues a sweep), --ship or --no-error-reset")
+    if a.backend == "ray" and (a.resume is not None or a.ship or a.no_error_reset or a.warm_start is not None):
+        p.error("--backend ray trains --seeds as a sweep: no --resume (rig sweep --resume continues a sweep), --ship, "
+                "--no-error-reset or --warm-start")
     a.env_kv = {}
     for item in a.env:
         key, sep, value = item.partition("=")
