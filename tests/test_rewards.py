@@ -136,3 +136,36 @@ def test_every_task_rewards_in_unit_interval_and_smoother_actions_never_earn_les
     task.activity[:] = m0  # the same command history before the step
     r_smoother = task.reward(q, qd, ref, a, a_prev + 0.5 * (a - a_prev))
     assert np.all(r_smoother >= r)
+
+
+def _ffe(n: int = 1):
+    from rig_env.envs.tasks.freeflight import FreeFlightEmulation
+
+    task = FreeFlightEmulation(n, ("rig_pitch", "model_pitch"), DT, 6.0)
+    task.V[:] = 20.0
+    return task
+
+
+def test_free_flight_rate_cost_is_a_tenth_by_hand():
+    """Free-flight emulation's command-activity weight is 0.02 (its docstring): the case of
+    test_control_rate_cost_by_hand, at rest before the input (settle cost 0), m = 0.8: c_u = 0.25 * 0.25 + 0.02 * 0.8
+    = 0.0785, r = exp(-0.0785) = 0.924502; the same action again, m = 0.76: c_u = 0.0777, r = 0.925242."""
+    task = _ffe()
+    q, qd, ref = np.zeros((1, 5)), np.zeros((1, 5)), np.zeros((1, 6))
+    a, a0 = np.array([[0.0, 0.5, 0.0]]), np.array([[0.0, 0.3, 0.0]])
+    assert task.reward(q, qd, ref, a, a0)[0] == pytest.approx(0.924502, abs=1e-6)
+    assert task.reward(q, qd, ref, a, a)[0] == pytest.approx(0.925242, abs=1e-6)
+
+
+def test_free_flight_error_at_the_criterions_limit_costs_one_per_term():
+    """From the input on, an alpha error of half the episode's alpha RMS (the criterion's limit) costs c = 1: with
+    s_alpha = 2 deg, alpha_ff = 1 deg and the rig at rest at its baseline, no command: r = 0.7 exp(-1) + 0.3
+    exp(-1 / 6) = 0.511460; a quarter of the RMS (alpha_ff = 0.5 deg): c = 0.25, r = 0.7 exp(-0.25) + 0.3
+    exp(-0.5 / 6) = 0.821174."""
+    task = _ffe(2)
+    task.s_alpha[:] = 2.0 * D
+    q, qd = np.zeros((2, 5)), np.zeros((2, 5))
+    ref = np.zeros((2, 6))
+    ref[:, 0], ref[:, 4] = np.array([1.0, 0.5]) * D, 1.0
+    a = np.zeros((2, 3))
+    np.testing.assert_allclose(task.reward(q, qd, ref, a, a), [0.511460, 0.821174], atol=1e-6)

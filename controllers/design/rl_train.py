@@ -7,6 +7,7 @@
     rig train --algo ppo --task bank_to_bank --seeds 0 1 2         # three seeds and their spread
     rig train --algo ppo --task bank_to_bank --hyperparams my.toml # a user's own settings file
     rig train --resume runs/bank_to_bank_ppo_s0 --timesteps 6000000  # continue from the last checkpoint
+    rig train --algo ppo --task free_flight_emulation --warm-start lqr  # clone the designed LQR first, then PPO
 
 Settings per (algorithm, task): ``controllers/design/hyperparams/<algo>.toml`` (read and checked by
 :mod:`controllers.design.rl_hyperparams`; ``--hyperparams FILE`` for another file of the same shape).
@@ -33,6 +34,10 @@ An ``--out`` folder that already holds a run is refused unless ``--overwrite`` (
 ``--resume RUN_DIR`` reloads the last checkpoint (model, optimiser, VecNormalize statistics, timesteps done)
 and trains on to the budget (``--timesteps`` of the resuming command, else the run's own), the curve
 continuing where it stopped.
+
+``--warm-start LAW`` (PPO): before training, the task's designed law (``lqr``, ``pid``) flies the training batch for
+``--warm-start-samples`` steps and the policy's deterministic action is regressed on its command, the value
+function on its returns (:mod:`controllers.design.rl_warmstart`); recorded as ``warm_start`` in the provenance.
 
 Training conditions: the comparison's randomised conditions ``--conditions`` (default ``nominal``,
 :data:`controllers.design.conditions.MODES`: airspeed 15-25 m/s, gusts, sensor noise and delay, parameter
@@ -106,6 +111,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--checkpoint-every", type=int, default=200_000, help="timesteps between checkpoints")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (a line every 10 s instead)")
     p.add_argument("--ship", action="store_true", help="copy policy.json and curve.png into controllers/policies/")
+    from controllers.design.rl_warmstart import WARM_START_LAWS
+
+    p.add_argument("--warm-start", choices=WARM_START_LAWS, default=None, metavar="LAW",
+                   help="PPO only: before training, behaviour-clone the task's designed LAW (lqr, pid) into the policy "
+                        "(controllers.design.rl_warmstart)")
+    p.add_argument("--warm-start-samples", type=int, default=500_000, help="environment steps the law flies for --warm-start")
     p.add_argument("--backend", choices=["local", "ray"], default="local",
                    help="local (one process, seed after seed) or ray: the seeds as a Ray Tune sweep, one trial per seed, "
                         "checkpointed under OUT (controllers.design.sweep; pip install -e \".[ray]\")")
@@ -117,7 +128,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                 p.error(f"--{name} is required (unless --resume RUN_DIR)")
     elif a.seeds is not None or a.out is not None:
         p.error("--resume RUN_DIR continues one run in RUN_DIR: no --seeds or --out")
-    for name in ("timesteps", "num_envs", "eval_every", "threads", "eval_episodes", "final_episodes", "checkpoint_every"):
+    if a.warm_start is not None and (a.algo == "sac" or a.resume is not None):
+        p.error("--warm-start: PPO only, and not with --resume (the resumed run keeps its own start)")
+    for name in ("timesteps", "num_envs", "eval_every", "threads", "eval_episodes", "final_episodes", "checkpoint_every",
+                 "warm_start_samples"):
         v = getattr(a, name)
         if v is not None and v < 1:
             p.error(f"--{name.replace('_', '-')} = {v}: must be a positive integer")
@@ -129,8 +143,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         p.error("--ship takes one --seed: pick the seed to ship from seeds.json and train it with --seed")
     if a.address is not None and a.backend != "ray":
         p.error(f"--address {a.address}: only with --backend ray")
-    if a.backend == "ray" and (a.resume is not None or a.ship or a.no_error_reset):
-        p.error("--backend ray trains --seeds as a sweep: no --resume (rig sweep --resume continues a sweep), --ship or --no-error-reset")
+    if a.backend == "ray" and (a.resume is not None or a.ship or a.no_error_reset or a.warm_start is not None):
+        p.error("--backend ray trains --seeds as a sweep: no --resume (rig sweep --resume continues a sweep), --ship, "
+                "--no-error-reset or --warm-start")
     a.env_kv = {}
     for item in a.env:
         key, sep, value = item.partition("=")
@@ -410,7 +425,7 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
     if not have_tb:
         print("tensorboard is not installed (pip install -e .[train]): no TensorBoard logs", flush=True)
     tb = str(out / "tb") if have_tb else None
-    points, wall_before, resumed_from = [], 0.0, None
+    points, wall_before, resumed_from, warm = [], 0.0, None, None
     if resuming:
         ckpt, vn_path, rb_path, n_done = last_checkpoint(out)
         if hp.normalize:
@@ -432,6 +447,8 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
             env = VecNormalize(env, training=True, norm_obs=True, norm_reward=False, clip_obs=hp.clip_obs)
             eval_env = VecNormalize(eval_env, training=False, norm_obs=True, norm_reward=False, clip_obs=hp.clip_obs)
         model = algo_cls("MlpPolicy", env, seed=args.seed, device="cpu", verbose=0, tensorboard_log=tb, **kwargs)
+        if getattr(args, "warm_start", None) is not None:
+            warm = _warm_start(args, model, env, spec, base, kept_surfaces(base.vec), num_envs, overrides, out, hp.normalize)
         (out / RUN_FILE).write_text(json.dumps({"argv": argv, "algo": args.algo, "task": args.task, "seed": args.seed}, indent=1) + "\n")
     callbacks, tracker, progress = build_callbacks(
         eval_env, out, eval_seed=args.seed + EVAL_SEED_OFFSET, eval_freq=max(eval_every // num_envs, 1),
@@ -466,7 +483,7 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
         "algo": args.algo, "task": args.task, "seed": args.seed, "num_envs": num_envs, "threads": args.threads,
         "conditions": args.conditions,
         "timesteps": int(model.num_timesteps), "timesteps_budget": timesteps, "wall_time_s": round(wall, 1),
-        "time_split_s": progress.split(), "resumed_from": resumed_from,
+        "time_split_s": progress.split(), "resumed_from": resumed_from, "warm_start": warm,
         "target_success": args.target_success, "target_reached_at": tracker.reached,
         "hyperparameters": hp.record(),
         "eval_during_training": {"episodes": args.eval_episodes, "seed": args.seed + EVAL_SEED_OFFSET, "curve": curve},
@@ -491,6 +508,32 @@ def _train(args: argparse.Namespace, argv: list[str]) -> int:
         dest.with_name(dest.stem + "_curve.png").write_bytes((out / "curve.png").read_bytes())
         print(f"shipped: {dest}", flush=True)
     return 0
+
+
+def _warm_start(args: argparse.Namespace, model: Any, env: Any, spec: Any, base: Any, keep: tuple[int, ...] | None,
+                num_envs: int, overrides: dict[str, Any], out: Path, normalize: bool) -> dict[str, Any]:
+    """``--warm-start LAW``: the task's designed law behaviour-cloned into ``model`` on the training stack ``env``
+    (:func:`controllers.design.rl_warmstart.warm_start`), the batch reseeded after it; the clone is exported to
+    ``out/warm_start.json`` and evaluated on the evaluation episodes (the curve's point before PPO).  Returns the
+    provenance record (law, samples, fit, the clone's evaluation)."""
+    from controllers import make_controller
+    from controllers.design.rl_export import evaluate, export_sb3
+    from controllers.design.rl_warmstart import warm_start
+    from controllers.laws.artefact import save
+
+    law = make_controller(args.warm_start, spec, num_envs)
+    t0 = time.perf_counter()
+    base.seed(args.seed)
+    rec = warm_start(model, env, law, keep, args.warm_start_samples, seed=args.seed)
+    base.seed(args.seed)  # PPO's learn resets the batch: the same first episodes as without the warm start
+    save(export_sb3(model, spec, env if normalize else None, env_overrides=overrides, action_index=keep), out / "warm_start.json")
+    clone = evaluate(make_controller("ppo", spec, args.eval_episodes, path=out / "warm_start.json"), overrides,
+                     seed=args.seed + EVAL_SEED_OFFSET)
+    rec = {"kind": args.warm_start, **rec, "clone_eval": clone, "wall_s": round(time.perf_counter() - t0, 1)}
+    print(f"warm start: {rec['law']} flew {rec['samples']} steps; action MSE {rec['action_mse_before']:.4f} -> "
+          f"{rec['action_mse_after']:.4f}; the clone: return {clone['mean_return']:.1f}, success "
+          f"{clone['success_rate']:.2f} ({clone['episodes']} eval episodes); {rec['wall_s']} s", flush=True)
+    return rec
 
 
 def _version(pkg: str) -> str:

@@ -21,7 +21,7 @@ Every reward has one form (:meth:`Task.shaped_reward`), from the task's tracking
 errors over their scales, in each task's docstring) and the control cost ``c_u >= 0``:
 
     r = (0.7 exp(-c) + 0.3 exp(-sqrt(c) / 6)) exp(-c_u)                         in (0, 1]
-    c_u = sum_j [0.25 a_j^2 + 0.3 (max(|a_j| - 0.9, 0) / 0.1)^2] + 0.2 m
+    c_u = sum_j [0.25 a_j^2 + 0.3 (max(|a_j| - 0.9, 0) / 0.1)^2] + w m            (w: the task's rate_weight, 0.2 by default)
     m' = (sum_j (da_j/dt / 4 s^-1)^2 - m) / 0.25 s                             (command activity, m = 0 at reset)
 
 with ``a`` the normalised actions (+-1 full deflection), ``da/dt`` their change per control period over
@@ -146,6 +146,7 @@ class Task:
     | display_label | what :meth:`display` returns, for plots (e.g. "roll angle, deg") |
     | display_joint | index in ``JOINTS`` of the joint :meth:`display` shows (None: a derived quantity) |
     | display_rate | (joint index, reference column) of a commanded rate to plot beside it, or None |
+    | rate_weight | weight of the command activity in the control cost (default :data:`RATE_WEIGHT`) |
 
     Named constants a control law needs to rebuild a task's reference from its observation are class
     attributes too (e.g. ``ForcedOscillation.T_RAMP``, :data:`G0`); :meth:`driven_joint` names the rig
@@ -170,6 +171,9 @@ class Task:
     display_label: str = "tracked quantity, deg"
     display_joint: int | None = None
     display_rate: tuple[int, int] | None = None
+    rate_weight: ClassVar[float] = RATE_WEIGHT
+    """Weight of the command activity in this task's control cost (default :data:`RATE_WEIGHT`; a task that
+    lowers it says why in its docstring)."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """A task class that sets ``ref_labels`` must declare a scale for every one of them, in that order."""
@@ -246,7 +250,7 @@ class Task:
         """(n,) control cost of normalised actions a, a_prev (n, k) (the module docstring's ``c_u``)."""
         out = np.empty(a.shape[0])
         _control_cost_kernel(np.ascontiguousarray(a, dtype=np.float64), np.ascontiguousarray(a_prev, dtype=np.float64),
-                             RATE_SCALE * self.dt, self.dt / RATE_TAU, SAT_KNEE, RATE_WEIGHT, self.activity, out)
+                             RATE_SCALE * self.dt, self.dt / RATE_TAU, SAT_KNEE, self.rate_weight, self.activity, out)
         return out
 
     def shaped_reward(self, c: np.ndarray, a: np.ndarray, a_prev: np.ndarray) -> np.ndarray:
