@@ -40,7 +40,7 @@ def perfect(draws: int, seed: int) -> None:
     phi = math.exp(-dt / tau)
     w = sigma * V * rng.normal(size=n)
     e2, r2, base = np.zeros(n), np.zeros(n), np.zeros(n)
-    for k in range(int(round(T / dt))):
+    for k in range(round(T / dt)):
         t = k * dt
         w = phi * w + math.sqrt(1.0 - phi**2) * sigma * V * rng.normal(size=n)
         ag = -w / V

@@ -337,7 +337,7 @@ def test_free_flight_criterion_passes_a_perfect_emulator():
         m.configure(np.arange(n), V, P)
     trim = rng.uniform(2.0, 6.0, n) * D
     phi, w, e2_late, r2_late, base = math.exp(-dt / 0.2), 0.01 * V * rng.normal(size=n), np.zeros(n), np.zeros(n), np.zeros(n)
-    for k in range(int(round(6.0 / dt))):
+    for k in range(round(6.0 / dt)):
         t = k * dt
         task.pilot_inputs(np.full(n, t))
         w = phi * w + math.sqrt(1 - phi**2) * 0.01 * V * rng.normal(size=n)
