@@ -186,7 +186,7 @@ def kalman_gain(A_est: np.ndarray, C_est: np.ndarray, dt: float, sigma_a: tuple[
 
 EST = [_S[k] for k in ESTIMATED]
 """Design-model states the estimator estimates (:data:`controllers.laws.emulation.ESTIMATED`): the rig's angles and
-rates, the heave flap's position and rate, the gust."""
+rates, the heave flap's position and rate, the free Hawk's alpha_ff and q_ff, the gust."""
 
 
 def design_point(params: RigParams, airspeed: float, dt: float, link_delay_steps: int, md: dict[str, float], max_input: float,
@@ -233,7 +233,7 @@ def loop_as_flown(pt: dict[str, Any], dt: float) -> dict[str, float]:
     """
     Ad, Bd, K, d, Lk = pt["Ad"], pt["Bd"], pt["K"], pt["d"], pt["kalman_gain"]
     n = len(BASE_STATES)
-    keep = [*EST, *range(n, n + d)]  # rig, flap, gust (uncontrolled, stable), delay line
+    keep = [*EST, *range(n, n + d)]  # rig, flap, free Hawk and gust (uncontrolled, stable), delay line
     Ap, Bp = Ad[np.ix_(keep, keep)], Bd[keep]
     m = len(keep)
     C = pt["meas_rows"][:, keep]  # the free Hawk's rows: its states are kept (they do not depend on the command); the Hawk servo's part is known
@@ -322,14 +322,15 @@ def design_emulation_lqr(spec: LoopSpec, params: RigParams | None = None, *, lin
                "rig_pitch": {k: (float(v) if math.isfinite(v) else None) for k, v in p["margins"].items()}} for p in pts]
     design = {"airspeed_range": list(spec.airspeed_range), "link_delay_steps": int(link_delay_steps),
               "sigma_a": dict(zip(("rig_pitch", "model_pitch"), map(float, SIGMA_A))), "sigma_f": float(SIGMA_F), "sigma_z": float(SIGMA_Z),
-              "sigma_zf": float(SIGMA_ZF), "sigma_gust": float(SIGMA_GUST), "gust_tau": float(GUST_TAU), "params_default": params_default,
+              "sigma_zf": float(SIGMA_ZF), "sigma_gust": float(SIGMA_GUST), "gust_tau": float(GUST_TAU),
+              "sigma_ref": list(map(float, SIGMA_REF)), "sigma_zr": list(map(float, SIGMA_ZR)), "params_default": params_default,
               "method": "controllers.design.emulation (explicit model following: control.dlqr on the rig and the free Hawk's short period side by side, servo and delay in)",
               "max_deviation": {k: float(v) for k, v in md.items()}, "weight_scale": scale, "targets": dict(TARGETS),
               "max_input": float(mi), "tau_pilot": float(TAU_PILOT),
               "states": list(state_labels(d)), "loop_delay_s": params.servos.compensator.delay_s + link_delay_steps * spec.dt,
               "points": points}
     return EmulationTables(V, np.array([p["K"] for p in pts]), np.array([p["q_op"] for p in pts]), hawk_phi, hawk_gamma[0],
-                           int(hawk["hawk_delay_steps"]), float(params.geometry.arm_length), ref_scales,
+                           int(hawk["hawk_delay_steps"]), ref_scales,
                            np.array([p["Ad"][EST] for p in pts]), np.array([p["Bd"][EST, 0] for p in pts]), np.array([p["meas_rows"] for p in pts]),
                            np.array([p["kalman_gain"] for p in pts]),
                            signal_scales(spec), design)

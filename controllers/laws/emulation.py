@@ -156,7 +156,6 @@ class EmulationTables:
     | q_op | (nv, 2) | rad: zero-input trim of rig_pitch, model_pitch |
     | hawk_phi, hawk_gamma | (2, 2), (2,) | the Hawk servo over one period (zero-order hold) |
     | hawk_delay_steps | int | periods between the pilot command and the Hawk servo's input, as the task's reference model |
-    | arm_length | scalar | m, pivot to model gimbal |
     | ref_scales | (3,) | units per normalised value of :data:`REF_ENTRIES` |
     | est_rows, est_input | (nv, 9, 12 + d), (nv, 9) | the :data:`ESTIMATED` states' rows of the discrete design model: ``p+ = est_rows x + est_input u`` |
     | meas_rows | (nv, 5, 12 + d) | the :data:`MEASURED` quantities as rows of the design state: ``z = meas_rows x`` |
@@ -171,7 +170,6 @@ class EmulationTables:
     hawk_phi: np.ndarray
     hawk_gamma: np.ndarray
     hawk_delay_steps: int
-    arm_length: float
     ref_scales: np.ndarray
     est_rows: np.ndarray
     est_input: np.ndarray
@@ -187,7 +185,7 @@ class EmulationTables:
     def to_data(self) -> dict[str, Any]:
         """Artefact entries: numpy arrays and JSON values."""
         arrays = {k: np.array(getattr(self, k), dtype=np.float64) for k in _ARRAYS}
-        return {**arrays, "hawk_delay_steps": int(self.hawk_delay_steps), "arm_length": float(self.arm_length),
+        return {**arrays, "hawk_delay_steps": int(self.hawk_delay_steps),
                 **self.scales.to_data(), "design": dict(self.design)}
 
     @classmethod
@@ -195,7 +193,7 @@ class EmulationTables:
         """Check ``d`` (from the design or an artefact); a ValueError names the entry, UnsupportedTask a wrong spec."""
         name = "lqr_emulation"
         check_emulation(spec)
-        keys = (*_ARRAYS, "hawk_delay_steps", "arm_length", "design")
+        keys = (*_ARRAYS, "hawk_delay_steps", "design")
         missing = [k for k in keys if k not in d]
         if missing:
             raise ValueError(f"{name}: missing entries {missing}")
@@ -213,16 +211,13 @@ class EmulationTables:
         hd = d["hawk_delay_steps"]
         if isinstance(hd, bool) or not isinstance(hd, int) or not 0 <= hd <= 100:
             raise ValueError(f"{name}: hawk_delay_steps = {hd!r}: an integer in [0, 100]")
-        arm = d["arm_length"]
-        if isinstance(arm, bool) or not isinstance(arm, (int, float)) or not math.isfinite(arm) or arm <= 0:
-            raise ValueError(f"{name}: arm_length = {arm!r}: must be a finite number > 0")
         if type(d["design"]) is not dict:
             raise ValueError(f"{name}: design must be an object")
         rs = table_array(d, "ref_scales", owner=name, shape=(len(REF_ENTRIES),))
         if np.any(rs <= 0):
             raise ValueError(f"{name}: ref_scales must be > 0")
         return cls(V, K, table_array(d, "q_op", owner=name, shape=(nv, 2)), table_array(d, "hawk_phi", owner=name, shape=(2, 2)),
-                   table_array(d, "hawk_gamma", owner=name, shape=(2,)), int(hd), float(arm), rs,
+                   table_array(d, "hawk_gamma", owner=name, shape=(2,)), int(hd), rs,
                    table_array(d, "est_rows", owner=name, shape=(nv, ne, nx)), table_array(d, "est_input", owner=name, shape=(nv, ne)),
                    table_array(d, "meas_rows", owner=name, shape=(nv, nm, nx)), table_array(d, "kalman_gain", owner=name, shape=(nv, ne, nm)),
                    SignalScales.from_data(d, spec), dict(d["design"]))
@@ -259,6 +254,7 @@ class EmulationLQR(TabledLaw):
         self.nd = t.n_delay
         self._est = [BASE_STATES.index(k) for k in ESTIMATED]
         self._known = [BASE_STATES.index(k) for k in ("hawk_elevator", "hawk_elevator_rate", "pilot_cmd")]
+        self._alpha_ff, self._q_ff = ESTIMATED.index("alpha_ff"), ESTIMATED.index("q_ff")  # their columns in est
         self.a_ff = np.zeros(n)  # the free Hawk's alpha as last estimated (rad; diagnostics)
         self.x = np.zeros((n, len(BASE_STATES) + self.nd))  # the last state vector (state_labels order)
         self.hawk = np.zeros((n, 2))  # Hawk servo (position, rate), rad
@@ -311,12 +307,12 @@ class EmulationLQR(TabledLaw):
         if np.any(f):  # start from the measured angles, the loop's filtered rates, the measured flap and q_ref, in calm air
             self.est[f] = 0.0
             self.est[f, :5] = np.stack([z[:, 0], z[:, 1], thd, phd, z[:, 2]], axis=1)[f]
-            self.est[f, 7] = q_ref[f]
+            self.est[f, self._q_ff] = q_ref[f]
             self.fresh[:] = False
         innovation = z - np.einsum("nij,nj->ni", self._at(t.meas_rows, V), self._full(self.est, cmd))
         est = self.est + np.einsum("nij,nj->ni", self._at(t.kalman_gain, V), innovation)
         x = self._full(est, cmd)
-        self.a_ff = est[:, 6]
+        self.a_ff = est[:, self._alpha_ff]
         return x, V
 
     def act(self, obs: np.ndarray) -> np.ndarray:
