@@ -373,6 +373,49 @@ class RigParams:
         new.validate()
         return new
 
+    def with_lift_break(self, alpha_deg: float, depth: float) -> "RigParams":
+        """A copy whose Hawk tables lose ``depth`` of lift at ``alpha_deg`` (a new breakpoint between two of the
+        tables' own, the values at those two unchanged): a local break of the lift curve such as a laminar
+        separation bubble gives a wing at the rig's Reynolds number (about 1.6e5 at 20 m/s), which static
+        tests at that Reynolds number would show and the default tables (linear to 8 deg) do not hold.
+
+        The lost lift acts at the attached flow's aerodynamic centre, the separation model's own assumption
+        (docs/MODEL.md 3.1.1): CM changes by (CMalpha / CLalpha) times the lift's change, so the static pitching
+        moment about the c.g. follows the lift.  With ``aero_model="unsteady"`` the static separation state
+        x0 falls below 1 between the neighbouring breakpoints, which is what the flow-separation model acts on
+        (docs/MODEL.md 7: what Fig. 8's lower limit cycle takes).
+
+        alpha_deg: strictly between two breakpoints of ``high_incidence.alpha_deg`` (deg); depth: 0 <= depth <
+        the table's CL there.  ParameterError naming the field and its allowed range otherwise.
+        """
+        hi = self.high_incidence
+        a = [float(v) for v in hi.alpha_deg]
+        if not isinstance(alpha_deg, (int, float)) or isinstance(alpha_deg, bool) or not math.isfinite(alpha_deg):
+            raise ParameterError(f"alpha_deg: a finite angle of attack in deg, not {alpha_deg!r}")
+        if not a[0] < alpha_deg < a[-1] or alpha_deg in a:
+            raise ParameterError(f"alpha_deg = {alpha_deg}: must lie strictly between two breakpoints of high_incidence.alpha_deg "
+                                 f"({a[0]} to {a[-1]} deg, not on one of {a})")
+        cl_there = float(np.interp(alpha_deg, a, hi.hawk_CL))
+        if not isinstance(depth, (int, float)) or isinstance(depth, bool) or not 0.0 <= depth < abs(cl_there):
+            raise ParameterError(f"depth = {depth!r}: the lift lost at {alpha_deg} deg must be in [0, {abs(cl_there):.4g}) "
+                                 f"(the table's CL there)")
+        ratio = self.hawk_aero.CMalpha / self.hawk_aero.CLalpha
+        k = int(np.searchsorted(a, alpha_deg))
+        lift = -math.copysign(float(depth), cl_there)  # a loss of lift's magnitude
+        cl = list(hi.hawk_CL)
+        cm = list(hi.hawk_CM)
+        cm_there = float(np.interp(alpha_deg, a, hi.hawk_CM))
+        a.insert(k, float(alpha_deg))
+        cl.insert(k, cl_there + lift)
+        cm.insert(k, cm_there + ratio * lift)
+        new = self.replace(**{"high_incidence.alpha_deg": tuple(a), "high_incidence.hawk_CL": tuple(cl),
+                              "high_incidence.hawk_CM": tuple(cm)})
+        note = f"a lift break of {depth} at {alpha_deg} deg added (RigParams.with_lift_break)"
+        srcs = dict(new.sources)
+        for name in ("high_incidence.alpha_deg", "high_incidence.hawk_CL", "high_incidence.hawk_CM"):
+            srcs[name] = ("override", note)
+        return dataclasses.replace(new, sources=srcs)
+
     # ------------------------------------------------------------------ validation
     def validate(self) -> None:
         """Check every field against its range and the cross-field rules; raise ParameterError."""

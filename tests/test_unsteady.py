@@ -436,3 +436,150 @@ def test_forward_travel_gives_limit_cycles_past_the_stall_and_orbits_match_simul
     period = 1.0 / np.fft.rfftfreq(late.size, r.t[1] - r.t[0])[np.argmax(spectrum)]
     assert period == pytest.approx(orbits.periods[k], rel=0.05)
     assert math.degrees(orbits.amplitudes[k, 0]) > 3.0  # a limit cycle of degrees, not rounding
+
+
+# ------------------------------------------------------------------ what Fig. 8's lower limit cycle takes
+LOW_ELEVATOR = np.linspace(1.7, 0.3, 141)  # deg: model pitch about 3 to 7 deg (1-DOF, 20 m/s, default rig)
+
+
+def _low_branch(P: RigParams, periodic: bool = False):
+    return rig_env.continuation(P, free_dofs=("model_pitch",), parameter="hawk_elevator", values=LOW_ELEVATOR, airspeed=20.0,
+                                aero_model="unsteady", periodic=periodic, q_guess=[0, 0, 0, math.radians(3.0), 0])
+
+
+def _unstable_near_5_deg(br) -> np.ndarray:
+    pitch = np.degrees(br.states[:, 0])
+    return pitch[~br.stable & (pitch > 4.0) & (pitch < 8.0)]
+
+
+def test_lift_break_lowers_the_lift_at_one_new_breakpoint_with_its_moment_at_the_aerodynamic_centre(params):
+    """``RigParams.with_lift_break``: one breakpoint added, CL lowered by the depth there, CM changed by
+    CMalpha / CLalpha times that (the lost lift at the attached aerodynamic centre), every other breakpoint's
+    values unchanged; bad input refused by name and range."""
+    P = params.with_lift_break(6.0, 0.05)
+    old, new = params.high_incidence, P.high_incidence
+    assert len(new.alpha_deg) == len(old.alpha_deg) + 1
+    k = new.alpha_deg.index(6.0)
+    assert new.hawk_CL[k] == pytest.approx(np.interp(6.0, old.alpha_deg, old.hawk_CL) - 0.05, abs=1e-15)
+    ratio = params.hawk_aero.CMalpha / params.hawk_aero.CLalpha
+    assert new.hawk_CM[k] == pytest.approx(np.interp(6.0, old.alpha_deg, old.hawk_CM) - ratio * 0.05, abs=1e-15)
+    rest = [i for i in range(len(new.alpha_deg)) if i != k]
+    assert [new.alpha_deg[i] for i in rest] == list(old.alpha_deg)
+    assert [new.hawk_CL[i] for i in rest] == list(old.hawk_CL) and [new.hawk_CM[i] for i in rest] == list(old.hawk_CM)
+    assert new.comp_CN == old.comp_CN
+    assert P.source("high_incidence.hawk_CL")[1].startswith("a lift break of 0.05 at 6.0 deg")
+    from rig_env.params_io import ParameterError
+
+    with pytest.raises(ParameterError, match=r"alpha_deg = 8.0: must lie strictly between two breakpoints"):
+        params.with_lift_break(8.0, 0.05)
+    with pytest.raises(ParameterError, match=r"alpha_deg = 120: must lie strictly between two breakpoints .* \(-30.0 to 90.0 deg"):
+        params.with_lift_break(120, 0.05)
+    with pytest.raises(ParameterError, match=r"depth = -0.1: the lift lost at 6.0 deg must be in \[0, 0.7175\)"):
+        params.with_lift_break(6.0, -0.1)
+    with pytest.raises(ParameterError, match=r"alpha_deg: a finite angle of attack in deg"):
+        params.with_lift_break(float("nan"), 0.05)
+
+
+def test_fig8_lower_band_needs_a_lift_break_and_centre_of_pressure_travel(params):
+    """Fig. 8's small limit cycle near 5 deg (docs/MODEL.md 7, scripts/fig8_lower_band.py).  The default tables are
+    linear there, so no equilibrium between 4 and 8 deg loses stability whatever the centre-of-pressure travel k.
+    With a lift break (0.05 of CL lost at 6 deg, tables unchanged at 4 and 8) the flow-separation model acts
+    between 4 and 8 deg, and with k = 0.2 c a pair of Hopf points bounds an unstable band from 4.45 to 6.0 deg.
+    Both are kinks of x0(alpha), where the leading pair jumps across the axis: the lower one where the lift
+    deficit passes SEP_LIFT_TOL (0.01 of CL: attached flow below it), the upper one on the new breakpoint.  The
+    independent numpy model's stability agrees at every sampled equilibrium from 3.5 to 6.5 deg.
+    At k = 0.1 c the same break is below the stability boundary (0.08 of CL): no band."""
+    for k in (0.0, 0.2, 0.3):
+        assert _unstable_near_5_deg(_low_branch(params.replace(**{"hawk_aero.sep_cp_travel": k}))).size == 0
+    assert _unstable_near_5_deg(_low_branch(params.replace(**{"hawk_aero.sep_cp_travel": 0.1}).with_lift_break(6.0, 0.05))).size == 0
+    P = params.replace(**{"hawk_aero.sep_cp_travel": 0.2}).with_lift_break(6.0, 0.05)
+    br = _low_branch(P)
+    hopfs = sorted((sp for sp in br.special_points if sp.kind == "hopf"), key=lambda sp: sp.state[0])
+    pitch = [math.degrees(sp.state[0]) for sp in hopfs]
+    assert len(pitch) == 2 and pitch[0] == pytest.approx(4.45, abs=0.05) and pitch[1] == pytest.approx(6.0, abs=0.05)
+    band = _unstable_near_5_deg(br)
+    assert band.size >= 10 and pitch[0] - 0.05 < band.min() and band.max() < pitch[1] + 0.05
+    checked = 0  # the numpy model's stability agrees at every sampled equilibrium from 3.5 to 6.5 deg off the two kinks
+    for value, state, stable in zip(br.values, br.states, br.stable):
+        deg = math.degrees(state[0])
+        if 3.5 < deg < 6.5 and min(abs(deg - pitch[0]), abs(deg - pitch[1])) > 0.02:
+            lead = max(np.linalg.eigvals(_numpy_jacobian(P, value, state)), key=lambda e: e.real)
+            assert (lead.real < 0.0) == stable, (deg, lead)
+            checked += 1
+    assert checked >= 20
+
+
+def test_fig8_lower_band_orbits_match_simulation_and_the_gimbal_friction_sets_a_threshold(params):
+    """The orbits born at the lower band's Hopf points (k = 0.2 c, 0.05 of CL lost at 6 deg) are stable and join the
+    two Hopf points (the family ends where it shrinks back); a 60 s simulation without friction settles on the
+    orbit's amplitude (3 %) and period (5 %), about 1.4 deg at 1 Hz: a small-amplitude limit cycle as in Fig. 8.
+    The model-pitch gimbal's Coulomb friction (Table 2) stops that one, while a stronger break and travel
+    (0.1 of CL, k = 0.3 c) keep a cycle of over 1 deg with it."""
+    P = params.replace(**{"hawk_aero.sep_cp_travel": 0.2}).with_lift_break(6.0, 0.05)
+    br = rig_env.continuation(P, free_dofs=("model_pitch",), parameter="hawk_elevator", values=np.linspace(1.5, 0.3, 25), airspeed=20.0,
+                              aero_model="unsteady", periodic=True, q_guess=[0, 0, 0, math.radians(3.0), 0])
+    family = max(br.orbits, key=lambda o: o.values.size)
+    assert family.end.startswith("shrank back") and family.stable.all()
+    amp = np.degrees(family.amplitudes[:, 0])
+    assert 1.2 < amp.max() < 1.6 and amp[-1] < 0.5 * amp.max()
+    k = int(np.argmin(np.abs(family.values - 1.0)))
+    de = float(family.values[k])
+
+    def late_amplitude(P: RigParams, de: float, friction: bool, start: float) -> tuple[float, np.ndarray, float]:
+        op = rig_env.trim(P, ("model_pitch",), [0, 0, 0, 0.09, 0], controls={"hawk_elevator": de}, aero_model="unsteady", airspeed=20.0)
+        r = rig_env.simulate(P, [op.q[3] + start], [0.0], 60.0, free_dofs=("model_pitch",), controls={"hawk_elevator": de}, airspeed=20.0,
+                             aero_model="unsteady", friction=friction)
+        late = r.q[r.t > 40.0, 0]
+        return 0.5 * float(late.max() - late.min()), late, float(r.t[1] - r.t[0])
+
+    a, late, dt = late_amplitude(P, de, False, 0.01)
+    assert a == pytest.approx(family.amplitudes[k, 0], rel=0.03)
+    spectrum = np.abs(np.fft.rfft(late - late.mean()))
+    assert 1.0 / np.fft.rfftfreq(late.size, dt)[np.argmax(spectrum)] == pytest.approx(family.periods[k], rel=0.05)
+    assert late_amplitude(P, de, True, 0.03)[0] < math.radians(0.05)
+    strong = params.replace(**{"hawk_aero.sep_cp_travel": 0.3}).with_lift_break(6.0, 0.1)
+    assert late_amplitude(strong, 1.07, True, 0.03)[0] > math.radians(1.0)
+
+
+def test_fig8_ramp_shows_both_bands_with_a_lift_break_and_travel(params):
+    """Fig. 8's run (3-DOF rig roll, model pitch and yaw, elevator ramped from +5 to -15 deg over 200 s at 20 m/s,
+    the Table 2 friction) with k = 0.3 c and 0.1 of CL lost at 6 deg, values inside the ranges of docs/MODEL.md 7
+    but not identified: the model pitch oscillates as the ramp crosses the lower band (model pitch 4 to 6 deg)
+    and again, more, at the stall's onset (12 to 14 deg), and is quiet between (7 to 11 deg)."""
+    P = params.replace(**{"hawk_aero.sep_cp_travel": 0.3}).with_lift_break(6.0, 0.1)
+    r = rig_env.simulate(P, [0.0, 0.05, 0.0], [0.0, 0.0, 0.0], 200.0, free_dofs=("rig_roll", "model_pitch", "model_yaw"),
+                         controls={"hawk_elevator": lambda t: 5.0 - 20.0 * min(t, 200.0) / 200.0}, airspeed=20.0, aero_model="unsteady")
+    pitch = np.degrees(r.q[:, 1])
+    wobble = pitch - np.convolve(pitch, np.ones(160) / 160, mode="same")  # less its 2 s moving mean
+    window = np.arange(r.t.size) // 400  # 5 s windows
+    amp, mean = [], []
+    for w in range(2, int(window.max())):
+        m = window == w
+        amp.append(math.sqrt(2.0) * float(wobble[m].std()))
+        mean.append(float(pitch[m].mean()))
+    amp, mean = np.array(amp), np.array(mean)
+    assert amp[(mean > 3.5) & (mean < 6.5)].max() > 0.5
+    assert amp[(mean > 7.0) & (mean < 11.0)].max() < 0.1
+    assert amp[(mean > 12.0) & (mean < 14.0)].max() > 2.0
+
+
+def test_fig8_lower_band_script_finds_the_band_and_keeps_existing_output(params, tmp_path, capsys):
+    """scripts/fig8_lower_band.py: its band finder gives the test's band, and it refuses to overwrite an
+    existing output or to take a bad grid step, by name, before any computation."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    import fig8_lower_band as script
+
+    elev, pitch, hopf = script.unstable_band(script.rig(params, 0.2, 0.05))
+    assert pitch.min() == pytest.approx(4.45, abs=0.05) and pitch.max() == pytest.approx(6.0, abs=0.05)
+    assert len(hopf) == 2 and np.all((elev > 0.6) & (elev < 1.2))
+    (tmp_path / "fig8_lower_band.md").write_text("mine")
+    with pytest.raises(SystemExit) as exc:
+        script.main(["--out", str(tmp_path)])
+    assert exc.value.code == 2 and "fig8_lower_band.md exists; give --overwrite" in capsys.readouterr().err
+    assert (tmp_path / "fig8_lower_band.md").read_text() == "mine"
+    with pytest.raises(SystemExit):
+        script.main(["--out", str(tmp_path / "new"), "--step", "0"])
+    assert "--step must be in (0, 0.05], not 0.0" in capsys.readouterr().err

@@ -200,6 +200,15 @@ def orbits(
         mu, stable = floquet(M)
         traj = flow(x[None, :], T, np.array([p]), samples)[0]
         rows.append((p, T, x, traj.min(axis=0), traj.max(axis=0), mu, stable))
+    # a family that grows and shrinks back ends at another Hopf point: past it the curve would follow the
+    # equilibrium as a zero-amplitude "orbit" of any period, which is no orbit at all
+    size = [float(np.max(r[4] - r[3])) for r in rows]  # the widest state's peak-to-peak, against the first orbit's
+    grown = False
+    for k, a in enumerate(size):
+        grown = grown or a >= 2.0 * size[0]
+        if grown and a < 0.5 * size[0]:
+            rows, why = rows[:k], "shrank back to an equilibrium (another Hopf point)"
+            break
     cols = list(zip(*rows)) if rows else [()] * 7
     return OrbitBranch(
         values=np.array(cols[0], dtype=float), periods=np.array(cols[1], dtype=float),

@@ -53,7 +53,9 @@ class OrbitBranch:
     phase section); lower, upper: (k, n) each state's minimum and maximum over the orbit;
     multipliers: (k, n) complex Floquet multipliers (the trivial one, 1, included); stable: (k,)
     every non-trivial multiplier inside the unit circle; hopf: the Hopf point the branch starts at;
-    end: why the continuation stopped.
+    end: why the continuation stopped (the parameter range or the largest period left, the orbits' limit,
+    the curve solver's failure, or "shrank back to an equilibrium (another Hopf point)": a family that grows
+    and shrinks to nothing again joins two Hopf points, and the orbits past the second are not kept).
     """
 
     values: np.ndarray
