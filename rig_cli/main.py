@@ -13,6 +13,12 @@
         aileron ramped to +20 deg over 1 s and held; prints a summary, writes DIR/demo_roll.png
     rig draw [--out DIR] [--q DEG DEG DEG DEG DEG] [--flaps DEG DEG DEG DEG]
         the rig picture with its frames (DIR/rig_frames.png)
+    rig continuation --free JOINT ... --parameter NAME --values FIRST LAST POINTS [--aero-model M] [--airspeed M/S]
+                     [--control SURFACE=DEG ...] [--set NAME=VALUE ...] [--lift-break DEG DEPTH] [--params FILE]
+                     [--no-orbits] [--state JOINT] [--out DIR] [--overwrite]
+        equilibria over a parameter with their stability, folds, Hopf points and limit cycles
+        (rig_env.continuation; rig_cli.continuation): prints the special points and orbit families, writes
+        branch.csv, special_points.csv, orbits.csv and bifurcation.png into DIR (default out/continuation)
     rig --version
         the installed version (importlib.metadata; rig_env.__version__ when not installed)
     rig identify CONFIG.toml --out DIR [--overwrite]
@@ -300,6 +306,25 @@ def _parser() -> argparse.ArgumentParser:
     i.add_argument("config", metavar="CONFIG.toml", help="records, base parameters, parameters to estimate, method (README: Identification)")
     i.add_argument("--out", required=True, metavar="DIR", help="folder for report.md, its figures and identified.toml")
     i.add_argument("--overwrite", action="store_true", help="replace report.md and identified.toml if DIR holds them")
+    k = sub.add_parser("continuation", help="equilibria over a parameter: stability, folds, Hopf points, limit cycles; tables and a diagram",
+                       description="Continue the rig's equilibria over one parameter (rig_env.continuation): print the folds, Hopf "
+                                   "points and limit-cycle families; write branch.csv, special_points.csv, orbits.csv, bifurcation.png.")
+    k.add_argument("--free", nargs="+", required=True, metavar="JOINT", help="the free joints (rig_roll rig_pitch rig_yaw model_pitch model_yaw)")
+    k.add_argument("--parameter", required=True, metavar="NAME",
+                   help="a surface (deg), airspeed (m/s) or a dotted rig parameter name (its file unit, e.g. hawk_aero.sep_cp_travel)")
+    k.add_argument("--values", nargs=3, type=float, required=True, metavar=("FIRST", "LAST", "POINTS"),
+                   help="the range, traced from FIRST towards LAST, sampled at POINTS evenly spaced values (2..2001)")
+    k.add_argument("--aero-model", default="linear", metavar="M", help="linear (default), tables or unsteady")
+    k.add_argument("--airspeed", type=float, default=None, metavar="M/S", help="tunnel speed when it is not the parameter (default 20)")
+    k.add_argument("--control", nargs="+", default=None, metavar="SURFACE=DEG", help="other surfaces held, deg (e.g. hawk_rudder=2)")
+    k.add_argument("--set", nargs="+", default=None, metavar="NAME=VALUE", help="rig parameters changed, file units (e.g. hawk_aero.sep_cp_travel=0.1)")
+    k.add_argument("--lift-break", nargs=2, type=float, default=None, metavar=("DEG", "DEPTH"),
+                   help="a local loss of the Hawk's lift: DEPTH of CL at DEG, between two table breakpoints (RigParams.with_lift_break)")
+    k.add_argument("--params", default=None, metavar="FILE.toml", help="rig parameter file (default: the default rig)")
+    k.add_argument("--no-orbits", action="store_true", help="equilibria only: no periodic orbits from the Hopf points")
+    k.add_argument("--state", default=None, metavar="JOINT", help="the free joint the diagram shows (default: the first)")
+    k.add_argument("--out", default="out/continuation", metavar="DIR", help="output folder (default: out/continuation)")
+    k.add_argument("--overwrite", action="store_true", help="replace the outputs of an earlier run in DIR")
     sub.add_parser("train", help="train PPO or SAC on a task and export the law (rig train --help)", add_help=False)
     sub.add_parser("sweep", help="Ray Tune sweep of rig train over hyperparameters x seeds x tasks (rig sweep --help)", add_help=False)
     return ap
@@ -365,6 +390,12 @@ def main(argv: Sequence[str] | None = None) -> int:
                       plot=not args.no_plot, quiet=args.quiet)
         elif args.command == "draw":
             print(f"wrote {draw(args.out, args.q, args.flaps)}")
+        elif args.command == "continuation":
+            from rig_cli.continuation import run as continue_branch
+
+            continue_branch(args.out, free=args.free, parameter=args.parameter, values=args.values, aero_model=args.aero_model,
+                            airspeed=args.airspeed, controls=args.control, sets=args.set, lift_break=args.lift_break,
+                            params_file=args.params, orbits=not args.no_orbits, state=args.state, overwrite=args.overwrite)
     except ValueError as exc:  # bad argument values: one line, no traceback
         print(f"rig {args.command}: error: {exc}", file=sys.stderr)
         return 2

@@ -148,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
             live = amp_f > 0.2
             ax.plot(k, depth, "s" if live else "x", color="tab:red" if live else "tab:blue", ms=8)
             ax.annotate(f"{amp_f:.1f} deg", (k, depth), textcoords="offset points", xytext=(6, 4), fontsize=8)
-    ax.plot([], [], "s", color="tab:red", label="cycle survives the gimbal's friction")
+    ax.plot([], [], "s", color="tab:red", label="cycle survives the gimbal's friction (its amplitude)")
     ax.plot([], [], "x", color="tab:blue", label="friction stops it")
     ax.set_xlabel("centre-of-pressure travel with separation k (chords)")
     ax.set_ylabel(f"lift lost at {BREAK_DEG:g} deg (CL)")

@@ -1,0 +1,159 @@
+"""``rig continuation``: equilibrium branches, their stability, folds, Hopf points and limit cycles from the command line.
+
+    rig continuation --free model_pitch --parameter hawk_elevator --values 2 -3 101 --aero-model unsteady
+                     --set hawk_aero.sep_cp_travel=0.1 [--lift-break 6 0.05] [--params FILE.toml]
+                     [--airspeed 20] [--control hawk_rudder=2] [--no-orbits] [--state model_pitch]
+                     [--out DIR] [--overwrite]
+
+Runs :func:`rig_env.continuation` and prints the special points (kind, parameter, the free joints in deg, the
+Hopf frequency in Hz), the limit-cycle families (parameter range, largest amplitude in deg, period in s,
+stability) and the notes; writes ``DIR/branch.csv`` (the sampled branch: parameter, every state in deg or
+deg/s (the aerodynamic states in their units), stable, the leading eigenvalue's real and imaginary parts in
+1/s), ``DIR/special_points.csv``, ``DIR/orbits.csv`` and ``DIR/bifurcation.png`` (the diagram of ``--state``).
+An existing output is kept unless ``--overwrite``.  Bad values raise ValueError naming the option.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from rig_env.bifurcation.result import Branch
+from rig_env.params import PARAM_NAMES, SURFACES, ParameterError, RigParams
+
+OUTPUTS = ("branch.csv", "special_points.csv", "orbits.csv", "bifurcation.png")
+MAX_POINTS = 2001
+
+
+def _assignments(items: Sequence[str] | None, option: str, names: Sequence[str]) -> dict[str, float]:
+    """NAME=VALUE strings as a dict; ValueError naming ``option`` for a bad item or an unknown name."""
+    out: dict[str, float] = {}
+    for item in items or ():
+        name, sep, text = item.partition("=")
+        if not sep or not name:
+            raise ValueError(f"{option} {item!r}: expected NAME=VALUE")
+        if name not in names:
+            raise ValueError(f"{option} {item!r}: unknown name {name!r}; valid names: {', '.join(names) if len(names) < 20 else 'see rig_env.PARAM_NAMES'}")
+        try:
+            value = float(text)
+        except ValueError:
+            raise ValueError(f"{option} {item!r}: {text!r} is not a number") from None
+        if not math.isfinite(value):
+            raise ValueError(f"{option} {item!r}: the value must be finite")
+        out[name] = value
+    return out
+
+
+def rig_of(params_file: str | None, sets: Sequence[str] | None, lift_break: Sequence[float] | None) -> RigParams:
+    """The rig to continue: the parameter file (default: the default rig), ``--set`` overrides, then ``--lift-break``."""
+    p = RigParams.from_toml(params_file) if params_file else RigParams.default()
+    over = _assignments(sets, "--set", PARAM_NAMES)
+    try:
+        p = p.replace(**over) if over else p
+    except ParameterError as exc:
+        raise ValueError(f"--set: {exc}") from None
+    if lift_break is not None:
+        try:
+            p = p.with_lift_break(float(lift_break[0]), float(lift_break[1]))
+        except ParameterError as exc:
+            raise ValueError(f"--lift-break: {exc}") from None
+    return p
+
+
+def _display(unit: str) -> tuple[float, str]:
+    return (180.0 / math.pi, "deg") if unit == "rad" else ((180.0 / math.pi, "deg/s") if unit == "rad/s" else (1.0, unit))
+
+
+def run(
+    out: str | Path,
+    *,
+    free: Sequence[str],
+    parameter: str,
+    values: Sequence[float],
+    aero_model: str = "linear",
+    airspeed: float | None = None,
+    controls: Sequence[str] | None = None,
+    sets: Sequence[str] | None = None,
+    lift_break: Sequence[float] | None = None,
+    params_file: str | None = None,
+    orbits: bool = True,
+    state: str | None = None,
+    overwrite: bool = False,
+    echo: bool = True,
+) -> Branch:
+    """``rig continuation``: see the module docstring.  values: (first, last, points); returns the Branch."""
+    import rig_env
+    from rig_env.bifurcation.plot import plot_branch
+
+    first, last, n = values
+    if not (math.isfinite(first) and math.isfinite(last)) or first == last:
+        raise ValueError(f"--values {first} {last}: two different finite ends are needed")
+    if n != int(n) or not 2 <= int(n) <= MAX_POINTS:
+        raise ValueError(f"--values: the number of points must be an integer from 2 to {MAX_POINTS}, not {n}")
+    folder = Path(out)
+    existing = [name for name in OUTPUTS if (folder / name).exists()]
+    if existing and not overwrite:
+        raise ValueError(f"--out {folder}: {', '.join(existing)} already there; give --overwrite to replace, or another --out")
+    p = rig_of(params_file, sets, lift_break)
+    ctrl = _assignments(controls, "--control", SURFACES)
+    if state is not None and state not in free:
+        raise ValueError(f"--state {state!r}: must be one of the free joints {list(free)}")
+    br = rig_env.continuation(p, free_dofs=tuple(free), parameter=parameter, values=np.linspace(first, last, int(n)), airspeed=airspeed,
+                              controls=ctrl or None, aero_model=aero_model, periodic=orbits)
+    folder.mkdir(parents=True, exist_ok=True)
+    factors = [_display(u) for u in br.state_units]
+    with open(folder / "branch.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow([f"{br.parameter} ({br.parameter_unit})", *[f"{s} ({u})" for s, (_, u) in zip(br.state_names, factors)],
+                    "stable", "leading_real (1/s)", "leading_imag (1/s)"])
+        for v, x, st, ev in zip(br.values, br.states, br.stable, br.eigenvalues):
+            lead = ev[0] if ev.size else complex(math.nan)
+            w.writerow([f"{v:.10g}", *[f"{xi * f:.10g}" for xi, (f, _) in zip(x, factors)], int(bool(st)), f"{lead.real:.6g}", f"{abs(lead.imag):.6g}"])
+    joints = [(k, s) for k, s in enumerate(br.state_names) if s in free]
+    with open(folder / "special_points.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["kind", f"{br.parameter} ({br.parameter_unit})", *[f"{s} (deg)" for _, s in joints], "frequency (Hz)"])
+        for sp in br.special_points:
+            w.writerow([sp.kind, f"{sp.value:.10g}", *[f"{math.degrees(sp.state[k]):.10g}" for k, _ in joints],
+                        f"{sp.frequency_hz:.6g}" if sp.kind == "hopf" else ""])
+    with open(folder / "orbits.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["family", f"{br.parameter} ({br.parameter_unit})", "period (s)", *[f"{s} amplitude (deg)" for _, s in joints], "stable"])
+        for i, ob in enumerate(br.orbits):
+            for j in range(ob.values.size):
+                w.writerow([i, f"{ob.values[j]:.10g}", f"{ob.periods[j]:.6g}", *[f"{math.degrees(ob.amplitudes[j, k]):.6g}" for k, _ in joints],
+                            int(bool(ob.stable[j]))])
+    title = f"{br.parameter}: {', '.join(free)} free, {aero_model}, {airspeed if airspeed is not None else 20.0:g} m/s"
+    plot_branch(br, folder / "bifurcation.png", state=state, title=title)
+    if echo:
+        print(summary(br, free))
+        print(f"wrote {', '.join(str(folder / f) for f in OUTPUTS)}")
+    return br
+
+
+def summary(br: Branch, free: Sequence[str]) -> str:
+    """The special points, the orbit families and the notes as text (deg, Hz, s)."""
+    joints = [(k, s) for k, s in enumerate(br.state_names) if s in free]
+    lines = [f"{len(br.values)} equilibria sampled, {int(np.sum(br.stable))} stable; {br.parameter} in {br.parameter_unit}"]
+    if br.special_points:
+        lines.append(f"{'kind':<24} {br.parameter:>16} " + " ".join(f"{s + ' (deg)':>18}" for _, s in joints) + "   Hopf frequency (Hz)")
+        for sp in br.special_points:
+            lines.append(f"{sp.kind:<24} {sp.value:>16.5g} " + " ".join(f"{math.degrees(sp.state[k]):>18.3f}" for k, _ in joints)
+                         + (f"   {sp.frequency_hz:.3f}" if sp.kind == "hopf" else ""))
+    else:
+        lines.append("no fold, Hopf or branch point in the range")
+    for i, ob in enumerate(br.orbits):
+        if not ob.values.size:
+            lines.append(f"orbit family {i}: none computed ({ob.end})")
+            continue
+        amp = np.degrees(ob.amplitudes[:, [k for k, _ in joints]]).max(axis=0)
+        lines.append(f"orbit family {i} from the Hopf point at {ob.hopf.value:.5g}: {br.parameter} {ob.values.min():.5g} to {ob.values.max():.5g}, "
+                     f"largest amplitude " + ", ".join(f"{s} {a:.2f} deg" for (_, s), a in zip(joints, amp))
+                     + f", period {ob.periods.min():.3f}-{ob.periods.max():.3f} s, "
+                     + ("all stable" if ob.stable.all() else ("all unstable" if not ob.stable.any() else "stable in part")) + f"; ended: {ob.end}")
+    lines += [f"note: {n}" for n in br.notes]
+    return "\n".join(lines)

@@ -1,0 +1,88 @@
+"""``rig continuation`` (rig_cli.continuation): the branch it writes is rig_env.continuation's, and bad input is
+refused in one line naming the option, before anything is written or computed."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import rig_env
+from rig_cli.main import main
+
+
+def read(path: Path) -> list[list[str]]:
+    with open(path, newline="") as fh:
+        return list(csv.reader(fh))
+
+
+def test_continuation_command_writes_the_branch_of_rig_env_continuation(tmp_path, capsys):
+    out = tmp_path / "run"
+    argv = ["continuation", "--free", "model_pitch", "--parameter", "hawk_elevator", "--values", "4", "-4", "9",
+            "--aero-model", "tables", "--set", "hawk_aero.CMq=-20", "--no-orbits", "--out", str(out)]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "9 equilibria sampled, 9 stable; hawk_elevator in deg" in text and "fold" in text
+    assert sorted(p.name for p in out.iterdir()) == ["bifurcation.png", "branch.csv", "orbits.csv", "special_points.csv"]
+    p = rig_env.RigParams.default().replace(**{"hawk_aero.CMq": -20.0})
+    br = rig_env.continuation(p, free_dofs=("model_pitch",), parameter="hawk_elevator", values=np.linspace(4, -4, 9), aero_model="tables", periodic=False)
+    rows = read(out / "branch.csv")
+    assert rows[0][:3] == ["hawk_elevator (deg)", "model_pitch (deg)", "model_pitch_rate (deg/s)"]
+    assert rows[0][-3:] == ["stable", "leading_real (1/s)", "leading_imag (1/s)"]
+    got = np.array([[float(r[0]), float(r[1])] for r in rows[1:]])
+    assert np.allclose(got[:, 0], br.values) and np.allclose(got[:, 1], np.degrees(br.states[:, 0]), atol=1e-8)
+    assert [r[-3] for r in rows[1:]] == ["1"] * 9  # every sampled point stable
+    lead = br.eigenvalues[:, 0]
+    assert np.allclose([float(r[-2]) for r in rows[1:]], lead.real, rtol=1e-5)
+    sp = read(out / "special_points.csv")
+    assert sp[0] == ["kind", "hawk_elevator (deg)", "model_pitch (deg)", "frequency (Hz)"]
+    assert [r[0] for r in sp[1:]] == ["fold", "fold"]  # the stall tables' hysteresis window (README: Continuation)
+    assert [float(r[1]) for r in sp[1:]] == pytest.approx(list(br.folds), abs=1e-8)
+    assert [float(r[2]) for r in sp[1:]] == pytest.approx([math.degrees(x.state[0]) for x in br.points("fold")], abs=1e-5)
+    # a second run into the same folder keeps the first's files unless --overwrite
+    before = (out / "branch.csv").read_bytes()
+    assert main(argv) == 2
+    assert "already there; give --overwrite" in capsys.readouterr().err and (out / "branch.csv").read_bytes() == before
+    assert main([*argv, "--overwrite"]) == 0
+
+
+def test_continuation_command_reports_hopf_points_and_orbits_of_the_lower_band(tmp_path, capsys):
+    """The lower band of Fig. 8 (docs/MODEL.md 7): a lift break and centre-of-pressure travel given on the command line."""
+    out = tmp_path / "band"
+    assert main(["continuation", "--free", "model_pitch", "--parameter", "hawk_elevator", "--values", "1.5", "0.3", "25",
+                 "--aero-model", "unsteady", "--set", "hawk_aero.sep_cp_travel=0.2", "--lift-break", "6", "0.05", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "orbit family 0" in text and "all stable" in text
+    sp = read(out / "special_points.csv")[1:]
+    assert [r[0] for r in sp] == ["hopf", "hopf"]
+    assert sorted(float(r[2]) for r in sp) == pytest.approx([4.45, 6.0], abs=0.05)
+    orbits = read(out / "orbits.csv")[1:]
+    amp = max(float(r[3]) for r in orbits)
+    assert 1.2 < amp < 1.6 and all(r[4] == "1" for r in orbits)
+
+
+@pytest.mark.parametrize(("option", "message"), [
+    ({"--free": ["model_roll"]}, "free_dofs: unknown joint(s) ['model_roll']"),
+    ({"--set": ["hawk_aero.CMq"]}, "--set 'hawk_aero.CMq': expected NAME=VALUE"),
+    ({"--set": ["hawk_aero.CMqq=1"]}, "--set 'hawk_aero.CMqq=1': unknown name 'hawk_aero.CMqq'"),
+    ({"--set": ["hawk_aero.CMq=abc"]}, "--set 'hawk_aero.CMq=abc': 'abc' is not a number"),
+    ({"--lift-break": ["8", "0.05"]}, "--lift-break: alpha_deg = 8.0: must lie strictly between two breakpoints"),
+    ({"--lift-break": ["6", "-0.1"]}, "--lift-break: depth = -0.1"),
+    ({"--values": ["1", "1", "5"]}, "--values 1.0 1.0: two different finite ends are needed"),
+    ({"--values": ["1", "0", "1"]}, "--values: the number of points must be an integer from 2 to 2001, not 1.0"),
+    ({"--values": ["1", "0", "2.5"]}, "the number of points must be an integer"),
+    ({"--control": ["hawk_flap=2"]}, "--control 'hawk_flap=2': unknown name 'hawk_flap'"),
+    ({"--state": ["rig_roll"]}, "--state 'rig_roll': must be one of the free joints ['model_pitch']"),
+    ({"--aero-model": ["stall"]}, "aero_model"),
+    ({"--parameter": ["hawk_aero.nothing"]}, "hawk_aero.nothing"),
+])
+def test_continuation_command_refuses_bad_input_by_name(tmp_path, capsys, option, message):
+    opts = {"--free": ["model_pitch"], "--parameter": ["hawk_elevator"], "--values": ["2", "-2", "5"], **option}
+    argv = ["continuation", "--no-orbits", "--out", str(tmp_path / "x")] + [a for k, v in opts.items() for a in (k, *v)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("rig continuation: error: ") and message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "x").exists()
