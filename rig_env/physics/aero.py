@@ -55,9 +55,9 @@ def interp(x: float, xs, ys) -> float:
     arrays of breakpoints and values (a binary search, :func:`search_table`: the per-environment kernel), or
     the breakpoints as a tuple of floats with ys in its sum form ``(c, slopes)`` (:func:`table_sum_form`,
     :func:`sum_table`: no branch, loop or memory access, so that eight lanes compute it side by side in the
-    lane kernel), or, for an odd table, its non-negative half so with ys ``(c, slopes, ODD)``
-    (:func:`table_odd_form`, :func:`odd_table`: the same at half the segments).  Every form gives the value of
-    :func:`search_table` to rounding."""
+    lane kernel), or, for an odd table, the breakpoints of its non-negative half with ys the half's sum form
+    marked odd, ``(c, slopes, ODD)`` (:func:`table_odd_form`, :func:`odd_table`: the same at half the
+    segments).  Every form gives the value of :func:`search_table` to rounding."""
     if isinstance(ys, tuple) and isinstance(ys[1], tuple):
         odd = len(ys) == 3
         a = abs(x) if odd else x
@@ -179,8 +179,8 @@ def _interp_sum_form(x, xs, ys):
             raise TypingError(f"interp: {xs.count} breakpoints need {xs.count - 1} slopes, not {slopes}")
         if len(ys) == 2:
             return sum_table(xs.count)
-        if not (isinstance(ys[2], types.BaseTuple) and len(ys[2]) == 0) or xs.count < 2:
-            raise TypingError(f"interp: an odd table's form is (c, slopes, ODD) on 2 or more breakpoints, not {ys} on {xs.count}")
+        if not (isinstance(ys[2], types.BaseTuple) and len(ys[2]) == 0):
+            raise TypingError(f"interp: an odd table's form is (c, slopes, ODD), not {ys}")
         return odd_table(xs.count)
     return None
 

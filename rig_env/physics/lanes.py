@@ -43,9 +43,9 @@ half, sign restored (:func:`rig_env.physics.aero.odd_table`: half the segments, 
 look-ups per RK stage and the panels' four per physics step).  Which model a kernel runs is known when it
 is compiled, from the tables' type (:func:`model_of`: arrays for the linear model, which never reads them),
 so the linear kernel's loops carry none of the tables' work and each model is its own compiled kernel;
-so is the compensator table's form (:func:`lane_shape`).  The separation states are split around the RK4 step as the bristles
-are, relaxed exactly over h/2 on either side (the two halves inside a control step merged into one over h,
-as :func:`rig_env.physics.integrator.physics_step` does), in a loop of their own.
+so is the compensator table's form (:func:`lane_shape`).  The separation states are split around the RK4
+step as the bristles are, relaxed exactly over h/2 on either side (the two halves inside a control step
+merged into one over h, as :func:`rig_env.physics.integrator.physics_step` does), in a loop of their own.
 
 Results equal :mod:`rig_env.physics.integrator`'s to rounding (``tests/test_lanes.py``: 2e-13 rad
 after 100 control steps with every term on, every lock set), not bit for bit: the order of some
