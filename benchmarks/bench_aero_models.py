@@ -10,7 +10,8 @@ which other jobs on a shared machine do not inflate, is the one to quote there):
 joints free, states near trim.  Kernels (``rig_env.physics.pipeline.choose_kernel``):
 
 * ``linear``, ``tables``, ``unsteady`` on lanes: the lane kernel (eight environments per SIMD register),
-  what the environments run; the tables as tuples looked up without a search (``lanes.lane_tables``);
+  what the environments run; the tables as tuples looked up without a search (``lanes.lane_tables``; the
+  default compensator table, odd, over its non-negative half: ``aero.odd_table``);
 * the same three on the per-environment kernel (``joint``), for reference.
 
 ``--serial``: every kernel's one-thread version whatever the batch size (on a machine other jobs share, the

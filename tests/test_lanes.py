@@ -44,13 +44,14 @@ def batch(n: int, free: tuple[int, ...], seed: int):
     return X, P, delay, dbuf, np.array(free, dtype=np.int64)
 
 
-def run_both(X, P, delay, dbuf, free_idx, flags, steps, rng, h=0.0025, n_sub=5):
+def run_both(X, P, delay, dbuf, free_idx, flags, steps, rng, h=0.0025, n_sub=5, tabs=None):
+    """Both kernels over ``steps`` control steps from the same states, inputs and tables (default: the default rig's)."""
     n = X.shape[0]
     Xa, Xb, da, db = X.copy(), X.copy(), dbuf.copy(), dbuf.copy()
     sa, sb = np.zeros(n, np.int8), np.zeros(n, np.int8)
     Wk, MW = I.new_work(n)
     S = LN.new_work(n, n_sub)
-    tabs = RigParams.default().tables()
+    tabs = RigParams.default().tables() if tabs is None else tabs
     step, lit = LN.kernel(flags, True), LN.literal_args(tabs, flags)
     for k in range(steps):
         U = np.zeros((n, L.N_INPUTS))
@@ -101,16 +102,28 @@ TABLES = ALL | L.F_NONLINEAR
 UNSTEADY = ALL | L.F_NONLINEAR | L.F_UNSTEADY
 
 
+def lopsided_tables() -> tuple[np.ndarray, ...]:
+    """The default tables with the compensator's normal force no longer odd (a tenth more on the positive
+    side, as a cambered section would have): the lane kernel looks it up over the whole table."""
+    tabs = RigParams.default().tables()
+    cn = np.where(tabs[3] > 0.0, 1.1 * tabs[4], tabs[4])
+    return (*tabs[:4], cn)
+
+
+@pytest.mark.parametrize("comp_table", ["odd", "lopsided"])
 @pytest.mark.parametrize("flags", [TABLES, UNSTEADY], ids=["tables", "unsteady"])
 @pytest.mark.parametrize("free", [(0, 1, 2, 3, 4), (0, 3, 4)])
-def test_lanes_follow_the_per_environment_kernel_with_the_high_incidence_models(flags, free):
+def test_lanes_follow_the_per_environment_kernel_with_the_high_incidence_models(flags, free, comp_table):
     """The high-incidence tables and the flow-separation states on the lane kernel (tables as tuples, looked
-    up as a sum over segments) against the per-environment kernel (binary search): 19 environments, random
+    up as a sum over segments; the default compensator table, odd, over its non-negative half, a lopsided one
+    over the whole table) against the per-environment kernel (binary search): 19 environments, random
     commands, gusts and airspeeds, 100 control steps with the rig swinging through the stall (joint angles up
     to 0.3 rad, rates up to 1 rad/s), every state, the five separation states included, equal to 1e-10."""
+    tabs = RigParams.default().tables() if comp_table == "odd" else lopsided_tables()
+    assert LN.literal_args(tabs, flags)[2] == (9 if comp_table == "odd" else 0)  # the form the lane kernel compiles
     X, P, delay, dbuf, free_idx = batch(19, free, seed=5)
     X[:, L.X_SEP : L.X_SEP + L.N_SEP] = 1.0  # attached flow at the start: the states must move
-    Xa, Xb, sa, sb, da, db = run_both(X, P, delay, dbuf, free_idx, flags, 100, np.random.default_rng(4))
+    Xa, Xb, sa, sb, da, db = run_both(X, P, delay, dbuf, free_idx, flags, 100, np.random.default_rng(4), tabs=tabs)
     assert np.all(sa == 0) and np.all(sb == 0)
     assert np.abs(Xa - X).max() > 0.1
     sep = Xa[:, L.X_SEP : L.X_SEP + L.N_SEP]
@@ -133,19 +146,27 @@ def test_every_model_runs_on_lanes_in_the_environments():
     assert RigVectorEnv(2, task="departure_recovery").physics.kernel.kind == "lanes"
 
 
-def test_lane_shape_names_the_model_and_the_tables_lengths():
+def test_lane_shape_names_the_model_the_tables_lengths_and_the_compensator_tables_form():
     tabs = RigParams.default().tables()
-    assert LN.lane_shape(tabs, ALL) == (0, 0, 0)
-    assert LN.lane_shape(tabs, TABLES) == (1, tabs[0].size, tabs[3].size)
-    assert LN.lane_shape(tabs, UNSTEADY) == (2, tabs[0].size, tabs[3].size)
-    assert LN.literal_args(tabs, ALL) == () and LN.literal_args(tabs, UNSTEADY) == (tabs[0].size, tabs[3].size)
+    nh, nc = tabs[0].size, tabs[3].size
+    assert LN.lane_shape(tabs, ALL) == (0, 0, 0, 0)
+    assert LN.lane_shape(tabs, TABLES) == (1, nh, nc, (nc + 1) // 2)  # the default compensator table is odd
+    assert LN.lane_shape(tabs, UNSTEADY) == (2, nh, nc, (nc + 1) // 2)
+    assert LN.lane_shape(lopsided_tables(), UNSTEADY) == (2, nh, nc, 0)
+    assert LN.literal_args(tabs, ALL) == () and LN.literal_args(tabs, UNSTEADY) == (nh, nc, (nc + 1) // 2)
     assert LN.kernel(ALL, True) is LN.step_lanes and LN.kernel(TABLES, False) is LN.step_lanes_tables_serial
     assert LN.kernel(UNSTEADY, True) is LN.step_lanes_unsteady
     assert LN.model_of(LN.lane_tables(tabs, *LN.lane_shape(tabs, UNSTEADY))) == 2
     assert LN.model_of(LN.lane_tables(tabs, *LN.lane_shape(tabs, TABLES))) == 1
     assert LN.model_of(tabs) == 0
+    odd = LN.lane_tables(tabs, *LN.lane_shape(tabs, TABLES))
+    assert odd[3] == tuple(tabs[3][nc // 2 :]) and odd[4][2] is A.ODD  # the non-negative half, marked
+    full = LN.lane_tables(tabs, 1, nh, nc, 0)  # an odd table may still be looked up whole
+    assert full[3] == tuple(tabs[3]) and len(full[4]) == 2
     with pytest.raises(ValueError, match="breakpoints"):
-        LN.lane_tables(tabs, 1, tabs[0].size + 1, tabs[3].size)
+        LN.lane_tables(tabs, 1, nh + 1, nc, 0)
+    with pytest.raises(ValueError, match="comp_half"):
+        LN.lane_tables(lopsided_tables(), 1, nh, nc, (nc + 1) // 2)
 
 
 @njit(cache=False)
@@ -174,6 +195,47 @@ def test_the_sum_over_segments_is_the_piecewise_linear_table(which):
     np.testing.assert_allclose(got_a, want, rtol=0.0, atol=1e-15)
     np.testing.assert_allclose([A.interp(v, xt, form) for v in x[:50]], want[:50], rtol=0.0, atol=1e-14)  # Python twins
     assert A.interp(float(xs[0]) - 1.0, xs, ys) == ys[0] and A.interp(float(xs[-1]) + 1.0, xs, ys) == ys[-1]
+
+
+def test_the_odd_form_is_the_whole_odd_table():
+    """The compensator's normal force is odd (CN(-alpha) = -CN(alpha)); the lane kernel looks it up as
+    sign(x) f+(|x|), f+ the sum over its non-negative half (aero.table_odd_form, aero.odd_table).  Against
+    numpy's interp on the whole table: over a dense grid from -150 to 150 deg (end values held beyond +-90),
+    exactly 0 and -0, every breakpoint and midway between them, compiled and in Python, to 1e-12 (it is
+    within a few 1e-16)."""
+    tabs = RigParams.default().tables()
+    xs, ys = tabs[3], tabs[4]
+    assert A.odd_half(xs, ys) == 9
+    xt, form = A.table_odd_form(xs, ys)
+    assert xt == tuple(xs[8:]) and xt[0] == 0.0 and len(form[1]) == 8 and form[2] is A.ODD
+    x = np.concatenate([np.radians(np.linspace(-150.0, 150.0, 30001)), [0.0, -0.0], xs, 0.5 * (xs[1:] + xs[:-1]), -xs, [-4.0, 4.0]])
+    want = np.interp(x, xs, ys)
+    got = _lookup(x, xt, form)
+    np.testing.assert_allclose(got, want, rtol=0.0, atol=1e-12)
+    np.testing.assert_allclose([A.interp(v, xt, form) for v in x[::97]], want[::97], rtol=0.0, atol=1e-12)  # Python twin
+    np.testing.assert_allclose(got, -_lookup(-x, xt, form), rtol=0.0, atol=0.0)  # odd to the last bit
+    assert _lookup(np.array([-4.0, 4.0]), xt, form) == pytest.approx([ys[0], ys[-1]], abs=1e-14)  # end values held
+
+
+def test_a_table_odd_only_nearly_or_on_lopsided_breakpoints_takes_the_full_form():
+    """aero.odd_half: odd to the last bit, breakpoints symmetric about 0 with 0 among them, or not odd; a
+    table that is not odd is refused the odd form and looked up whole, still numpy's interp."""
+    tabs = RigParams.default().tables()
+    xs, ys = tabs[3], tabs[4]
+    nudged = ys.copy()
+    nudged[-2] = np.nextafter(nudged[-2], 2.0)  # one ulp off odd
+    shifted = xs.copy()
+    shifted[-2] += 1e-3  # breakpoints no longer symmetric
+    even = np.radians([-60.0, -10.0, 10.0, 60.0]), np.array([-1.0, -1.154, 1.154, 1.0])  # symmetric and odd, but 0 no breakpoint
+    assert A.odd_half(xs, nudged) == A.odd_half(shifted, ys) == A.odd_half(*even) == 0
+    assert A.odd_half(tabs[0], tabs[1]) == 0  # the Hawk's lift (cambered)
+    cn = lopsided_tables()[4]
+    assert A.odd_half(xs, cn) == 0
+    with pytest.raises(ValueError, match="not odd"):
+        A.table_odd_form(xs, cn)
+    x = np.concatenate([np.radians(np.linspace(-150.0, 150.0, 3001)), [0.0], xs])
+    xt, form = A.table_sum_form(xs, cn)
+    np.testing.assert_allclose(_lookup(x, xt, form), np.interp(x, xs, cn), rtol=0.0, atol=1e-14)
 
 
 def cached_object(kernel, literals: tuple[int, ...]) -> bytes:

@@ -51,14 +51,18 @@ ATTACHED4 = (1.0, 1.0, 1.0, 1.0)  # the panels' separation states when the model
 def interp(x: float, xs, ys) -> float:
     """Piecewise-linear table look-up, end values held outside the grid (xs strictly increasing).
 
-    In compiled code the tables come in either of two forms, chosen by their type when a kernel is compiled:
+    In compiled code the tables come in one of three forms, chosen by their type when a kernel is compiled:
     arrays of breakpoints and values (a binary search, :func:`search_table`: the per-environment kernel), or
     the breakpoints as a tuple of floats with ys in its sum form ``(c, slopes)`` (:func:`table_sum_form`,
     :func:`sum_table`: no branch, loop or memory access, so that eight lanes compute it side by side in the
-    lane kernel)."""
-    if isinstance(ys, tuple) and len(ys) == 2 and isinstance(ys[1], tuple):
-        c, slopes = ys
-        return float(c + sum(s * min(max(x, xs[k]), xs[k + 1]) for k, s in enumerate(slopes)))
+    lane kernel), or, for an odd table, the breakpoints of its non-negative half with ys the half's sum form
+    marked odd, ``(c, slopes, ODD)`` (:func:`table_odd_form`, :func:`odd_table`: the same at half the
+    segments).  Every form gives the value of :func:`search_table` to rounding."""
+    if isinstance(ys, tuple) and isinstance(ys[1], tuple):
+        odd = len(ys) == 3
+        a = abs(x) if odd else x
+        v = float(ys[0] + sum(s * min(max(a, xs[k]), xs[k + 1]) for k, s in enumerate(ys[1])))
+        return math.copysign(1.0, x) * v if odd else v
     return float(np.interp(x, xs, ys))
 
 
@@ -69,6 +73,38 @@ def table_sum_form(xs: np.ndarray, ys: np.ndarray) -> tuple[tuple[float, ...], t
     ys = np.asarray(ys, dtype=np.float64)
     slopes = np.diff(ys) / np.diff(xs)
     return tuple(float(v) for v in xs), (float(ys[0] - np.sum(slopes * xs[:-1])), tuple(float(v) for v in slopes))
+
+
+ODD = ()
+"""The third member of an odd table's sum form ``(c, slopes, ODD)`` (:func:`table_odd_form`): a marker in the
+form's type, from which :func:`interp` compiles :func:`odd_table` (the unsteady model's tables are marked
+alike, by a sixth empty tuple: ``lanes.model_of``)."""
+
+
+def odd_half(xs: np.ndarray, ys: np.ndarray) -> int:
+    """The number of breakpoints from 0 up, (n + 1) / 2, when the table is odd: its n breakpoints symmetric
+    about 0 with 0 among them and its values odd, x_n-1-k = -x_k and y_n-1-k = -y_k, both to the last bit
+    (as a symmetric table in degrees stays in radians: ``RigParams.tables()``); else 0.  An odd table is
+    looked up over that half alone (:func:`table_odd_form`); a table odd only to rounding is not taken for
+    one, so that the odd form changes no value beyond the rounding of its sum."""
+    xs = np.asarray(xs, dtype=np.float64)
+    ys = np.asarray(ys, dtype=np.float64)
+    n = xs.size
+    if n < 3 or n % 2 == 0 or ys.size != n:
+        return 0
+    if not (np.array_equal(xs, -xs[::-1]) and np.array_equal(ys, -ys[::-1])):
+        return 0
+    return (n + 1) // 2
+
+
+def table_odd_form(xs: np.ndarray, ys: np.ndarray) -> tuple[tuple[float, ...], tuple[float, tuple[float, ...], tuple[()]]]:
+    """An odd table (:func:`odd_half`; ValueError otherwise) in the form :func:`odd_table` evaluates: its
+    non-negative half in its sum form (:func:`table_sum_form`, the breakpoints from 0 up), marked ODD."""
+    m = odd_half(xs, ys)
+    if not m:
+        raise ValueError("table_odd_form: the table is not odd (breakpoints symmetric about 0 with 0 among them, values odd)")
+    xh, (c, slopes) = table_sum_form(np.asarray(xs)[-m:], np.asarray(ys)[-m:])
+    return xh, (c, slopes, ODD)
 
 
 @njit(**_JIT)
@@ -112,14 +148,40 @@ def sum_table(n: int) -> Any:
     return _SUM_TABLES[n]
 
 
+_ODD_TABLES: dict[int, Any] = {}
+
+
+def odd_table(m: int) -> Any:
+    """:func:`interp` of an odd table in its odd form (:func:`table_odd_form`: the m breakpoints 0 = x_0 <
+    ... < x_m-1 of its non-negative half, the half's sum form), written out:
+
+        f(x) = sign(x) f+(|x|),   f+(a) = c + s_0 min(a, x_1) + sum_k>0 s_k min(max(a, x_k), x_k+1),
+
+    :func:`sum_table`'s sum over the half's m - 1 segments (the first one's max dropped: |x| >= x_0 = 0), the
+    sign applied as a multiplication by copysign(1, x) (exact, and no branch: the lanes vectorise).  An odd
+    table's interpolant is odd, so this is the whole table's value to rounding at half its segments' cost:
+    the compensator's normal-force table, looked up for every strip in every RK stage of the lane kernel."""
+    if m not in _ODD_TABLES:
+        terms = " + ".join(["ys[1][0] * min(a, xs[1])"] + [f"ys[1][{k}] * min(max(a, xs[{k}]), xs[{k + 1}])" for k in range(1, m - 1)])
+        ns: dict[str, Any] = {"math": math}
+        exec(f"def odd_table_{m}(x, xs, ys):\n    a = abs(x)\n    return math.copysign(1.0, x) * (ys[0] + ({terms}))\n", ns)
+        _ODD_TABLES[m] = ns[f"odd_table_{m}"]
+    return _ODD_TABLES[m]
+
+
 @overload(interp, inline="always", jit_options=dict(fastmath=FASTMATH, error_model="numpy"))
 def _interp_sum_form(x, xs, ys):
-    """The lane kernel's tables (breakpoints a tuple, ys in sum form): :func:`sum_table`, inlined where called."""
-    if isinstance(xs, types.UniTuple) and isinstance(ys, types.BaseTuple) and len(ys) == 2:
+    """The lane kernel's tables (breakpoints a tuple, ys in a sum form): :func:`sum_table`, or :func:`odd_table`
+    for ys marked ODD (:func:`table_odd_form`), inlined where called."""
+    if isinstance(xs, types.UniTuple) and isinstance(ys, types.BaseTuple) and len(ys) in (2, 3):
         slopes = ys[1]
         if not isinstance(slopes, types.UniTuple) or slopes.count != xs.count - 1:
             raise TypingError(f"interp: {xs.count} breakpoints need {xs.count - 1} slopes, not {slopes}")
-        return sum_table(xs.count)
+        if len(ys) == 2:
+            return sum_table(xs.count)
+        if not (isinstance(ys[2], types.BaseTuple) and len(ys[2]) == 0):
+            raise TypingError(f"interp: an odd table's form is (c, slopes, ODD), not {ys}")
+        return odd_table(xs.count)
     return None
 
 

@@ -37,12 +37,15 @@ buffers end bit for bit as the per-environment kernel leaves them (``tests/test_
 The high-incidence tables (``aero_model="tables"``, ``F_NONLINEAR``) and the flow-separation states
 (``"unsteady"``, ``F_UNSTEADY``) run here too.  A table search per evaluation is a loop whose trip count
 differs from lane to lane; the kernel takes the tables as tuples of floats instead (:func:`lane_tables`),
-looked up as a sum over the segments with no branch (:func:`rig_env.physics.aero.sum_table`).  Which
-model a kernel runs is known when it is compiled, from the tables' type (:func:`model_of`: arrays for the
-linear model, which never reads them), so the linear kernel's loops carry none of the tables' work and each
-model is its own compiled kernel.  The separation states are split around the RK4 step as the bristles
-are, relaxed exactly over h/2 on either side (the two halves inside a control step merged into one over h,
-as :func:`rig_env.physics.integrator.physics_step` does), in a loop of their own.
+looked up as a sum over the segments with no branch (:func:`rig_env.physics.aero.sum_table`); an odd
+compensator table (the default's normal force, CN(-alpha) = -CN(alpha)) as the sum over its non-negative
+half, sign restored (:func:`rig_env.physics.aero.odd_table`: half the segments, for the strips' eight
+look-ups per RK stage and the panels' four per physics step).  Which model a kernel runs is known when it
+is compiled, from the tables' type (:func:`model_of`: arrays for the linear model, which never reads them),
+so the linear kernel's loops carry none of the tables' work and each model is its own compiled kernel;
+so is the compensator table's form (:func:`lane_shape`).  The separation states are split around the RK4
+step as the bristles are, relaxed exactly over h/2 on either side (the two halves inside a control step
+merged into one over h, as :func:`rig_env.physics.integrator.physics_step` does), in a loop of their own.
 
 Results equal :mod:`rig_env.physics.integrator`'s to rounding (``tests/test_lanes.py``: 2e-13 rad
 after 100 control steps with every term on, every lock set), not bit for bit: the order of some
@@ -62,7 +65,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic, overload, register_jitable
 
 from rig_env.physics import friction as fr
-from rig_env.physics.aero import table_sum_form
+from rig_env.physics.aero import odd_half, table_odd_form, table_sum_form
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.integrator import N_Y, RK_C, RK_W, limited_demands
@@ -99,14 +102,18 @@ MODELS = ("linear", "tables", "unsteady")
 """The aerodynamic models of :func:`model_of`, in its numbering."""
 
 
-def lane_shape(tabs: tuple[np.ndarray, ...], flags: int) -> tuple[int, int, int]:
-    """The lane kernel's last three arguments for a model with ``flags`` and tables ``tabs``
-    (``RigParams.tables()``): (model, n_hawk, n_comp), model 0 linear, 1 the high-incidence tables
+def lane_shape(tabs: tuple[np.ndarray, ...], flags: int) -> tuple[int, int, int, int]:
+    """What the lane kernel needs to know of the model with ``flags`` and tables ``tabs`` (``RigParams.tables()``)
+    when it is compiled: (model, n_hawk, n_comp, comp_half), model 0 linear, 1 the high-incidence tables
     (F_NONLINEAR), 2 with the flow-separation states too (F_UNSTEADY); n_hawk and n_comp the breakpoints of
-    the Hawk's and the compensator's tables (0 for the linear model, which never reads them).  Each model
-    has its own kernel (:func:`kernel`), compiled for the lengths (numba's ``literally``): :func:`lane_tables`."""
+    the Hawk's and the compensator's tables; comp_half the breakpoints of the compensator table's
+    non-negative half when the table is odd (:func:`rig_env.physics.aero.odd_half`: then looked up over that
+    half alone), else 0 (all 0 for the linear model, which never reads the tables).  Each model has its own
+    kernel (:func:`kernel`), compiled for the last three (numba's ``literally``): :func:`lane_tables`."""
     model = model_number(flags)
-    return (0, 0, 0) if model == 0 else (model, int(np.size(tabs[0])), int(np.size(tabs[3])))
+    if model == 0:
+        return 0, 0, 0, 0
+    return model, int(np.size(tabs[0])), int(np.size(tabs[3])), odd_half(tabs[3], tabs[4])
 
 
 def model_number(flags: int) -> int:
@@ -114,22 +121,27 @@ def model_number(flags: int) -> int:
     return 0 if not flags & L.F_NONLINEAR else (2 if flags & L.F_UNSTEADY else 1)
 
 
-def lane_tables(tabs: tuple[np.ndarray, ...], model: int, n_hawk: int, n_comp: int) -> tuple:
+def lane_tables(tabs: tuple[np.ndarray, ...], model: int, n_hawk: int, n_comp: int, comp_half: int) -> tuple:
     """The tables as the lane kernel's loops read them (:func:`lane_shape` gives the other arguments):
     ``tabs`` unchanged for the linear model (never read); otherwise the Hawk's and the compensator's
     breakpoints as tuples of floats and each table's values in their sum form (c, slopes) (looked up without
     a search: :func:`rig_env.physics.aero.sum_table`), in ``tabs``' order, and for the unsteady model a sixth,
-    empty tuple that marks it (:func:`model_of`).  In compiled code the tuples' lengths must be constants, so
-    the kernel takes them as literal arguments and builds the tuples from the arrays once per block and
-    control step (:func:`_lane_tables`; numba cannot pass tuples into a parallel loop)."""
+    empty tuple that marks it (:func:`model_of`).  With comp_half > 0 the compensator's table is odd and
+    comes as its non-negative half, comp_half breakpoints, with its values (c, slopes, ODD)
+    (:func:`rig_env.physics.aero.table_odd_form`: looked up at half the cost).  In compiled code the tuples'
+    lengths must be constants, so the kernel takes them as literal arguments and builds the tuples from the
+    arrays once per block and control step (:func:`_lane_tables`; numba cannot pass tuples into a parallel
+    loop); ValueError here if the arguments do not fit the tables."""
     if model == 0:
         return tabs
     sizes = (n_hawk, n_hawk, n_hawk, n_comp, n_comp)
     if tuple(np.size(t) for t in tabs[:5]) != sizes:
         raise ValueError(f"tables of {tuple(np.size(t) for t in tabs[:5])} breakpoints, not {sizes}")
+    if comp_half not in (0, odd_half(tabs[3], tabs[4])):
+        raise ValueError(f"comp_half = {comp_half}: the compensator's table has {odd_half(tabs[3], tabs[4])} (lane_shape)")
     xh, cl = table_sum_form(tabs[0], tabs[1])
     cm = table_sum_form(tabs[0], tabs[2])[1]
-    xc, cn = table_sum_form(tabs[3], tabs[4])
+    xc, cn = table_odd_form(tabs[3], tabs[4]) if comp_half else table_sum_form(tabs[3], tabs[4])
     out = (xh, cl, cm, xc, cn)
     return (*out, ()) if model == 2 else out
 
@@ -153,26 +165,30 @@ def entry_point(kernel: Any, *literals: int) -> Callable[..., None] | None:
 
 
 @overload(lane_tables, inline="always")
-def _lane_tables(tabs, model, n_hawk, n_comp):
-    """:func:`lane_tables` in compiled code, written out for the literal model and lengths."""
-    if not all(isinstance(a, types.IntegerLiteral) for a in (model, n_hawk, n_comp)):
+def _lane_tables(tabs, model, n_hawk, n_comp, comp_half):
+    """:func:`lane_tables` in compiled code, written out for the literal model, lengths and compensator form
+    (the breakpoints from index n_comp - comp_half on, its odd table's non-negative half, when comp_half > 0)."""
+    if not all(isinstance(a, types.IntegerLiteral) for a in (model, n_hawk, n_comp, comp_half)):
         return None
-    m, nh, nc = model.literal_value, n_hawk.literal_value, n_comp.literal_value
+    m, nh, nc, half = model.literal_value, n_hawk.literal_value, n_comp.literal_value, comp_half.literal_value
     if m == 0:
-        return lambda tabs, model, n_hawk, n_comp: tabs
+        return lambda tabs, model, n_hawk, n_comp, comp_half: tabs
 
-    def grid(t: int, n: int) -> str:
-        return "(" + ", ".join(f"tabs[{t}][{k}]" for k in range(n)) + ",)"
+    def grid(t: int, k0: int, n: int) -> str:  # breakpoints tabs[t][k0:k0 + n]
+        return "(" + ", ".join(f"tabs[{t}][{k}]" for k in range(k0, k0 + n)) + ",)"
 
-    def sum_form(g: int, t: int, n: int) -> str:  # (c, slopes) of values tabs[t] on breakpoints tabs[g]
-        s = [f"(tabs[{t}][{k + 1}] - tabs[{t}][{k}]) / (tabs[{g}][{k + 1}] - tabs[{g}][{k}])" for k in range(n - 1)]
-        c = " - ".join([f"tabs[{t}][0]"] + [f"{sk} * tabs[{g}][{k}]" for k, sk in enumerate(s)])
-        return f"({c}, (" + ", ".join(s) + ",))"
+    def sum_form(g: int, t: int, k0: int, n: int, odd: bool) -> str:
+        """(c, slopes) of values tabs[t] on breakpoints tabs[g][k0:k0 + n], (c, slopes, ODD) if odd."""
+        ks = range(k0, k0 + n - 1)
+        s = [f"(tabs[{t}][{k + 1}] - tabs[{t}][{k}]) / (tabs[{g}][{k + 1}] - tabs[{g}][{k}])" for k in ks]
+        c = " - ".join([f"tabs[{t}][{k0}]"] + [f"{sk} * tabs[{g}][{k}]" for k, sk in zip(ks, s)])
+        return f"({c}, (" + ", ".join(s) + ",)" + (", ()" if odd else "") + ")"  # the empty tuple: aero.ODD
 
-    parts = [grid(0, nh), sum_form(0, 1, nh), sum_form(0, 2, nh), grid(3, nc), sum_form(3, 4, nc)]
+    k0, nk = (nc - half, half) if half else (0, nc)
+    parts = [grid(0, 0, nh), sum_form(0, 1, 0, nh, False), sum_form(0, 2, 0, nh, False), grid(3, k0, nk), sum_form(3, 4, k0, nk, half > 0)]
     body = ", ".join(parts) + (", ()" if m == 2 else "")
     ns: dict = {}
-    exec(f"def build(tabs, model, n_hawk, n_comp):\n    return ({body})\n", ns)
+    exec(f"def build(tabs, model, n_hawk, n_comp, comp_half):\n    return ({body})\n", ns)
     return ns["build"]
 
 
@@ -561,8 +577,9 @@ def advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, tabs, h, n_sub
 # Each model is its own pair of functions, and each serial twin a separate function: numba's disk cache names an
 # entry after the function (see integrator) and keeps one index file per function, which two processes
 # compiling two signatures of one function at once (rig_env.precompile's children: the linear and the tables
-# kernel) would each rewrite, losing the other's entry.  The high-incidence models take the tables' lengths as
-# literal arguments (:func:`lane_shape`); the linear model reads no table and takes none.
+# kernel) would each rewrite, losing the other's entry.  The high-incidence models take the tables' lengths and
+# the compensator table's form as literal arguments (:func:`lane_shape`); the linear model reads no table and
+# takes none.
 
 
 @njit(parallel=True, **_JIT_BATCH)
@@ -593,50 +610,55 @@ def step_lanes_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, t
 
 
 @njit(parallel=True, **_JIT_BATCH)
-def step_lanes_tables(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, n_hawk, n_comp):
-    """:func:`step_lanes` with the high-incidence tables (flags' F_NONLINEAR); n_hawk, n_comp: the tables'
-    breakpoints (:func:`lane_shape`), constants of the compiled kernel (numba's ``literally``)."""
+def step_lanes_tables(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, n_hawk, n_comp, comp_half):
+    """:func:`step_lanes` with the high-incidence tables (flags' F_NONLINEAR); n_hawk, n_comp, comp_half: the
+    tables' breakpoints and the compensator table's form (:func:`lane_shape`, of these tables), constants of
+    the compiled kernel (numba's ``literally``)."""
     literally(n_hawk)
     literally(n_comp)
+    literally(comp_half)
     check_work(S, n_sub)
     free = free_mask(free_idx, n_free)
     for b in prange(S.shape[0]):
-        lt = lane_tables(tabs, 1, n_hawk, n_comp)  # built inside the loop: numba passes no tuple into it
+        lt = lane_tables(tabs, 1, n_hawk, n_comp, comp_half)  # built inside the loop: numba passes no tuple into it
         advance_block(np.int64(b), X, dbuf, k0, delay_steps, P, U, flags, free, lt, h, n_sub, status, S, pack_params)
 
 
 @njit(**_JIT_BATCH)
-def step_lanes_tables_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, n_hawk, n_comp):
+def step_lanes_tables_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, n_hawk, n_comp, comp_half):
     """Serial twin of :func:`step_lanes_tables`."""
     literally(n_hawk)
     literally(n_comp)
+    literally(comp_half)
     check_work(S, n_sub)
     free = free_mask(free_idx, n_free)
-    lt = lane_tables(tabs, 1, n_hawk, n_comp)
+    lt = lane_tables(tabs, 1, n_hawk, n_comp, comp_half)
     for b in range(S.shape[0]):
         advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, lt, h, n_sub, status, S, pack_params)
 
 
 @njit(parallel=True, **_JIT_BATCH)
-def step_lanes_unsteady(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, n_hawk, n_comp):
+def step_lanes_unsteady(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, n_hawk, n_comp, comp_half):
     """:func:`step_lanes_tables` with the flow-separation states too (flags' F_UNSTEADY)."""
     literally(n_hawk)
     literally(n_comp)
+    literally(comp_half)
     check_work(S, n_sub)
     free = free_mask(free_idx, n_free)
     for b in prange(S.shape[0]):
-        lt = lane_tables(tabs, 2, n_hawk, n_comp)
+        lt = lane_tables(tabs, 2, n_hawk, n_comp, comp_half)
         advance_block(np.int64(b), X, dbuf, k0, delay_steps, P, U, flags, free, lt, h, n_sub, status, S, pack_params)
 
 
 @njit(**_JIT_BATCH)
-def step_lanes_unsteady_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, n_hawk, n_comp):
+def step_lanes_unsteady_serial(X, dbuf, k0, delay_steps, P, U, flags, free_idx, n_free, tabs, h, n_sub, status, S, pack_params, n_hawk, n_comp, comp_half):
     """Serial twin of :func:`step_lanes_unsteady`."""
     literally(n_hawk)
     literally(n_comp)
+    literally(comp_half)
     check_work(S, n_sub)
     free = free_mask(free_idx, n_free)
-    lt = lane_tables(tabs, 2, n_hawk, n_comp)
+    lt = lane_tables(tabs, 2, n_hawk, n_comp, comp_half)
     for b in range(S.shape[0]):
         advance_block(b, X, dbuf, k0, delay_steps, P, U, flags, free, lt, h, n_sub, status, S, pack_params)
 
@@ -650,13 +672,13 @@ KERNELS = {
 
 
 def kernel(flags: int, parallel: bool) -> Any:
-    """The lane kernel for a model with ``flags`` (serial or parallel); it takes the tables' lengths after
-    ``pack_params`` when the model has the tables (:func:`literal_args`)."""
+    """The lane kernel for a model with ``flags`` (serial or parallel); it takes the tables' lengths and the
+    compensator table's form after ``pack_params`` when the model has the tables (:func:`literal_args`)."""
     return KERNELS[model_number(flags)][1 if parallel else 0]
 
 
 def literal_args(tabs: tuple[np.ndarray, ...], flags: int) -> tuple[int, ...]:
     """The arguments a model's lane kernel takes after ``pack_params``: none for the linear model, the tables'
-    breakpoints (n_hawk, n_comp) for the others (:func:`lane_shape`)."""
-    model, n_hawk, n_comp = lane_shape(tabs, flags)
-    return () if model == 0 else (n_hawk, n_comp)
+    breakpoints and the compensator table's form (n_hawk, n_comp, comp_half) for the others (:func:`lane_shape`)."""
+    model, *lengths = lane_shape(tabs, flags)
+    return () if model == 0 else tuple(lengths)

@@ -206,7 +206,7 @@ def choose_kernel(kind: str, flags: int, n_envs: int, parallel: bool | None = No
     """The kernel of ``kind`` ("lanes", "joint" or "dae") for a model with ``flags`` and ``n_envs`` environments.
 
     Every kind runs every model (the lane kernel: one function per model, :func:`rig_env.physics.lanes.kernel`,
-    compiled for the tables' lengths, which :class:`PhysicsBatch` gives it: :func:`rig_env.physics.lanes.literal_args`).  parallel: the ``prange`` version; None chooses it from
+    compiled for the tables' lengths and the compensator table's form, which :class:`PhysicsBatch` gives it: :func:`rig_env.physics.lanes.literal_args`).  parallel: the ``prange`` version; None chooses it from
     :data:`rig_env.physics.integrator.PARALLEL_MIN_ENVS` environments on.
     """
     if kind not in KINDS:
@@ -299,7 +299,7 @@ class PhysicsBatch:
         if kind == "lanes":
             self._work: tuple[np.ndarray, ...] = (lanes.new_work(self.n_envs, self.n_sub),)
             self._state = self.X
-            self._lane_literals = lanes.literal_args(self.tabs, self.flags)  # the tables' lengths, constants of the kernel
+            self._lane_literals = lanes.literal_args(self.tabs, self.flags)  # the tables' lengths and form, constants of the kernel
         elif kind == "joint":
             self._work = integ.new_work(self.n_envs)
             self._state = self.X
