@@ -106,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
         found = depths_unstable(base, k, depths)
         d = float(found.min()) if found.size else math.nan
         boundary.append(d)
-        every = found.size == int(round((MAX_DEPTH - d) / args.step)) + 1 if found.size else False
+        every = found.size == round((MAX_DEPTH - d) / args.step) + 1 if found.size else False
         print(f"k = {k:.2f} c: unstable equilibria near 5 deg from a break of depth {d:.3f}"
               f"{' (and at every depth above it on the grid)' if every else ' (not at every depth above it on the grid)'}", flush=True)
     rows = []
@@ -123,12 +123,12 @@ def main(argv: list[str] | None = None) -> int:
             _, amp_f, _ = cycle(P, mid, True, max(amp, 0.5))
             band = f"{pitch.min():.2f} - {pitch.max():.2f}" + (f" (Hopf {', '.join(f'{h:.2f}' for h in hopf)})" if hopf else "")
             rows.append((k, depth, band, mid, amp, freq, amp_f))
-            print(f"k = {k} c, depth {depth}: band {band} deg, elevator {mid:.3f} deg: cycle {amp:.2f} deg at {freq:.2f} Hz; "
+            print(f"k = {k} c, depth {depth}: band {band} deg, elevator {mid:.3f} deg (trim {trim:.2f} deg): cycle {amp:.2f} deg at {freq:.2f} Hz; "
                   f"with the gimbal's friction {amp_f:.2f} deg", flush=True)
     lines = ["| k (c) | least depth for unstable equilibria near 5 deg (CL) |", "|---|---|"]
     lines += [f"| {k:.2f} | {d:.3f} |" if math.isfinite(d) else f"| {k:.2f} | none up to {MAX_DEPTH} |" for k, d in zip(ks, boundary)]
-    lines += ["", "| k (c) | depth (CL) | unstable equilibria sampled, model pitch (deg) | elevator (deg) | cycle without friction (deg, half peak-to-peak) | "
-              "frequency (Hz) | with the gimbal's friction (deg) |", "|---|---|---|---|---|---|---|"]
+    lines += ["", ("| k (c) | depth (CL) | unstable equilibria sampled, model pitch (deg) | elevator (deg) | cycle without friction (deg, half peak-to-peak) | "
+                   "frequency (Hz) | with the gimbal's friction (deg) |"), "|---|---|---|---|---|---|---|"]
     for k, depth, band, mid, amp, freq, amp_f in rows:
         lines.append(f"| {k} | {depth} | {band or 'no Hopf point'} | {mid:.3f} | {amp:.2f} | {freq:.2f} | {amp_f:.2f} |" if band
                      else f"| {k} | {depth} | none | - | - | - | - |")
