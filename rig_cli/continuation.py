@@ -3,13 +3,16 @@
     rig continuation --free model_pitch --parameter hawk_elevator --values 2 -3 101 --aero-model unsteady
                      --set hawk_aero.sep_cp_travel=0.1 [--lift-break 6 0.05] [--params FILE.toml]
                      [--airspeed 20] [--control hawk_rudder=2] [--no-orbits] [--state model_pitch]
-                     [--out DIR] [--overwrite]
+                     [--sweep NAME FIRST LAST POINTS] [--out DIR] [--overwrite]
 
 Runs :func:`rig_env.continuation` and prints the special points (kind, parameter, the free joints in deg, the
 Hopf frequency in Hz), the limit-cycle families (parameter range, largest amplitude in deg, period in s,
 stability) and the notes; writes ``DIR/branch.csv`` (the sampled branch: parameter, every state in deg or
 deg/s (the aerodynamic states in their units), stable, the leading eigenvalue's real and imaginary parts in
 1/s), ``DIR/special_points.csv``, ``DIR/orbits.csv`` and ``DIR/bifurcation.png`` (the diagram of ``--state``).
+With ``--sweep`` a second parameter is swept (:func:`rig_env.continuation_sweep`, no orbits): a line per value, then
+``DIR/loci.csv`` (its special points and unstable sampled equilibria: sweep value, kind, parameter, the free joints
+in deg, the Hopf frequency in Hz) and ``DIR/sweep.png`` (the two-parameter diagram).
 An existing output is kept unless ``--overwrite``.  Bad values raise ValueError naming the option.
 """
 
@@ -23,9 +26,11 @@ from pathlib import Path
 import numpy as np
 
 from rig_env.bifurcation.result import Branch
+from rig_env.bifurcation.sweep import Sweep
 from rig_env.params import PARAM_NAMES, SURFACES, ParameterError, RigParams
 
 OUTPUTS = ("branch.csv", "special_points.csv", "orbits.csv", "bifurcation.png")
+SWEEP_OUTPUTS = ("loci.csv", "sweep.png")
 MAX_POINTS = 2001
 
 
@@ -64,6 +69,36 @@ def rig_of(params_file: str | None, sets: Sequence[str] | None, lift_break: Sequ
     return p
 
 
+def _grid(option: str, values: Sequence[float]) -> tuple[float, float, int]:
+    """(first, last, points) of ``option``'s three numbers; ValueError naming the option otherwise."""
+    first, last, n = (float(v) for v in values)
+    if not (math.isfinite(first) and math.isfinite(last)) or first == last:
+        raise ValueError(f"{option} {first} {last}: two different finite ends are needed")
+    if n != int(n) or not 2 <= int(n) <= MAX_POINTS:
+        raise ValueError(f"{option}: the number of points must be an integer from 2 to {MAX_POINTS}, not {n}")
+    return first, last, int(n)
+
+
+def write_loci(sw: Sweep, free: Sequence[str], path: Path) -> None:
+    """The sweep's special points and unstable sampled equilibria as CSV: sweep value, kind ("fold", "hopf", ...,
+    or "unstable" for a sampled equilibrium that is), parameter value, the free joints (deg), the Hopf frequency (Hz)."""
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow([f"{sw.sweep} ({sw.sweep_unit})", "kind", f"{sw.parameter} ({sw.parameter_unit})", *[f"{j} (deg)" for j in free],
+                    "frequency (Hz)", "note"])
+        for value, br, err in zip(sw.sweep_values, sw.branches, sw.errors):
+            if br is None:
+                w.writerow([f"{value:.10g}", "no branch", "", *[""] * len(free), "", err])
+                continue
+            cols = [br.state_names.index(j) for j in free]
+            for sp in br.special_points:
+                w.writerow([f"{value:.10g}", sp.kind, f"{sp.value:.10g}", *[f"{math.degrees(sp.state[k]):.10g}" for k in cols],
+                            f"{sp.frequency_hz:.6g}" if sp.kind == "hopf" else "", ""])
+            for v, x, st in zip(br.values, br.states, br.stable):
+                if not st:
+                    w.writerow([f"{value:.10g}", "unstable", f"{v:.10g}", *[f"{math.degrees(x[k]):.10g}" for k in cols], "", ""])
+
+
 def _display(unit: str) -> tuple[float, str]:
     return (180.0 / math.pi, "deg") if unit == "rad" else ((180.0 / math.pi, "deg/s") if unit == "rad/s" else (1.0, unit))
 
@@ -82,27 +117,40 @@ def run(
     params_file: str | None = None,
     orbits: bool = True,
     state: str | None = None,
+    sweep: tuple[str, float, float, float] | None = None,
     overwrite: bool = False,
     echo: bool = True,
-) -> Branch:
-    """``rig continuation``: see the module docstring.  values: (first, last, points); returns the Branch."""
+) -> Branch | Sweep:
+    """``rig continuation``: see the module docstring.  values: (first, last, points); sweep: (name, first, last,
+    points) of a second parameter; returns the Branch, or with ``sweep`` the Sweep."""
     import rig_env
-    from rig_env.bifurcation.plot import plot_branch
+    from rig_env.bifurcation.plot import plot_branch, plot_sweep
 
-    first, last, n = values
-    if not (math.isfinite(first) and math.isfinite(last)) or first == last:
-        raise ValueError(f"--values {first} {last}: two different finite ends are needed")
-    if n != int(n) or not 2 <= int(n) <= MAX_POINTS:
-        raise ValueError(f"--values: the number of points must be an integer from 2 to {MAX_POINTS}, not {n}")
+    first, last, n = _grid("--values", values)
     folder = Path(out)
-    existing = [name for name in OUTPUTS if (folder / name).exists()]
+    if sweep is not None:
+        s_first, s_last, s_n = _grid("--sweep", sweep[1:])
+        outputs = SWEEP_OUTPUTS
+    else:
+        outputs = OUTPUTS
+    existing = [name for name in outputs if (folder / name).exists()]
     if existing and not overwrite:
         raise ValueError(f"--out {folder}: {', '.join(existing)} already there; give --overwrite to replace, or another --out")
     p = rig_of(params_file, sets, lift_break)
     ctrl = _assignments(controls, "--control", SURFACES)
     if state is not None and state not in free:
         raise ValueError(f"--state {state!r}: must be one of the free joints {list(free)}")
-    br = rig_env.continuation(p, free_dofs=tuple(free), parameter=parameter, values=np.linspace(first, last, int(n)), airspeed=airspeed,
+    if sweep is not None:
+        sw = rig_env.continuation_sweep(p, sweep=sweep[0], sweep_values=np.linspace(s_first, s_last, s_n), free_dofs=tuple(free),
+                                        parameter=parameter, values=np.linspace(first, last, n), airspeed=airspeed, controls=ctrl or None,
+                                        aero_model=aero_model, periodic=False, progress=echo)
+        folder.mkdir(parents=True, exist_ok=True)
+        write_loci(sw, free, folder / "loci.csv")
+        plot_sweep(sw, folder / "sweep.png", title=f"{', '.join(free)} free, {aero_model}")
+        if echo:
+            print(f"wrote {folder / 'loci.csv'}, {folder / 'sweep.png'}")
+        return sw
+    br = rig_env.continuation(p, free_dofs=tuple(free), parameter=parameter, values=np.linspace(first, last, n), airspeed=airspeed,
                               controls=ctrl or None, aero_model=aero_model, periodic=orbits)
     folder.mkdir(parents=True, exist_ok=True)
     factors = [_display(u) for u in br.state_units]

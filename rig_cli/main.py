@@ -15,10 +15,11 @@
         the rig picture with its frames (DIR/rig_frames.png)
     rig continuation --free JOINT ... --parameter NAME --values FIRST LAST POINTS [--aero-model M] [--airspeed M/S]
                      [--control SURFACE=DEG ...] [--set NAME=VALUE ...] [--lift-break DEG DEPTH] [--params FILE]
-                     [--no-orbits] [--state JOINT] [--out DIR] [--overwrite]
+                     [--no-orbits] [--state JOINT] [--sweep NAME FIRST LAST POINTS] [--out DIR] [--overwrite]
         equilibria over a parameter with their stability, folds, Hopf points and limit cycles
         (rig_env.continuation; rig_cli.continuation): prints the special points and orbit families, writes
-        branch.csv, special_points.csv, orbits.csv and bifurcation.png into DIR (default out/continuation)
+        branch.csv, special_points.csv, orbits.csv and bifurcation.png into DIR (default out/continuation);
+        --sweep: a second parameter swept, the folds' and Hopf points' loci in loci.csv and sweep.png
     rig --version
         the installed version (importlib.metadata; rig_env.__version__ when not installed)
     rig identify CONFIG.toml --out DIR [--overwrite]
@@ -323,6 +324,9 @@ def _parser() -> argparse.ArgumentParser:
     k.add_argument("--params", default=None, metavar="FILE.toml", help="rig parameter file (default: the default rig)")
     k.add_argument("--no-orbits", action="store_true", help="equilibria only: no periodic orbits from the Hopf points")
     k.add_argument("--state", default=None, metavar="JOINT", help="the free joint the diagram shows (default: the first)")
+    k.add_argument("--sweep", nargs=4, default=None, metavar=("NAME", "FIRST", "LAST", "POINTS"),
+                   help="a second parameter swept (a surface, airspeed or a rig parameter): the loci of the folds and Hopf points "
+                        "in loci.csv and sweep.png instead of one branch")
     k.add_argument("--out", default="out/continuation", metavar="DIR", help="output folder (default: out/continuation)")
     k.add_argument("--overwrite", action="store_true", help="replace the outputs of an earlier run in DIR")
     sub.add_parser("train", help="train PPO or SAC on a task and export the law (rig train --help)", add_help=False)
@@ -347,6 +351,18 @@ def run_compare(args: argparse.Namespace, argv: Sequence[str]) -> None:
             conditions=cfg.conditions, overwrite=args.overwrite, command=_recorded(argv),
             backend=pick(args.backend, cfg.backend, "local"), address=pick(args.address, cfg.address, None),
             chunk_size=pick(args.chunk_size, cfg.chunk_size, None), **rule)
+
+
+def _sweep_arg(items: Sequence[str] | None) -> tuple[str, float, float, float] | None:
+    """``--sweep NAME FIRST LAST POINTS`` as (name, first, last, points); ValueError naming the option."""
+    if items is None:
+        return None
+    name, *numbers = items
+    try:
+        first, last, n = (float(v) for v in numbers)
+    except ValueError:
+        raise ValueError(f"--sweep {' '.join(items)}: FIRST, LAST and POINTS must be numbers") from None
+    return name, first, last, n
 
 
 def _recorded(argv: Sequence[str]) -> str:
@@ -395,7 +411,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             continue_branch(args.out, free=args.free, parameter=args.parameter, values=args.values, aero_model=args.aero_model,
                             airspeed=args.airspeed, controls=args.control, sets=args.set, lift_break=args.lift_break,
-                            params_file=args.params, orbits=not args.no_orbits, state=args.state, overwrite=args.overwrite)
+                            params_file=args.params, orbits=not args.no_orbits, state=args.state, sweep=_sweep_arg(args.sweep),
+                            overwrite=args.overwrite)
     except ValueError as exc:  # bad argument values: one line, no traceback
         print(f"rig {args.command}: error: {exc}", file=sys.stderr)
         return 2

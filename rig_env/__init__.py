@@ -1,11 +1,11 @@
 """rig_env: simulation and control-law sandbox for the Bristol 5-DOF wind-tunnel manoeuvre rig.
 
 Public API: ``JOINTS``, ``SURFACES``, ``SERVOS``, ``RigParams``, ``param_batch``, ``simulate``,
-``to_mjcf``, ``trim``, ``linearize``, ``continuation``.  See README.md and docs/MODEL.md.
+``to_mjcf``, ``trim``, ``linearize``, ``continuation``, ``continuation_sweep``.  See README.md and docs/MODEL.md.
 
 Importing this package is light (numpy and the parameters): ``simulate``, ``SimResult``, ``trim``,
-``linearize``, ``to_mjcf`` and ``continuation`` are the functions of :mod:`rig_env.simulate`,
-:mod:`rig_env.linear`, :mod:`rig_env.mjcf` and :mod:`rig_env.bifurcation.rig`, imported at their first use (PEP 562), so that the rig's real-time loop, which
+``linearize``, ``to_mjcf``, ``continuation`` and ``continuation_sweep`` are the functions of :mod:`rig_env.simulate`,
+:mod:`rig_env.linear`, :mod:`rig_env.mjcf`, :mod:`rig_env.bifurcation.rig` and :mod:`rig_env.bifurcation.sweep`, imported at their first use (PEP 562), so that the rig's real-time loop, which
 needs only the observation builder, never imports numba.  The gymnasium ids ``rig_env/*`` are
 registered as soon as gymnasium is imported, before or after this package
 (:mod:`rig_env.envs.registration`); numba's set-up for the kernels runs as soon as numba is imported
@@ -29,6 +29,7 @@ __version__ = "0.1.0"
 
 if TYPE_CHECKING:
     from rig_env.bifurcation.rig import continuation
+    from rig_env.bifurcation.sweep import continuation_sweep
     from rig_env.linear import linearize, trim
     from rig_env.mjcf import to_mjcf
     from rig_env.simulate import SimResult, simulate
@@ -40,6 +41,7 @@ _LAZY = {
     "linearize": "rig_env.linear",
     "to_mjcf": "rig_env.mjcf",
     "continuation": "rig_env.bifurcation.rig",
+    "continuation_sweep": "rig_env.bifurcation.sweep",
 }
 
 
@@ -70,6 +72,7 @@ __all__ = [
     "RigParams",
     "SimResult",
     "continuation",
+    "continuation_sweep",
     "linearize",
     "param_batch",
     "simulate",

@@ -86,3 +86,30 @@ def test_continuation_command_refuses_bad_input_by_name(tmp_path, capsys, option
     err = capsys.readouterr().err
     assert err.startswith("rig continuation: error: ") and message in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "x").exists()
+
+
+def test_continuation_command_sweeps_a_second_parameter(tmp_path, capsys):
+    """--sweep: a line per swept value, loci.csv with the sweep's special points and unstable samples (those of
+    rig_env.continuation_sweep), sweep.png; a bad --sweep refused by name."""
+    out = tmp_path / "sweep"
+    argv = ["continuation", "--free", "model_pitch", "--parameter", "hawk_elevator", "--values", "2", "-3", "101", "--aero-model", "unsteady",
+            "--sweep", "hawk_aero.sep_cp_travel", "0.08", "0.12", "3", "--out", str(out)]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "sweep 1/3: hawk_aero.sep_cp_travel = 0.08 c: 2 fold, 0 hopf" in text and "sweep 2/3: hawk_aero.sep_cp_travel = 0.1 c: 2 fold, 2 hopf" in text
+    assert sorted(p.name for p in out.iterdir()) == ["loci.csv", "sweep.png"]
+    rows = read(out / "loci.csv")
+    assert rows[0] == ["hawk_aero.sep_cp_travel (c)", "kind", "hawk_elevator (deg)", "model_pitch (deg)", "frequency (Hz)", "note"]
+    sw = rig_env.continuation_sweep(rig_env.RigParams.default(), sweep="hawk_aero.sep_cp_travel", sweep_values=np.linspace(0.08, 0.12, 3),
+                                    free_dofs=("model_pitch",), parameter="hawk_elevator", values=np.linspace(2, -3, 101), aero_model="unsteady")
+    hopf = np.array([[float(r[0]), float(r[2])] for r in rows[1:] if r[1] == "hopf"])
+    assert np.allclose(hopf, sw.locus("hopf"), atol=1e-8)
+    assert sum(r[1] == "unstable" for r in rows[1:]) == len(sw.unstable())
+    assert main(argv) == 2 and "loci.csv, sweep.png already there" in capsys.readouterr().err
+    assert main(["continuation", "--free", "model_pitch", "--parameter", "hawk_elevator", "--values", "2", "-3", "5",
+                 "--sweep", "hawk_aero.sep_cp_travel", "a", "0.1", "3", "--out", str(tmp_path / "bad")]) == 2
+    assert "--sweep hawk_aero.sep_cp_travel a 0.1 3: FIRST, LAST and POINTS must be numbers" in capsys.readouterr().err
+    assert main(["continuation", "--free", "model_pitch", "--parameter", "hawk_elevator", "--values", "2", "-3", "5",
+                 "--sweep", "airspeed", "15", "90", "3", "--out", str(tmp_path / "bad2")]) == 2
+    assert "sweep_values: airspeed 15..90 m/s is outside the allowed range" in capsys.readouterr().err
+    assert not (tmp_path / "bad").exists() and not (tmp_path / "bad2").exists()

@@ -312,3 +312,64 @@ def test_fig8_yaw_divergence_of_the_blanked_hawk_is_the_closed_form(elevator):
         along = rig_env.continuation(P, free_dofs=free, parameter="hawk_elevator", values=np.linspace(5, -8, 27), airspeed=20.0,
                                      aero_model="tables", periodic=False)
         assert not any(sp.kind == "branch_point" for sp in along.special_points)
+
+
+# ------------------------------------------------------------------ two parameters: continuation_sweep
+def test_sweep_loci_are_each_branch_s_points_and_the_heave_hopf_locus_lies_on_linearize_s_axis(params, tmp_path):
+    """continuation_sweep over the airspeed of the heave mode's Hopf point in the compensator's CLq: each locus row is
+    the special point of the branch at that airspeed (the same as rig_env.continuation there), and at every
+    point of the locus linearize of that rig at that airspeed has a pair on the imaginary axis at the Hopf
+    frequency; the locus moves with the airspeed (the damping's parts scale differently)."""
+    sw = rig_env.continuation_sweep(params, sweep="airspeed", sweep_values=[16.0, 20.0, 24.0], free_dofs=PITCH_HEAVE,
+                                    parameter="comp_aero.CLq", values=np.linspace(40.0, 10.0, 7))
+    assert sw.sweep_unit == "m/s" and sw.parameter_unit == "1/rad" and sw.errors == ("", "", "")
+    loc = sw.locus("hopf")
+    assert loc.shape == (3, 2) and list(loc[:, 0]) == [16.0, 20.0, 24.0]
+    one = rig_env.continuation(params, free_dofs=PITCH_HEAVE, parameter="comp_aero.CLq", values=np.linspace(40.0, 10.0, 7), airspeed=20.0,
+                               periodic=False)
+    assert loc[1, 1] == one.hopf[0]
+    for (V, clq), br in zip(loc, sw.branches):
+        h = br.hopf_points()[0]
+        rig = params.replace(**{"comp_aero.CLq": float(clq)})
+        lam = np.linalg.eigvals(rig_env.linearize(rig, rig_env.trim(rig, PITCH_HEAVE, airspeed=float(V)), inputs=[]).A)
+        crossing = lam[np.argmin(np.abs(lam.real))]
+        assert abs(crossing.real) < 1e-5 * abs(crossing) and abs(crossing.imag) == pytest.approx(h.omega, rel=1e-6)
+    assert np.ptp(loc[:, 1]) > 0.5
+    un = sw.unstable()
+    assert un.size and np.all(un[:, 1] < np.interp(un[:, 0], loc[:, 0], loc[:, 1]) + 1e-9)  # unstable below the Hopf CLq
+    from rig_env.bifurcation.plot import plot_sweep
+
+    plot_sweep(sw, tmp_path / "sweep.png")
+    assert (tmp_path / "sweep.png").stat().st_size > 10_000
+
+
+def test_sweep_of_the_centre_of_pressure_travel_opens_the_upper_band_between_0_08_and_0_1(params):
+    """The stall onset's Hopf pair (docs/MODEL.md 7: from about 0.085 c) as a locus over sep_cp_travel: none at 0.06 and
+    0.08 c, a pair at 0.1 and 0.12 c, the pair's elevators moving apart as the travel grows."""
+    sw = rig_env.continuation_sweep(params, sweep="hawk_aero.sep_cp_travel", sweep_values=[0.06, 0.08, 0.1, 0.12], free_dofs=("model_pitch",),
+                                    parameter="hawk_elevator", values=np.linspace(2, -3, 101), aero_model="unsteady")
+    loc = sw.locus("hopf")
+    assert sorted(set(loc[:, 0])) == [0.1, 0.12]
+    width = {k: np.ptp(loc[loc[:, 0] == k, 1]) for k in (0.1, 0.12)}
+    assert 0.0 < width[0.1] < width[0.12]
+    assert sw.locus("fold").shape == (8, 2)  # the tables' hysteresis window at every travel (the equilibria are the tables')
+
+
+def test_sweep_refuses_bad_input_by_name(params):
+    kw = {"free_dofs": ("model_pitch",), "parameter": "hawk_elevator", "values": np.linspace(2, -2, 5)}
+    with pytest.raises(ValueError, match=r"sweep = 'hawk_elevator': the swept parameter must differ"):
+        rig_env.continuation_sweep(params, sweep="hawk_elevator", sweep_values=[0, 1], **kw)
+    with pytest.raises(ValueError, match=r"parameter = 'hawk_nose': unknown"):
+        rig_env.continuation_sweep(params, sweep="hawk_nose", sweep_values=[0, 1], **kw)
+    with pytest.raises(ValueError, match=r"airspeed: the airspeed is the swept parameter"):
+        rig_env.continuation_sweep(params, sweep="airspeed", sweep_values=[15, 20], airspeed=20.0, **kw)
+    with pytest.raises(ValueError, match=r"sweep_values: airspeed 15..90 m/s is outside the allowed range \[0, 60\] m/s"):
+        rig_env.continuation_sweep(params, sweep="airspeed", sweep_values=[15, 90], **kw)
+    with pytest.raises(ValueError, match=r"sweep_values: .*hawk_aero.sep_cp_travel"):
+        rig_env.continuation_sweep(params, sweep="hawk_aero.sep_cp_travel", sweep_values=[0.1, 0.9], **kw)
+    with pytest.raises(ValueError, match=r"controls: 'hawk_rudder' is the swept parameter"):
+        rig_env.continuation_sweep(params, sweep="hawk_rudder", sweep_values=[0, 1], controls={"hawk_rudder": 1.0}, **kw)
+    with pytest.raises(ValueError, match=r"sweep_values: expected a 1-D sequence of finite numbers"):
+        rig_env.continuation_sweep(params, sweep="hawk_rudder", sweep_values=[0, float("nan")], **kw)
+    with pytest.raises(ValueError, match=r"free_dofs: unknown joint"):
+        rig_env.continuation_sweep(params, sweep="hawk_rudder", sweep_values=[0, 1], **{**kw, "free_dofs": ("nose",)})

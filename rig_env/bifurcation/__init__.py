@@ -21,7 +21,10 @@ vector field, its parameters (any surface, ``"airspeed"``, any :data:`rig_env.PA
 what continuation does with friction and the stops: :mod:`.rig`.  The core takes any vector field
 ``f(x, p)`` (:func:`equilibria`, :func:`orbits`), so it is tested on closed forms.
 
-Modules: ``core`` (the curve solver), ``equilibria``, ``periodic``, ``rig``, ``result`` (:class:`Branch`,
+Two parameters: :func:`continuation_sweep` (``sweep``: the loci of the folds and Hopf points over a second
+parameter, by a branch at each of its sampled values; ``plot.plot_sweep``).
+
+Modules: ``core`` (the curve solver), ``equilibria``, ``periodic``, ``rig``, ``sweep``, ``result`` (:class:`Branch`,
 :class:`OrbitBranch`, :class:`SpecialPoint`), ``plot`` (the bifurcation diagram).
 """
 
@@ -30,5 +33,6 @@ from rig_env.bifurcation.equilibria import equilibria
 from rig_env.bifurcation.periodic import orbits, rk4_flow
 from rig_env.bifurcation.result import Branch, OrbitBranch, SpecialPoint
 from rig_env.bifurcation.rig import AERO_MODELS, continuation
+from rig_env.bifurcation.sweep import Sweep, continuation_sweep
 
-__all__ = ["AERO_MODELS", "Branch", "OrbitBranch", "Settings", "SpecialPoint", "continuation", "equilibria", "orbits", "rk4_flow"]
+__all__ = ["AERO_MODELS", "Branch", "OrbitBranch", "Settings", "SpecialPoint", "Sweep", "continuation", "continuation_sweep", "equilibria", "orbits", "rk4_flow"]

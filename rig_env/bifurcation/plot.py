@@ -1,9 +1,10 @@
 """The bifurcation diagram of a :class:`~rig_env.bifurcation.result.Branch` (matplotlib, Agg canvas: no display needed).
 
-One state against the parameter: stable equilibria solid, unstable dashed, folds as triangles, Hopf
+A branch (:func:`plot_branch`): one state against the parameter: stable equilibria solid, unstable dashed, folds as triangles, Hopf
 points as circles, branch points as diamonds, and each Hopf point's periodic orbits as the envelope of
 the state's minimum and maximum over the orbit (stable orbits filled dots, unstable open).  Angles and
-rates are drawn in deg and deg/s.
+rates are drawn in deg and deg/s.  A sweep (:func:`plot_sweep`): the loci of the special points and the unstable
+sampled equilibria in the plane of the two parameters.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from rig_env.bifurcation.result import Branch
+from rig_env.bifurcation.sweep import Sweep
 
 _MARKERS = {"fold": ("v", "tab:red", "fold"), "hopf": ("o", "tab:purple", "Hopf"), "branch_point": ("D", "tab:brown", "branch point")}
 
@@ -72,4 +74,38 @@ def plot_branch(branch: Branch, path: str | Path | None = None, *, state: str | 
     fig.tight_layout()
     if path is not None:
         fig.savefig(path, dpi=110)
+    return fig
+
+
+def plot_sweep(result: Sweep, path: str | Path | None = None, *, title: str = "") -> Figure:
+    """The two-parameter diagram: the continuation's parameter across, the swept one up; the unstable sampled
+    equilibria shaded, the fold, Hopf and branch points marked.  Writes a PNG to ``path`` (None: only returns
+    the figure)."""
+    fig = Figure(figsize=(7.0, 4.8))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    un = result.unstable()
+    if un.size:
+        ax.plot(un[:, 1], un[:, 0], "s", color="0.8", ms=4, ls="none", label="unstable equilibria (sampled)")
+    for kind, (marker, colour, label) in _MARKERS.items():
+        loc = result.locus(kind)
+        if loc.size:
+            ax.plot(loc[:, 1], loc[:, 0], marker, color=colour, ms=6, ls="none", label=f"{label} points")
+    missing = [float(s) for s, b in zip(result.sweep_values, result.branches) if b is None]
+    if missing:
+        ax.plot([], [], " ", label=f"no branch at {len(missing)} sweep value(s)")
+    ax.set_xlabel(f"{result.parameter} ({result.parameter_unit})")
+    ax.set_ylabel(f"{result.sweep} ({result.sweep_unit})")
+    lo, hi = float(result.sweep_values.min()), float(result.sweep_values.max())
+    pad = 0.05 * (hi - lo) if hi > lo else 0.5 * max(abs(lo), 1.0)
+    ax.set_ylim(lo - pad, hi + pad)
+    ax.grid(True, alpha=0.3)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=8)
+    else:
+        ax.text(0.5, 0.5, "no special point and no unstable equilibrium", transform=ax.transAxes, ha="center")
+    ax.set_title(title or f"{result.parameter} against {result.sweep}")
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(path, dpi=120)
     return fig
