@@ -150,6 +150,9 @@ def run(
         if echo:
             print(f"wrote {folder / 'loci.csv'}, {folder / 'sweep.png'}")
         return sw
+    if echo:
+        print(f"continuing {', '.join(free)} over {parameter} ({n} values, {aero_model} model"
+              f"{'; then the orbits of each Hopf point by shooting, up to a minute' if orbits else ''}) ...", flush=True)
     br = rig_env.continuation(p, free_dofs=tuple(free), parameter=parameter, values=np.linspace(first, last, n), airspeed=airspeed,
                               controls=ctrl or None, aero_model=aero_model, periodic=orbits)
     folder.mkdir(parents=True, exist_ok=True)
