@@ -53,30 +53,33 @@ def interp(x: float, xs, ys) -> float:
 
     In compiled code the tables come in one of three forms, chosen by their type when a kernel is compiled:
     arrays of breakpoints and values (a binary search, :func:`search_table`: the per-environment kernel), or
-    the breakpoints as a tuple of floats with ys in its sum form ``(c, slopes)`` (:func:`table_sum_form`,
+    the breakpoints as a tuple of floats with ys in its sum form ``(c, w)`` (:func:`table_sum_form`,
     :func:`sum_table`: no branch, loop or memory access, so that eight lanes compute it side by side in the
     lane kernel), or, for an odd table, the breakpoints of its non-negative half with ys the half's sum form
-    marked odd, ``(c, slopes, ODD)`` (:func:`table_odd_form`, :func:`odd_table`: the same at half the
+    marked odd, ``(c, w, ODD)`` (:func:`table_odd_form`, :func:`odd_table`: the same at half the
     segments).  Every form gives the value of :func:`search_table` to rounding."""
     if isinstance(ys, tuple) and isinstance(ys[1], tuple):
         odd = len(ys) == 3
-        a = abs(x) if odd else x
-        v = float(ys[0] + sum(s * min(max(a, xs[k]), xs[k + 1]) for k, s in enumerate(ys[1])))
+        xc = min(max(abs(x) if odd else x, xs[0]), xs[-1])
+        w = ys[1]
+        v = float(ys[0] + w[0] * xc + sum(w[k] * max(xc, xs[k]) for k in range(1, len(w))))
         return math.copysign(1.0, x) * v if odd else v
     return float(np.interp(x, xs, ys))
 
 
 def table_sum_form(xs: np.ndarray, ys: np.ndarray) -> tuple[tuple[float, ...], tuple[float, tuple[float, ...]]]:
-    """A table (breakpoints xs strictly increasing, values ys) in the form :func:`sum_table` evaluates:
-    (xs as a tuple, (c, slopes)), slopes s_k = (y_k+1 - y_k) / (x_k+1 - x_k), c = y_0 - sum_k s_k x_k."""
+    """A table (n breakpoints xs strictly increasing, values ys) in the form :func:`sum_table` evaluates: (xs as a
+    tuple, (c, w)), w = (s_0, s_1 - s_0, ..., s_n-2 - s_n-3) the first segment's slope and the slope's changes
+    at the interior breakpoints (s_k = (y_k+1 - y_k) / (x_k+1 - x_k)), c = y_n-1 - s_n-2 x_n-1."""
     xs = np.asarray(xs, dtype=np.float64)
     ys = np.asarray(ys, dtype=np.float64)
     slopes = np.diff(ys) / np.diff(xs)
-    return tuple(float(v) for v in xs), (float(ys[0] - np.sum(slopes * xs[:-1])), tuple(float(v) for v in slopes))
+    w = np.concatenate([slopes[:1], np.diff(slopes)])
+    return tuple(float(v) for v in xs), (float(ys[-1] - slopes[-1] * xs[-1]), tuple(float(v) for v in w))
 
 
 ODD = ()
-"""The third member of an odd table's sum form ``(c, slopes, ODD)`` (:func:`table_odd_form`): a marker in the
+"""The third member of an odd table's sum form ``(c, w, ODD)`` (:func:`table_odd_form`): a marker in the
 form's type, from which :func:`interp` compiles :func:`odd_table` (the unsteady model's tables are marked
 alike, by a sixth empty tuple: ``lanes.model_of``)."""
 
@@ -103,8 +106,8 @@ def table_odd_form(xs: np.ndarray, ys: np.ndarray) -> tuple[tuple[float, ...], t
     m = odd_half(xs, ys)
     if not m:
         raise ValueError("table_odd_form: the table is not odd (breakpoints symmetric about 0 with 0 among them, values odd)")
-    xh, (c, slopes) = table_sum_form(np.asarray(xs)[-m:], np.asarray(ys)[-m:])
-    return xh, (c, slopes, ODD)
+    xh, (c, w) = table_sum_form(np.asarray(xs)[-m:], np.asarray(ys)[-m:])
+    return xh, (c, w, ODD)
 
 
 @njit(**_JIT)
@@ -131,19 +134,20 @@ _SUM_TABLES: dict[int, Any] = {}
 
 
 def sum_table(n: int) -> Any:
-    """:func:`interp` of a table of n breakpoints in its sum form (:func:`table_sum_form`), written out:
+    """:func:`interp` of a table of n breakpoints in its sum form (:func:`table_sum_form`), written out as a sum of
+    hinges on the clamped x:
 
-        f(x) = y_0 + sum_k s_k (min(max(x, x_k), x_k+1) - x_k)  =  c + sum_k s_k min(max(x, x_k), x_k+1),
+        x_c = min(max(x, x_0), x_n-1),   f(x) = c + s_0 x_c + sum_k=1..n-2 (s_k - s_k-1) max(x_c, x_k),
 
-    each term the segment's rise up to x (0 for a segment beyond x, its whole rise for one before it),
-    which is the linear interpolant inside the grid and holds the end values outside it.  Every segment
-    costs three operations whatever x is (the slopes and c depend on the table only and come computed),
-    against a search that no two lanes could share; two tables on one grid (the Hawk's CL and CM) share the
-    clamped values.  The same value as :func:`search_table` to rounding (a few 1e-16 of sum |s_k x_k|)."""
+    each hinge the change of slope at an interior breakpoint, so the linear interpolant inside the grid and the
+    end values held outside it (c = y_n-1 - s_n-2 x_n-1 makes f(x_n-1) = y_n-1).  Two operations per interior
+    breakpoint whatever x is (a max and a multiply-add; the coefficients depend on the table only and come
+    computed), against a search that no two lanes could share; two tables on one grid (the Hawk's CL and CM)
+    share the hinges.  The same value as :func:`search_table` to rounding (a few 1e-16 of sum |w_k x_k|)."""
     if n not in _SUM_TABLES:
-        terms = " + ".join(f"ys[1][{k}] * min(max(x, xs[{k}]), xs[{k + 1}])" for k in range(n - 1))
+        terms = " + ".join(["ys[1][0] * xc"] + [f"ys[1][{k}] * max(xc, xs[{k}])" for k in range(1, n - 1)])
         ns: dict[str, Any] = {}
-        exec(f"def table_{n}(x, xs, ys):\n    return ys[0] + ({terms or '0.0'})\n", ns)
+        exec(f"def table_{n}(x, xs, ys):\n    xc = min(max(x, xs[0]), xs[{n - 1}])\n    return ys[0] + ({terms})\n", ns)
         _SUM_TABLES[n] = ns[f"table_{n}"]
     return _SUM_TABLES[n]
 
@@ -155,16 +159,16 @@ def odd_table(m: int) -> Any:
     """:func:`interp` of an odd table in its odd form (:func:`table_odd_form`: the m breakpoints 0 = x_0 <
     ... < x_m-1 of its non-negative half, the half's sum form), written out:
 
-        f(x) = sign(x) f+(|x|),   f+(a) = c + s_0 min(a, x_1) + sum_k>0 s_k min(max(a, x_k), x_k+1),
+        f(x) = sign(x) f+(|x|),   f+(a) = c + s_0 a_c + sum_k=1..m-2 (s_k - s_k-1) max(a_c, x_k),   a_c = min(a, x_m-1),
 
-    :func:`sum_table`'s sum over the half's m - 1 segments (the first one's max dropped: |x| >= x_0 = 0), the
-    sign applied as a multiplication by copysign(1, x) (exact, and no branch: the lanes vectorise).  An odd
-    table's interpolant is odd, so this is the whole table's value to rounding at half its segments' cost:
-    the compensator's normal-force table, looked up for every strip in every RK stage of the lane kernel."""
+    :func:`sum_table`'s hinges over the half (the clamp's max dropped: |x| >= x_0 = 0), the sign applied as a
+    multiplication by copysign(1, x) (exact, and no branch: the lanes vectorise).  An odd table's interpolant
+    is odd, so this is the whole table's value to rounding at half its breakpoints' cost: the compensator's
+    normal-force table, looked up for every strip in every RK stage of the lane kernel."""
     if m not in _ODD_TABLES:
-        terms = " + ".join(["ys[1][0] * min(a, xs[1])"] + [f"ys[1][{k}] * min(max(a, xs[{k}]), xs[{k + 1}])" for k in range(1, m - 1)])
+        terms = " + ".join(["ys[1][0] * ac"] + [f"ys[1][{k}] * max(ac, xs[{k}])" for k in range(1, m - 1)])
         ns: dict[str, Any] = {"math": math}
-        exec(f"def odd_table_{m}(x, xs, ys):\n    a = abs(x)\n    return math.copysign(1.0, x) * (ys[0] + ({terms}))\n", ns)
+        exec(f"def odd_table_{m}(x, xs, ys):\n    ac = min(abs(x), xs[{m - 1}])\n    return math.copysign(1.0, x) * (ys[0] + ({terms}))\n", ns)
         _ODD_TABLES[m] = ns[f"odd_table_{m}"]
     return _ODD_TABLES[m]
 
@@ -174,13 +178,13 @@ def _interp_sum_form(x, xs, ys):
     """The lane kernel's tables (breakpoints a tuple, ys in a sum form): :func:`sum_table`, or :func:`odd_table`
     for ys marked ODD (:func:`table_odd_form`), inlined where called."""
     if isinstance(xs, types.UniTuple) and isinstance(ys, types.BaseTuple) and len(ys) in (2, 3):
-        slopes = ys[1]
-        if not isinstance(slopes, types.UniTuple) or slopes.count != xs.count - 1:
-            raise TypingError(f"interp: {xs.count} breakpoints need {xs.count - 1} slopes, not {slopes}")
+        coeffs = ys[1]
+        if not isinstance(coeffs, types.UniTuple) or coeffs.count != xs.count - 1:
+            raise TypingError(f"interp: {xs.count} breakpoints need {xs.count - 1} coefficients, not {coeffs}")
         if len(ys) == 2:
             return sum_table(xs.count)
         if not (isinstance(ys[2], types.BaseTuple) and len(ys[2]) == 0):
-            raise TypingError(f"interp: an odd table's form is (c, slopes, ODD), not {ys}")
+            raise TypingError(f"interp: an odd table's form is (c, w, ODD), not {ys}")
         return odd_table(xs.count)
     return None
 

@@ -124,10 +124,10 @@ def model_number(flags: int) -> int:
 def lane_tables(tabs: tuple[np.ndarray, ...], model: int, n_hawk: int, n_comp: int, comp_half: int) -> tuple:
     """The tables as the lane kernel's loops read them (:func:`lane_shape` gives the other arguments):
     ``tabs`` unchanged for the linear model (never read); otherwise the Hawk's and the compensator's
-    breakpoints as tuples of floats and each table's values in their sum form (c, slopes) (looked up without
+    breakpoints as tuples of floats and each table's values in their sum form (c, w) (looked up without
     a search: :func:`rig_env.physics.aero.sum_table`), in ``tabs``' order, and for the unsteady model a sixth,
     empty tuple that marks it (:func:`model_of`).  With comp_half > 0 the compensator's table is odd and
-    comes as its non-negative half, comp_half breakpoints, with its values (c, slopes, ODD)
+    comes as its non-negative half, comp_half breakpoints, with its values (c, w, ODD)
     (:func:`rig_env.physics.aero.table_odd_form`: looked up at half the cost).  In compiled code the tuples'
     lengths must be constants, so the kernel takes them as literal arguments and builds the tuples from the
     arrays once per block and control step (:func:`_lane_tables`; numba cannot pass tuples into a parallel
@@ -178,11 +178,11 @@ def _lane_tables(tabs, model, n_hawk, n_comp, comp_half):
         return "(" + ", ".join(f"tabs[{t}][{k}]" for k in range(k0, k0 + n)) + ",)"
 
     def sum_form(g: int, t: int, k0: int, n: int, odd: bool) -> str:
-        """(c, slopes) of values tabs[t] on breakpoints tabs[g][k0:k0 + n], (c, slopes, ODD) if odd."""
-        ks = range(k0, k0 + n - 1)
-        s = [f"(tabs[{t}][{k + 1}] - tabs[{t}][{k}]) / (tabs[{g}][{k + 1}] - tabs[{g}][{k}])" for k in ks]
-        c = " - ".join([f"tabs[{t}][{k0}]"] + [f"{sk} * tabs[{g}][{k}]" for k, sk in zip(ks, s)])
-        return f"({c}, (" + ", ".join(s) + ",)" + (", ()" if odd else "") + ")"  # the empty tuple: aero.ODD
+        """(c, w) of values tabs[t] on breakpoints tabs[g][k0:k0 + n] (aero.table_sum_form), (c, w, ODD) if odd."""
+        s = [f"((tabs[{t}][{k + 1}] - tabs[{t}][{k}]) / (tabs[{g}][{k + 1}] - tabs[{g}][{k}]))" for k in range(k0, k0 + n - 1)]
+        w = [s[0]] + [f"({s[j]} - {s[j - 1]})" for j in range(1, n - 1)]
+        c = f"tabs[{t}][{k0 + n - 1}] - {s[-1]} * tabs[{g}][{k0 + n - 1}]"
+        return f"({c}, (" + ", ".join(w) + ",)" + (", ()" if odd else "") + ")"  # the empty tuple: aero.ODD
 
     k0, nk = (nc - half, half) if half else (0, nc)
     parts = [grid(0, 0, nh), sum_form(0, 1, 0, nh, False), sum_form(0, 2, 0, nh, False), grid(3, k0, nk), sum_form(3, 4, k0, nk, half > 0)]
