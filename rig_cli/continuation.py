@@ -99,10 +99,6 @@ def write_loci(sw: Sweep, free: Sequence[str], path: Path) -> None:
                     w.writerow([f"{value:.10g}", "unstable", f"{v:.10g}", *[f"{math.degrees(x[k]):.10g}" for k in cols], "", ""])
 
 
-def _display(unit: str) -> tuple[float, str]:
-    return (180.0 / math.pi, "deg") if unit == "rad" else ((180.0 / math.pi, "deg/s") if unit == "rad/s" else (1.0, unit))
-
-
 def run(
     out: str | Path,
     *,
@@ -124,7 +120,7 @@ def run(
     """``rig continuation``: see the module docstring.  values: (first, last, points); sweep: (name, first, last,
     points) of a second parameter; returns the Branch, or with ``sweep`` the Sweep."""
     import rig_env
-    from rig_env.bifurcation.plot import plot_branch, plot_sweep
+    from rig_env.bifurcation.plot import display_unit, plot_branch, plot_sweep
 
     first, last, n = _grid("--values", values)
     folder = Path(out)
@@ -156,7 +152,7 @@ def run(
     br = rig_env.continuation(p, free_dofs=tuple(free), parameter=parameter, values=np.linspace(first, last, n), airspeed=airspeed,
                               controls=ctrl or None, aero_model=aero_model, periodic=orbits)
     folder.mkdir(parents=True, exist_ok=True)
-    factors = [_display(u) for u in br.state_units]
+    factors = [display_unit(u) for u in br.state_units]
     with open(folder / "branch.csv", "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow([f"{br.parameter} ({br.parameter_unit})", *[f"{s} ({u})" for s, (_, u) in zip(br.state_names, factors)],

@@ -22,8 +22,8 @@ from rig_env.bifurcation.sweep import Sweep
 _MARKERS = {"fold": ("v", "tab:red", "fold"), "hopf": ("o", "tab:purple", "Hopf"), "branch_point": ("D", "tab:brown", "branch point")}
 
 
-def _display(unit: str) -> tuple[float, str]:
-    """Factor and unit in which a state of ``unit`` is drawn (rad -> deg)."""
+def display_unit(unit: str) -> tuple[float, str]:
+    """Factor and unit in which a state of ``unit`` is shown (rad -> deg, rad/s -> deg/s; others unchanged)."""
     return {"rad": (180.0 / math.pi, "deg"), "rad/s": (180.0 / math.pi, "deg/s")}.get(unit, (1.0, unit))
 
 
@@ -41,7 +41,7 @@ def plot_branch(branch: Branch, path: str | Path | None = None, *, state: str | 
     if name not in branch.state_names:
         raise ValueError(f"state = {name!r}: not a state of this branch; states: {list(branch.state_names)}")
     k = branch.state_names.index(name)
-    factor, unit = _display(branch.state_units[k])
+    factor, unit = display_unit(branch.state_units[k])
     fig = Figure(figsize=(7.5, 4.8))
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
