@@ -141,6 +141,30 @@ def test_tuned_gains_meet_the_stated_margins(params, free, joint):
     assert (t.pm_inner, t.gm_inner, t.pm_outer, t.gm_outer) == pytest.approx((pm_i, gm_i, pm_o, gm_o), rel=1e-6)
 
 
+def test_tuning_takes_the_largest_feasible_grid_point(params):
+    """shape_loops scans its grids from the top and stops at the first point that meets the margins: that
+    point must be the largest feasible one of an ascending brute-force scan over the whole grid (rebuilt here
+    from the module's stated procedure, python-control directly)."""
+    from controllers.design.tuning import rate_plant
+
+    t = tune_axis(params, VVR, "rig_roll", 20.0, DT)
+    el = loop_elements(params, DT)
+    s = control.tf("s")
+    G = el["servo"] * el["delay"] * (math.copysign(1.0, t.b) * rate_plant(params, VVR, "rig_roll", 20.0))
+    feasible = []
+    for wc in np.geomspace(0.5, 60.0, 80):
+        C0 = 1 + (wc / 4) / s
+        kp = 1.0 / abs(control.evalfr(C0 * G * el["rate_sensor"], 1j * wc))
+        gm, pm, wx = margins(kp * C0 * G * el["rate_sensor"])
+        if pm >= 50.0 and gm >= 8.0 and np.isfinite(wx):
+            feasible.append((wc, kp))
+    wc, kp = feasible[-1]
+    assert abs(t.kp) == pytest.approx(kp, rel=1e-12) and abs(t.ki) == pytest.approx(kp * wc / 4, rel=1e-12)
+    T_r = control.feedback(kp * (1 + (wc / 4) / s) * G, el["rate_sensor"])
+    ks = [k for k in np.geomspace(0.1, 50.0, 120) if (lambda m: m[1] >= 60.0 and m[0] >= 10.0)(margins(k * T_r / s))]
+    assert t.k_angle == pytest.approx(ks[-1], rel=1e-12)
+
+
 def test_heave_and_sway_resolution_decouples_the_axes(params):
     """With surfaces = R(phi) v, the heave command drives the rig_pitch torque and the sway command the
     rig_yaw torque alone, with the phi = 0 gain.  Compared as generalised forces M B (M from the independent

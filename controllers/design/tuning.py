@@ -118,7 +118,9 @@ def shape_loops(P: control.TransferFunction, el: dict, joint: str, airspeed: flo
     """Loop shaping of the cascade on the rate plant P with the loop elements el (servo, delay, rate sensor).
 
     Inner PI rate loop: the largest crossover in 0.5-60 rad/s (integral corner at a quarter of it) that
-    meets (pm_inner, gm_inner); outer P angle loop: the largest gain that meets (pm_outer, gm_outer).
+    meets (pm_inner, gm_inner); outer P angle loop: the largest gain that meets (pm_outer, gm_outer).  Each
+    grid is scanned from its top down and the scan stops at the first point that meets the margins: the
+    largest feasible point, whatever the feasible set's shape, with the grid points above it evaluated only.
     """
     s = control.tf("s")
     b = float(np.real(control.evalfr(P * s, 1j * 1e4)))  # high-frequency gain: rad/s^2 per unit command
@@ -127,21 +129,23 @@ def shape_loops(P: control.TransferFunction, el: dict, joint: str, airspeed: flo
     best = None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for wc in np.geomspace(0.5, 60.0, 80):
+        for wc in np.geomspace(0.5, 60.0, 80)[::-1]:  # from the top: the first feasible is the largest
             C0 = 1 + (wc / 4) / s
             kp = 1.0 / abs(control.evalfr(C0 * G * el["rate_sensor"], 1j * wc))
             gm, pm, wx = margins(kp * C0 * G * el["rate_sensor"])
             if pm >= pm_inner and gm >= gm_inner and np.isfinite(wx):
-                best = (wc, kp, gm, pm, wx)  # keeps the largest feasible crossover
+                best = (wc, kp, gm, pm, wx)
+                break
         if best is None:
             raise ValueError(f"{joint}: no rate-loop crossover in 0.5-60 rad/s meets PM {pm_inner} deg, GM {gm_inner} dB")
         wc, kp, gm_i, pm_i, wx_i = best
         T_r = control.feedback(kp * (1 + (wc / 4) / s) * G, el["rate_sensor"])
         outer = None
-        for k in np.geomspace(0.1, 50.0, 120):
+        for k in np.geomspace(0.1, 50.0, 120)[::-1]:
             gm, pm, wx = margins(k * T_r / s)
             if pm >= pm_outer and gm >= gm_outer:
                 outer = (k, gm, pm, wx)
+                break
     if outer is None:
         raise ValueError(f"{joint}: no angle-loop gain meets PM {pm_outer} deg, GM {gm_outer} dB")
     k, gm_o, pm_o, wx_o = outer
