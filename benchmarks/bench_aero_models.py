@@ -1,6 +1,6 @@
 """Env-step throughput of the three aerodynamic models, measured in one run (ratios are the figures to quote).
 
-    python benchmarks/bench_aero_models.py [--envs 64 1024] [--seconds 2] [--rounds 3] [--serial] [--json]
+    python benchmarks/bench_aero_models.py [--envs 64 1024] [--seconds 2] [--rounds 3] [--serial] [--kinds lanes joint] [--json]
 
 The harness of ``bench_step.py`` (``rate``: wall and CPU env-steps/s over a window, after a warm-up call
 that compiles or loads the kernel, so compile time is never in the rate), the cases taking turns window by
@@ -14,6 +14,8 @@ joints free, states near trim.  Kernels (``rig_env.physics.pipeline.choose_kerne
   default compensator table, odd, over its non-negative half: ``aero.odd_table``);
 * the same three on the per-environment kernel (``joint``), for reference.
 
+``--kinds lanes``: the lane kernels only (each round then also prints its own unsteady / linear ratio: on a
+shared machine the per-round ratios and their median say more than the ratio of the best rates).
 ``--serial``: every kernel's one-thread version whatever the batch size (on a machine other jobs share, the
 parallel kernels' rendezvous waits for a busy core and the rates of a parallel run move by tens of per
 cent from window to window; one thread's rate per CPU-second does not).
@@ -62,26 +64,41 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--seconds", type=float, default=2.0, help="timing window per case, batch size and round")
     ap.add_argument("--rounds", type=int, default=3, help="rounds of the cases taking turns")
     ap.add_argument("--serial", action="store_true", help="one-thread kernels at every batch size")
+    ap.add_argument("--kinds", nargs="+", choices=("lanes", "joint"), default=["lanes", "joint"])
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     params = RigParams.default()
     out: dict = {"machine": machine_line(), "serial": args.serial, "rates": {}}
     for n in args.envs:
-        steps = {f"{model}/{kind}/{n}": stepper(params, n, model, kind, parallel=False if args.serial else None) for model, kind in CASES}
+        steps = {f"{model}/{kind}/{n}": stepper(params, n, model, kind, parallel=False if args.serial else None)
+                 for model, kind in CASES if kind in args.kinds}
         for key, (step, ran) in steps.items():
             out["rates"][key] = {"kernel": ran, "env_steps_per_s": 0.0, "env_steps_per_cpu_s": 0.0}
-        for _ in range(args.rounds):
+        rounds = []
+        for k in range(args.rounds):
+            this = {}
             for key, (step, _) in steps.items():
                 wall, cpu = rate(step, n, args.seconds, repeats=1)
+                this[key] = cpu
                 r = out["rates"][key]
                 r["env_steps_per_s"], r["env_steps_per_cpu_s"] = max(r["env_steps_per_s"], wall), max(r["env_steps_per_cpu_s"], cpu)
+            if f"linear/lanes/{n}" in this:
+                rounds.append(this[f"unsteady/lanes/{n}"] / this[f"linear/lanes/{n}"])
+                if not args.json:
+                    print(f"round {k + 1}, {n} envs: env-steps per CPU-second " + ", ".join(f"{key} {v:,.0f}" for key, v in this.items())
+                          + f"; unsteady / linear (lanes) {rounds[-1]:.3f}", flush=True)
+        if rounds:
+            out[f"unsteady_over_linear_lanes_cpu_per_round/{n}"] = rounds
+            out[f"unsteady_over_linear_lanes_cpu_median/{n}"] = float(np.median(rounds))
         for unit in ("env_steps_per_s", "env_steps_per_cpu_s"):
             r = {k.rsplit("/", 1)[0]: v[unit] for k, v in out["rates"].items() if k.endswith(f"/{n}")}
             tag = "" if unit == "env_steps_per_s" else "_cpu"
-            out[f"unsteady_over_linear_lanes{tag}/{n}"] = r["unsteady/lanes"] / r["linear/lanes"]
-            out[f"tables_over_linear_lanes{tag}/{n}"] = r["tables/lanes"] / r["linear/lanes"]
+            if "linear/lanes" in r:
+                out[f"unsteady_over_linear_lanes{tag}/{n}"] = r["unsteady/lanes"] / r["linear/lanes"]
+                out[f"tables_over_linear_lanes{tag}/{n}"] = r["tables/lanes"] / r["linear/lanes"]
             for m in MODELS:
-                out[f"{m}_lanes_over_joint{tag}/{n}"] = r[f"{m}/lanes"] / r[f"{m}/joint"]
+                if f"{m}/lanes" in r and f"{m}/joint" in r:
+                    out[f"{m}_lanes_over_joint{tag}/{n}"] = r[f"{m}/lanes"] / r[f"{m}/joint"]
     if args.json:
         print(json.dumps(out, indent=1))
     else:
@@ -91,7 +108,7 @@ def main(argv: list[str] | None = None) -> dict:
             model, kind, n = k.split("/")
             print(f"{model:10s} {kind:6s} {v['kernel']:6s} {n:>6s} {v['env_steps_per_s']:12,.0f} {v['env_steps_per_cpu_s']:12,.0f}")
         for k, v in out.items():
-            if "_over_" in k:
+            if "_over_" in k and not isinstance(v, list):
                 print(f"{k}: {v:.3f}")
     return out
 

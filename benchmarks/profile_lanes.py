@@ -1,9 +1,10 @@
 """Where the lane kernel's time goes, instruction by instruction: sampled with ``perf``, mapped onto its machine code.
 
-    python benchmarks/profile_lanes.py [--envs 1024] [--seconds 8] [--rate 10000]
+    python benchmarks/profile_lanes.py [--envs 1024] [--seconds 8] [--rate 10000] [--aero-model unsteady]
 
-Runs ``lanes.step_lanes_serial`` (one thread, so every sample is the kernel's own work) on a
-velocity-vector-roll batch under ``perf record -e cpu-clock`` (a software clock: virtual machines
+Runs the serial lane kernel of the aerodynamic model (``lanes.step_lanes_serial`` for the linear model, the
+default; ``step_lanes_tables_serial``, ``step_lanes_unsteady_serial``; one thread, so every sample is the
+kernel's own work) on a velocity-vector-roll batch under ``perf record -e cpu-clock`` (a software clock: virtual machines
 rarely expose hardware counters), reads the kernel's machine code from numba's disk cache (an ELF
 object, as ``tests/test_lanes.py`` does) and maps each sampled instruction pointer onto it through the
 address at which the process loaded the kernel.  Prints the share of the samples per function of the
@@ -35,14 +36,14 @@ _JUMP = re.compile(r"^j\w+\s+([0-9a-f]+)")
 _MOVES = ("vmovupd", "vmovapd", "vmovups", "vmovaps", "vmovsd")
 
 
-def child(n: int, seconds: float) -> None:
-    """Step the serial lane kernel for ``seconds``; print the object's load address and its cache file."""
+def child(n: int, seconds: float, aero_model: str) -> None:
+    """Step the serial lane kernel of ``aero_model`` for ``seconds``; print the object's load address and its cache file."""
     import numpy as np
 
     from rig_env.envs import RigVectorEnv
     from rig_env.physics import lanes
 
-    env = RigVectorEnv(n)
+    env = RigVectorEnv(n, aero_model=aero_model)
     env.physics.select_kernel("lanes", parallel=False)  # one thread: the samples are the kernel's alone
     env.reset(seed=0)
     a = np.random.default_rng(0).uniform(-1, 1, (n, 3))
@@ -53,9 +54,11 @@ def child(n: int, seconds: float) -> None:
         env.advance_physics()
         k += 1
     print(f"US_PER_STEP {(time.perf_counter() - t0) / k * 1e6:.1f}")
-    ((_, cres),) = lanes.step_lanes_serial.overloads.items()
+    kernel = lanes.KERNELS[{"linear": 0, "tables": 1, "unsteady": 2}[aero_model]][0]
+    ((_, cres),) = kernel.overloads.items()
     print(f"ENTRY {cres.fndesc.llvm_func_name} {cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)}")
-    cached = sorted(Path(lanes.step_lanes_serial._cache._cache_path).glob("lanes.step_lanes_serial-*.nbc"), key=lambda f: f.stat().st_mtime)
+    name = kernel.py_func.__name__
+    cached = sorted(Path(kernel._cache._cache_path).glob(f"lanes.{name}-*.nbc"), key=lambda f: f.stat().st_mtime)
     print(f"OBJECT {cached[-1]}")
 
 
@@ -132,10 +135,11 @@ def main() -> None:
     ap.add_argument("--envs", type=int, default=1024)
     ap.add_argument("--seconds", type=float, default=8.0)
     ap.add_argument("--rate", type=int, default=10000, help="samples per second (perf -F)")
+    ap.add_argument("--aero-model", choices=("linear", "tables", "unsteady"), default="linear")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child:
-        child(args.envs, args.seconds)
+        child(args.envs, args.seconds, args.aero_model)
         return
     missing = [t for t in ("perf", "objdump") if shutil.which(t) is None]
     if missing:
@@ -144,7 +148,8 @@ def main() -> None:
         work = Path(tmp)
         data = work / "perf.data"
         cmd = ["perf", "record", "-q", "-e", "cpu-clock", "-F", str(args.rate), "-o", str(data), "--",
-               sys.executable, __file__, "--child", "--envs", str(args.envs), "--seconds", str(args.seconds)]
+               sys.executable, __file__, "--child", "--envs", str(args.envs), "--seconds", str(args.seconds),
+               "--aero-model", args.aero_model]
         run = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "NUMBA_NUM_THREADS": "1"})
         if run.returncode != 0:
             sys.exit(f"perf record failed ({run.returncode}): {run.stderr.strip()[-500:]}")
@@ -155,7 +160,7 @@ def main() -> None:
         ips = subprocess.run(["perf", "script", "-i", str(data), "-F", "ip"], capture_output=True, text=True, check=True).stdout.split()
         counts = collections.Counter(int(ip, 16) - base for ip in ips)
         counts = collections.Counter({o: c for o, c in counts.items() if o in insns})
-        print(f"# step_lanes_serial, {args.envs} environments, one thread: {out['US_PER_STEP']} us per control step under perf")
+        print(f"# {out['ENTRY'].split()[0][:60]} ({args.aero_model}), {args.envs} environments, one thread: {out['US_PER_STEP']} us per control step under perf")
         report(counts, insns, symbols, len(ips))
 
 

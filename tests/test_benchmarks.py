@@ -7,6 +7,7 @@ change of a kernel's signature cannot leave a benchmark broken unnoticed (``lane
 """
 
 import numpy as np
+import pytest
 
 from benchmarks import bench_step as b
 
@@ -49,3 +50,16 @@ def test_autoreset_bench_times_both_modes():
 
     r = bench_autoreset.bench(2, 0.1, 0.01, 2)
     assert sorted(r) == ["NextStep", "SameStep"] and all(len(v) == 2 and min(v) > 0 for v in r.values())
+
+
+def test_aero_models_bench_reports_each_rounds_ratio(capsys):
+    """benchmarks/bench_aero_models.py on the lane kernels only: a ratio per round (each the round's own unsteady
+    rate over its linear one) and their median; the per-environment kernels are not built."""
+    from benchmarks import bench_aero_models
+
+    out = bench_aero_models.main(["--envs", "8", "--seconds", "0.05", "--rounds", "2", "--serial", "--kinds", "lanes", "--json"])
+    per_round = out["unsteady_over_linear_lanes_cpu_per_round/8"]
+    assert len(per_round) == 2 and all(r > 0 for r in per_round)
+    assert out["unsteady_over_linear_lanes_cpu_median/8"] == pytest.approx(0.5 * (per_round[0] + per_round[1]), rel=1e-12)
+    assert set(out["rates"]) == {f"{m}/lanes/8" for m in ("linear", "tables", "unsteady")}
+    assert "linear_lanes_over_joint/8" not in out
