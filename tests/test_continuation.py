@@ -88,6 +88,36 @@ def test_periodic_orbits_of_the_hopf_normal_form(sign):
     assert np.all(ob.stable == (sign < 0))
 
 
+def test_an_orbit_family_between_two_hopf_points_ends_where_it_shrinks_back():
+    """r' = mu(p) r - r^3, theta' = omega with mu(p) = p (1 - p): Hopf points at p = 0 and p = 1 and, between them,
+    stable orbits of radius sqrt(p (1 - p)) (at most 1/2 at p = 1/2).  The family from p = 0 grows and shrinks back
+    to the equilibrium at p = 1, where it ends; the curve is not traced on along the equilibrium as orbits of zero
+    size (with room for 300 orbits, the tracing stops within a few of the second Hopf point)."""
+    w = 2.0
+
+    def field(X, P):
+        mu = P * (1.0 - P)
+        r2 = (X**2).sum(axis=1)
+        return np.stack([mu * X[:, 0] - w * X[:, 1] - X[:, 0] * r2, w * X[:, 0] + mu * X[:, 1] - X[:, 1] * r2], axis=1)
+
+    br = equilibria(lambda x, p: field(x[None, :], np.array([p]))[0], [0.0, 0.0], np.linspace(-0.2, 1.2, 15))
+    assert br.hopf == pytest.approx([0.0, 1.0], abs=1e-7)
+    calls = [0]
+    flow = rk4_flow(field, 200)
+
+    def counted(X, T, P, samples):
+        calls[0] += 1
+        return flow(X, T, P, samples)
+
+    ob = orbits(field, counted, br.hopf_points()[0], (-0.2, 1.2), amplitude=0.02, max_orbits=300)
+    assert ob.end.startswith("shrank back")
+    assert ob.values.max() > 0.9 and ob.values.min() > 0.0
+    assert ob.upper[:, 0] == pytest.approx(np.sqrt(ob.values * (1.0 - ob.values)), rel=1e-3)
+    assert ob.stable.all()
+    assert ob.values.size < 100
+    assert calls[0] < 10 * ob.values.size  # the Newton steps of the orbits kept (and the one shrunk), not 300 orbits'
+
+
 # ---------------------------------------------------------------------------- the rig
 PITCH_HEAVE = ("rig_pitch", "model_pitch")
 

@@ -101,11 +101,13 @@ def step_from(fj: Residual, a: Point, ds: float, s: Settings) -> Point | None:
 
 
 def trace(fj: Residual, start: Point, inside: Callable[[np.ndarray], bool], s: Settings,
-          accepted: Callable[[Point], None] | None = None) -> tuple[list[Point], str]:
+          accepted: Callable[[Point], None] | None = None, stop: Callable[[Point], str] | None = None) -> tuple[list[Point], str]:
     """Follow the curve from ``start`` along its tangent while ``inside(y)``; returns the points and why it ended.
 
     The last point returned is the first one outside (the caller cuts the curve at the boundary).
-    ``accepted(point)`` is called on every new point (e.g. to move a phase condition's reference).
+    ``accepted(point)`` is called on every new point (e.g. to move a phase condition's reference); then
+    ``stop(point)``, if given, on every new point inside: a non-empty string ends the curve there (that
+    point the last returned) with that string as the reason.
     """
     pts = [start]
     ds = s.ds
@@ -120,6 +122,9 @@ def trace(fj: Residual, start: Point, inside: Callable[[np.ndarray], bool], s: S
                     accepted(b)
                 if not inside(b.y):
                     return pts, "left the parameter range"
+                why = stop(b) if stop is not None else ""
+                if why:
+                    return pts, why
                 ds = b.ds
                 continue
         if out is None:
@@ -143,6 +148,9 @@ def trace(fj: Residual, start: Point, inside: Callable[[np.ndarray], bool], s: S
             accepted(b)
         if not inside(y):
             return pts, "left the parameter range"
+        why = stop(b) if stop is not None else ""
+        if why:
+            return pts, why
         if it <= 3:
             ds = min(1.5 * ds, s.ds_max)
     return pts, f"stopped after max_points = {s.max_points} points"

@@ -186,11 +186,32 @@ def orbits(
         _, T, p = sh.unpack(z)
         return lo - margin <= p <= hi + margin and 0 < T < max_period
 
+    def extremes(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        x, T, p = sh.unpack(z)
+        traj = flow(x[None, :], T, np.array([p]), samples)[0]
+        return traj.min(axis=0), traj.max(axis=0)
+
+    # a family that grows and shrinks back ends at another Hopf point: past it the curve would follow the
+    # equilibrium as a zero-amplitude "orbit" of any period, which is no orbit at all.  Each orbit's extremes
+    # (the widest state's peak-to-peak, against the first orbit's) are taken as the curve is traced, which
+    # ends at the first orbit that has shrunk below half the first after growing past twice it
     first = Point(found[0], t, J1, 0.0, 0.0)
+    seen = {id(found[0]): extremes(found[0]), id(found[1]): extremes(found[1])}
+    size0 = float(np.max(seen[id(found[0])][1] - seen[id(found[0])][0]))
+    shrank = "shrank back to an equilibrium (another Hopf point)"
+    grown = [float(np.max(seen[id(found[1])][1] - seen[id(found[1])][0])) >= 2.0 * size0]
+
+    def shrunk(b: Point) -> str:
+        lo_b, hi_b = seen[id(b.y)] = extremes(b.y)
+        a = float(np.max(hi_b - lo_b))
+        grown[0] = grown[0] or a >= 2.0 * size0
+        return shrank if grown[0] and a < 0.5 * size0 else ""
+
     pts, why = trace(sh, Point(found[1], null_vector(J1, t), J1, 0.0, 0.0), inside, s,
-                     accepted=lambda b: sh.set_reference(*sh.unpack(b.y)[::2]))  # fmt: skip
-    pts = [first, *pts]
-    pts = [p for p in pts if inside(p.y)]
+                     accepted=lambda b: sh.set_reference(*sh.unpack(b.y)[::2]), stop=shrunk)  # fmt: skip
+    pts = [p for p in [first, *pts] if inside(p.y)]
+    if why == shrank:
+        pts = pts[:-1]  # the shrunk orbit itself
     if why == "left the parameter range":
         why = "left the parameter range or reached the largest period"
     rows = []
@@ -198,17 +219,8 @@ def orbits(
         x, T, p = sh.unpack(pt.y)
         _, M, _, _ = sh.jacobian_parts(pt.y)
         mu, stable = floquet(M)
-        traj = flow(x[None, :], T, np.array([p]), samples)[0]
-        rows.append((p, T, x, traj.min(axis=0), traj.max(axis=0), mu, stable))
-    # a family that grows and shrinks back ends at another Hopf point: past it the curve would follow the
-    # equilibrium as a zero-amplitude "orbit" of any period, which is no orbit at all
-    size = [float(np.max(r[4] - r[3])) for r in rows]  # the widest state's peak-to-peak, against the first orbit's
-    grown = False
-    for k, a in enumerate(size):
-        grown = grown or a >= 2.0 * size[0]
-        if grown and a < 0.5 * size[0]:
-            rows, why = rows[:k], "shrank back to an equilibrium (another Hopf point)"
-            break
+        lo_x, hi_x = seen[id(pt.y)] if id(pt.y) in seen else extremes(pt.y)
+        rows.append((p, T, x, lo_x, hi_x, mu, stable))
     cols = list(zip(*rows)) if rows else [()] * 7
     return OrbitBranch(
         values=np.array(cols[0], dtype=float), periods=np.array(cols[1], dtype=float),
