@@ -119,8 +119,8 @@ def shape_loops(P: control.TransferFunction, el: dict, joint: str, airspeed: flo
 
     Inner PI rate loop: the largest crossover in 0.5-60 rad/s (integral corner at a quarter of it) that
     meets (pm_inner, gm_inner); outer P angle loop: the largest gain that meets (pm_outer, gm_outer).  Each
-    grid is scanned from its top down and the scan stops at the first point that meets the margins: the
-    largest feasible point, whatever the feasible set's shape, with the grid points above it evaluated only.
+    grid is scanned from its top down and the scan stops at the first point that meets the margins: that is
+    the largest feasible point whatever the feasible set's shape, and only the points above it are evaluated.
     """
     s = control.tf("s")
     b = float(np.real(control.evalfr(P * s, 1j * 1e4)))  # high-frequency gain: rad/s^2 per unit command
