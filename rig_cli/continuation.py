@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rig_env.bifurcation.result import Branch
+from rig_env.bifurcation.result import Branch, SpecialPoint
 from rig_env.bifurcation.sweep import Sweep
 from rig_env.params import PARAM_NAMES, SURFACES, ParameterError, RigParams
 
@@ -79,6 +79,11 @@ def _grid(option: str, values: Sequence[float]) -> tuple[float, float, int]:
     return first, last, int(n)
 
 
+def _point_cells(sp: SpecialPoint, cols: Sequence[int]) -> list[str]:
+    """A special point's CSV cells: kind, parameter value, the states of ``cols`` (deg), the Hopf frequency (Hz)."""
+    return [sp.kind, f"{sp.value:.10g}", *[f"{math.degrees(sp.state[k]):.10g}" for k in cols], f"{sp.frequency_hz:.6g}" if sp.kind == "hopf" else ""]
+
+
 def write_loci(sw: Sweep, free: Sequence[str], path: Path) -> None:
     """The sweep's special points and unstable sampled equilibria as CSV: sweep value, kind ("fold", "hopf", ...,
     or "unstable" for a sampled equilibrium that is), parameter value, the free joints (deg), the Hopf frequency (Hz)."""
@@ -92,8 +97,7 @@ def write_loci(sw: Sweep, free: Sequence[str], path: Path) -> None:
                 continue
             cols = [br.state_names.index(j) for j in free]
             for sp in br.special_points:
-                w.writerow([f"{value:.10g}", sp.kind, f"{sp.value:.10g}", *[f"{math.degrees(sp.state[k]):.10g}" for k in cols],
-                            f"{sp.frequency_hz:.6g}" if sp.kind == "hopf" else "", ""])
+                w.writerow([f"{value:.10g}", *_point_cells(sp, cols), ""])
             for v, x, st in zip(br.values, br.states, br.stable):
                 if not st:
                     w.writerow([f"{value:.10g}", "unstable", f"{v:.10g}", *[f"{math.degrees(x[k]):.10g}" for k in cols], "", ""])
@@ -165,8 +169,7 @@ def run(
         w = csv.writer(fh)
         w.writerow(["kind", f"{br.parameter} ({br.parameter_unit})", *[f"{s} (deg)" for _, s in joints], "frequency (Hz)"])
         for sp in br.special_points:
-            w.writerow([sp.kind, f"{sp.value:.10g}", *[f"{math.degrees(sp.state[k]):.10g}" for k, _ in joints],
-                        f"{sp.frequency_hz:.6g}" if sp.kind == "hopf" else ""])
+            w.writerow(_point_cells(sp, [k for k, _ in joints]))
     with open(folder / "orbits.csv", "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["family", f"{br.parameter} ({br.parameter_unit})", "period (s)", *[f"{s} amplitude (deg)" for _, s in joints], "stable"])

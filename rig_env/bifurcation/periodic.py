@@ -196,16 +196,22 @@ def orbits(
     # (the widest state's peak-to-peak, against the first orbit's) are taken as the curve is traced, which
     # ends at the first orbit that has shrunk below half the first after growing past twice it
     first = Point(found[0], t, J1, 0.0, 0.0)
-    seen = {id(found[0]): extremes(found[0]), id(found[1]): extremes(found[1])}
-    size0 = float(np.max(seen[id(found[0])][1] - seen[id(found[0])][0]))
+    seen = {id(z): extremes(z) for z in found}  # every orbit kept is here: the two found and each one trace accepts inside
+
+    def width(z: np.ndarray) -> float:
+        lo_z, hi_z = seen[id(z)]
+        return float(np.max(hi_z - lo_z))
+
+    size0 = width(found[0])
     shrank = "shrank back to an equilibrium (another Hopf point)"
-    grown = [float(np.max(seen[id(found[1])][1] - seen[id(found[1])][0])) >= 2.0 * size0]
+    grown = width(found[1]) >= 2.0 * size0
 
     def shrunk(b: Point) -> str:
-        lo_b, hi_b = seen[id(b.y)] = extremes(b.y)
-        a = float(np.max(hi_b - lo_b))
-        grown[0] = grown[0] or a >= 2.0 * size0
-        return shrank if grown[0] and a < 0.5 * size0 else ""
+        nonlocal grown
+        seen[id(b.y)] = extremes(b.y)
+        a = width(b.y)
+        grown = grown or a >= 2.0 * size0
+        return shrank if grown and a < 0.5 * size0 else ""
 
     pts, why = trace(sh, Point(found[1], null_vector(J1, t), J1, 0.0, 0.0), inside, s,
                      accepted=lambda b: sh.set_reference(*sh.unpack(b.y)[::2]), stop=shrunk)  # fmt: skip
@@ -219,8 +225,7 @@ def orbits(
         x, T, p = sh.unpack(pt.y)
         _, M, _, _ = sh.jacobian_parts(pt.y)
         mu, stable = floquet(M)
-        lo_x, hi_x = seen[id(pt.y)] if id(pt.y) in seen else extremes(pt.y)
-        rows.append((p, T, x, lo_x, hi_x, mu, stable))
+        rows.append((p, T, x, *seen[id(pt.y)], mu, stable))
     cols = list(zip(*rows)) if rows else [()] * 7
     return OrbitBranch(
         values=np.array(cols[0], dtype=float), periods=np.array(cols[1], dtype=float),

@@ -58,12 +58,8 @@ def interp(x: float, xs, ys) -> float:
     lane kernel), or, for an odd table, the breakpoints of its non-negative half with ys the half's sum form
     marked odd, ``(c, w, ODD)`` (:func:`table_odd_form`, :func:`odd_table`: the same at half the
     segments).  Every form gives the value of :func:`search_table` to rounding."""
-    if isinstance(ys, tuple) and isinstance(ys[1], tuple):
-        odd = len(ys) == 3
-        xc = min(max(abs(x) if odd else x, xs[0]), xs[-1])
-        w = ys[1]
-        v = float(ys[0] + w[0] * xc + sum(w[k] * max(xc, xs[k]) for k in range(1, len(w))))
-        return math.copysign(1.0, x) * v if odd else v
+    if isinstance(ys, tuple) and isinstance(ys[1], tuple):  # the compiled forms' own functions, run as Python
+        return float((odd_table if len(ys) == 3 else sum_table)(len(xs))(x, xs, ys))
     return float(np.interp(x, xs, ys))
 
 
