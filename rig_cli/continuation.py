@@ -6,10 +6,13 @@
                      [--sweep NAME FIRST LAST POINTS] [--out DIR] [--overwrite]
 
 Runs :func:`rig_env.continuation` and prints the special points (kind, parameter, the free joints in deg, the
-Hopf frequency in Hz), the limit-cycle families (parameter range, largest amplitude in deg, period in s,
-stability) and the notes; writes ``DIR/branch.csv`` (the sampled branch: parameter, every state in deg or
-deg/s (the aerodynamic states in their units), stable, the leading eigenvalue's real and imaginary parts in
-1/s), ``DIR/special_points.csv``, ``DIR/orbits.csv`` and ``DIR/bifurcation.png`` (the diagram of ``--state``).
+Hopf frequency in Hz), the limit-cycle families (the Hopf point's criticality, parameter range, largest
+amplitude in deg, period in s, stability, and each family's folds of cycles, period doublings and tori) and
+the notes; writes ``DIR/branch.csv`` (the sampled branch: parameter, every state in deg or deg/s (the
+aerodynamic states in their units), stable, the leading eigenvalue's real and imaginary parts in 1/s),
+``DIR/special_points.csv``, ``DIR/orbits.csv`` (per family its orbits, kind "orbit", then its located
+bifurcations, kind "cycle_fold", "period_doubling" or "torus", stable left empty) and ``DIR/bifurcation.png``
+(the diagram of ``--state``).
 With ``--sweep`` a second parameter is swept (:func:`rig_env.continuation_sweep`, no orbits): a line per value, then
 ``DIR/loci.csv`` (its special points and unstable sampled equilibria: sweep value, kind, parameter, the free joints
 in deg, the Hopf frequency in Hz) and ``DIR/sweep.png`` (the two-parameter diagram).
@@ -25,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rig_env.bifurcation.result import Branch, SpecialPoint
+from rig_env.bifurcation.result import Branch, OrbitBranch, SpecialPoint
 from rig_env.bifurcation.sweep import Sweep
 from rig_env.params import PARAM_NAMES, SURFACES, ParameterError, RigParams
 
@@ -79,6 +82,20 @@ def _grid(option: str, values: Sequence[float]) -> tuple[float, float, int]:
     return first, last, int(n)
 
 
+_CYCLE_NAMES = {"cycle_fold": "fold of the orbits", "period_doubling": "period doubling", "torus": "torus (Neimark-Sacker)"}
+
+
+def _stability_words(ob: OrbitBranch) -> str:
+    """'all stable', 'all unstable' or 'stable in part' over the orbits whose multipliers can be read, and how many cannot."""
+    st = ob.stable[ob.reliable]
+    words = "stability not read" if not st.size else ("all stable" if st.all() else ("all unstable" if not st.any() else "stable in part"))
+    bad = int(np.sum(~ob.reliable))
+    if bad:
+        words += (f" ({bad} of {ob.values.size} orbits' multipliers not reliable, error up to {ob.multiplier_errors.max():.2g}: "
+                  "the tables' kinks under fixed-step RK4; a smaller --physics-dt reduces it)")
+    return words
+
+
 def _point_cells(sp: SpecialPoint, cols: Sequence[int]) -> list[str]:
     """A special point's CSV cells: kind, parameter value, the states of ``cols`` (deg), the Hopf frequency (Hz)."""
     return [sp.kind, f"{sp.value:.10g}", *[f"{math.degrees(sp.state[k]):.10g}" for k in cols], f"{sp.frequency_hz:.6g}" if sp.kind == "hopf" else ""]
@@ -116,17 +133,21 @@ def run(
     lift_break: Sequence[float] | None = None,
     params_file: str | None = None,
     orbits: bool = True,
+    physics_dt: float = 1e-3,
     state: str | None = None,
     sweep: tuple[str, float, float, float] | None = None,
     overwrite: bool = False,
     echo: bool = True,
 ) -> Branch | Sweep:
     """``rig continuation``: see the module docstring.  values: (first, last, points); sweep: (name, first, last,
-    points) of a second parameter; returns the Branch, or with ``sweep`` the Sweep."""
+    points) of a second parameter; physics_dt: the orbits' RK4 step (s, :func:`rig_env.continuation`); returns the
+    Branch, or with ``sweep`` the Sweep."""
     import rig_env
     from rig_env.bifurcation.plot import display_unit, plot_branch, plot_sweep
 
     first, last, n = _grid("--values", values)
+    if not (math.isfinite(physics_dt) and physics_dt > 0.0):
+        raise ValueError(f"--physics-dt {physics_dt}: the orbits' RK4 step must be a positive number of seconds")
     folder = Path(out)
     if sweep is not None:
         s_first, s_last, s_n = _grid("--sweep", sweep[1:])
@@ -154,7 +175,7 @@ def run(
         print(f"continuing {', '.join(free)} over {parameter} ({n} values, {aero_model} model"
               f"{'; then the orbits of each Hopf point by shooting, up to a minute' if orbits else ''}) ...", flush=True)
     br = rig_env.continuation(p, free_dofs=tuple(free), parameter=parameter, values=np.linspace(first, last, n), airspeed=airspeed,
-                              controls=ctrl or None, aero_model=aero_model, periodic=orbits)
+                              controls=ctrl or None, aero_model=aero_model, periodic=orbits, physics_dt=physics_dt)
     folder.mkdir(parents=True, exist_ok=True)
     factors = [display_unit(u) for u in br.state_units]
     with open(folder / "branch.csv", "w", newline="") as fh:
@@ -172,11 +193,14 @@ def run(
             w.writerow(_point_cells(sp, [k for k, _ in joints]))
     with open(folder / "orbits.csv", "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["family", f"{br.parameter} ({br.parameter_unit})", "period (s)", *[f"{s} amplitude (deg)" for _, s in joints], "stable"])
+        w.writerow(["family", f"{br.parameter} ({br.parameter_unit})", "period (s)", *[f"{s} amplitude (deg)" for _, s in joints], "stable",
+                    "kind", "multiplier error"])
         for i, ob in enumerate(br.orbits):
-            for j in range(ob.values.size):
+            for j in range(ob.values.size):  # stable left empty where the multipliers cannot be read (OrbitBranch.reliable)
                 w.writerow([i, f"{ob.values[j]:.10g}", f"{ob.periods[j]:.6g}", *[f"{math.degrees(ob.amplitudes[j, k]):.6g}" for k, _ in joints],
-                            int(bool(ob.stable[j]))])
+                            int(bool(ob.stable[j])) if ob.reliable[j] else "", "orbit", f"{ob.multiplier_errors[j]:.2g}"])
+            for c in ob.special_points:  # the family's located bifurcations: marginal orbits, neither stable nor unstable
+                w.writerow([i, f"{c.value:.10g}", f"{c.period:.6g}", *[f"{math.degrees(c.amplitudes[k]):.6g}" for k, _ in joints], "", c.kind, ""])
     title = f"{br.parameter}: {', '.join(free)} free, {aero_model}, {airspeed if airspeed is not None else 20.0:g} m/s"
     plot_branch(br, folder / "bifurcation.png", state=state, title=title)
     if echo:
@@ -201,9 +225,12 @@ def summary(br: Branch, free: Sequence[str]) -> str:
             lines.append(f"orbit family {i}: none computed ({ob.end})")
             continue
         amp = np.degrees(ob.amplitudes[:, [k for k, _ in joints]]).max(axis=0)
-        lines.append(f"orbit family {i} from the Hopf point at {ob.hopf.value:.5g}: {br.parameter} {ob.values.min():.5g} to {ob.values.max():.5g}, "
+        lines.append(f"orbit family {i} from the {ob.criticality} Hopf point at {ob.hopf.value:.5g}: {br.parameter} {ob.values.min():.5g} to {ob.values.max():.5g}, "
                      f"largest amplitude " + ", ".join(f"{s} {a:.2f} deg" for (_, s), a in zip(joints, amp))
                      + f", period {ob.periods.min():.3f}-{ob.periods.max():.3f} s, "
-                     + ("all stable" if ob.stable.all() else ("all unstable" if not ob.stable.any() else "stable in part")) + f"; ended: {ob.end}")
+                     + _stability_words(ob) + f"; ended: {ob.end}")
+        for c in ob.special_points:
+            lines.append(f"  {_CYCLE_NAMES[c.kind]} at {br.parameter} {c.value:.5g}: period {c.period:.3f} s, amplitude "
+                         + ", ".join(f"{s} {math.degrees(c.amplitudes[k]):.2f} deg" for k, s in joints))
     lines += [f"note: {n}" for n in br.notes]
     return "\n".join(lines)

@@ -15,7 +15,7 @@
         the rig picture with its frames (DIR/rig_frames.png)
     rig continuation --free JOINT ... --parameter NAME --values FIRST LAST POINTS [--aero-model M] [--airspeed M/S]
                      [--control SURFACE=DEG ...] [--set NAME=VALUE ...] [--lift-break DEG DEPTH] [--params FILE]
-                     [--no-orbits] [--state JOINT] [--sweep NAME FIRST LAST POINTS] [--out DIR] [--overwrite]
+                     [--no-orbits] [--physics-dt S] [--state JOINT] [--sweep NAME FIRST LAST POINTS] [--out DIR] [--overwrite]
         equilibria over a parameter with their stability, folds, Hopf points and limit cycles
         (rig_env.continuation; rig_cli.continuation): prints the special points and orbit families, writes
         branch.csv, special_points.csv, orbits.csv and bifurcation.png into DIR (default out/continuation);
@@ -323,6 +323,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="a local loss of the Hawk's lift: DEPTH of CL at DEG, between two table breakpoints (RigParams.with_lift_break)")
     k.add_argument("--params", default=None, metavar="FILE.toml", help="rig parameter file (default: the default rig)")
     k.add_argument("--no-orbits", action="store_true", help="equilibria only: no periodic orbits from the Hopf points")
+    k.add_argument("--physics-dt", type=float, default=1e-3, metavar="S",
+                   help="the orbits' RK4 step, s (default 0.001; smaller: more accurate multipliers of orbits through the tables' kinks, slower)")
     k.add_argument("--state", default=None, metavar="JOINT", help="the free joint the diagram shows (default: the first)")
     k.add_argument("--sweep", nargs=4, default=None, metavar=("NAME", "FIRST", "LAST", "POINTS"),
                    help="a second parameter swept (a surface, airspeed or a rig parameter): the loci of the folds and Hopf points "
@@ -411,7 +413,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             continue_branch(args.out, free=args.free, parameter=args.parameter, values=args.values, aero_model=args.aero_model,
                             airspeed=args.airspeed, controls=args.control, sets=args.set, lift_break=args.lift_break,
-                            params_file=args.params, orbits=not args.no_orbits, state=args.state, sweep=_sweep_arg(args.sweep),
+                            params_file=args.params, orbits=not args.no_orbits, physics_dt=args.physics_dt, state=args.state, sweep=_sweep_arg(args.sweep),
                             overwrite=args.overwrite)
     except ValueError as exc:  # bad argument values: one line, no traceback
         print(f"rig {args.command}: error: {exc}", file=sys.stderr)

@@ -55,13 +55,15 @@ def test_continuation_command_reports_hopf_points_and_orbits_of_the_lower_band(t
     assert main(["continuation", "--free", "model_pitch", "--parameter", "hawk_elevator", "--values", "1.5", "0.3", "25",
                  "--aero-model", "unsteady", "--set", "hawk_aero.sep_cp_travel=0.2", "--lift-break", "6", "0.05", "--out", str(out)]) == 0
     text = capsys.readouterr().out
-    assert "orbit family 0" in text and "all stable" in text
+    assert "orbit family 0 from the supercritical Hopf point" in text and "all stable" in text
     sp = read(out / "special_points.csv")[1:]
     assert [r[0] for r in sp] == ["hopf", "hopf"]
     assert sorted(float(r[2]) for r in sp) == pytest.approx([4.45, 6.0], abs=0.05)
-    orbits = read(out / "orbits.csv")[1:]
-    amp = max(float(r[3]) for r in orbits)
-    assert 1.2 < amp < 1.6 and all(r[4] == "1" for r in orbits)
+    orbits = read(out / "orbits.csv")
+    assert orbits[0][-3:] == ["stable", "kind", "multiplier error"]
+    amp = max(float(r[3]) for r in orbits[1:])
+    # every orbit read as stable (its multipliers clear of the unit circle by more than their error), no fold, doubling or torus
+    assert 1.2 < amp < 1.6 and all(r[4] == "1" and r[5] == "orbit" and 0.0 <= float(r[6]) < 0.02 for r in orbits[1:])
 
 
 @pytest.mark.parametrize(("option", "message"), [
@@ -78,6 +80,8 @@ def test_continuation_command_reports_hopf_points_and_orbits_of_the_lower_band(t
     ({"--state": ["rig_roll"]}, "--state 'rig_roll': must be one of the free joints ['model_pitch']"),
     ({"--aero-model": ["stall"]}, "aero_model"),
     ({"--parameter": ["hawk_aero.nothing"]}, "hawk_aero.nothing"),
+    ({"--physics-dt": ["0"]}, "--physics-dt 0.0: the orbits' RK4 step must be a positive number of seconds"),
+    ({"--physics-dt": ["nan"]}, "--physics-dt nan: the orbits' RK4 step must be a positive number of seconds"),
 ])
 def test_continuation_command_refuses_bad_input_by_name(tmp_path, capsys, option, message):
     opts = {"--free": ["model_pitch"], "--parameter": ["hawk_elevator"], "--values": ["2", "-2", "5"], **option}

@@ -19,6 +19,7 @@ import pytest
 import rig_env
 from rig_env.bifurcation import equilibria, orbits, rk4_flow
 from rig_env.bifurcation.plot import plot_branch
+from rig_env.bifurcation.result import SpecialPoint, readable
 
 
 # ---------------------------------------------------------------------------- closed forms
@@ -86,6 +87,102 @@ def test_periodic_orbits_of_the_hopf_normal_form(sign):
     nontrivial = np.abs(ob.multipliers).min(axis=1) if sign < 0 else np.abs(ob.multipliers).max(axis=1)
     assert nontrivial == pytest.approx(np.exp(2 * sign * np.abs(mu) * 2 * np.pi / w), rel=1e-4)
     assert np.all(ob.stable == (sign < 0))
+    assert ob.criticality == ("supercritical" if sign < 0 else "subcritical")
+    assert ob.special_points == () and ob.folds.size == 0
+
+
+def test_subcritical_hopf_orbits_turn_at_the_fold_of_cycles_where_mu_is_minus_a_quarter():
+    """r' = r (mu + r^2 - r^4), theta' = omega: a subcritical Hopf point at mu = 0; orbits where mu = r^4 - r^2, so the
+    family turns at mu = -1/4, r^2 = 1/2 (a fold of cycles, period 2 pi / omega), unstable on the inner branch (the
+    amplitude's multiplier exp(2 r^2 (1 - 2 r^2) T) > 1) and stable on the outer one, which reaches mu = 0.5 at
+    r^2 = (1 + sqrt 3) / 2.  The jump and hysteresis of a subcritical loss of stability, from closed form."""
+    w = 2.0
+
+    def field(X, P):
+        r2 = (X**2).sum(axis=1)
+        g = P + r2 - r2 * r2
+        return np.stack([g * X[:, 0] - w * X[:, 1], w * X[:, 0] + g * X[:, 1]], axis=1)
+
+    br = equilibria(lambda x, p: field(x[None, :], np.array([p]))[0], [0.0, 0.0], np.linspace(-0.5, 0.5, 11))
+    ob = orbits(field, rk4_flow(field, 200), br.hopf_points()[0], (-0.5, 0.5), amplitude=0.05, max_orbits=60)
+    assert ob.criticality == "subcritical"
+    assert [c.kind for c in ob.special_points] == ["cycle_fold"]
+    fold = ob.points("cycle_fold")[0]
+    assert ob.folds == pytest.approx([-0.25], abs=1e-6)
+    assert fold.upper[0] == pytest.approx(math.sqrt(0.5), rel=1e-4) and fold.period == pytest.approx(math.pi, rel=1e-8)
+    assert np.sort(np.abs(fold.multipliers)) == pytest.approx([1.0, 1.0], abs=1e-5)  # the amplitude's multiplier at +1 too
+    r2 = ob.upper[:, 0] ** 2
+    assert ob.values == pytest.approx(r2 * r2 - r2, abs=1e-4)
+    assert np.all(ob.stable == (r2 > 0.5))
+    assert ob.stable[0] == False and ob.stable[-1] == True and ob.values[-1] > 0.4  # noqa: E712
+    assert ob.multiplier_errors.max() < 1e-6 and ob.reliable.all()  # a smooth flow: the monodromy matrices are exact to 1e-6
+
+
+def test_an_orbit_s_stability_is_read_only_where_its_multipliers_stand_clear_of_the_error():
+    """readable(multipliers, error): every multiplier but the trivial one more than 3 errors off the unit circle, the
+    error at least the trivial multiplier's distance from 1; else the verdict would be the finite differences' noise."""
+    assert readable(np.array([1.0 + 1e-9, 0.5, 1e-8]), 1e-9)
+    assert readable(np.array([0.9886, 0.918, 1.8e-5]), 0.003)  # the rig's lower band at the 1 ms step: stable, clearly
+    assert not readable(np.array([1.0, 0.99]), 0.01)  # could be either side of the circle
+    assert not readable(np.array([0.97, 0.93]), 0.001)  # the trivial multiplier 0.03 off: so may the other be
+    assert not readable(np.array([1.373, 0.426]), 0.02)  # no multiplier near 1 at all: the matrix is noise
+    assert not readable(np.array([1.0, np.nan]), 0.0) and not readable(np.array([1.0, 0.5]), math.nan)
+
+
+def _hopf_at_origin(w: float, rest: list[complex]) -> SpecialPoint:
+    """The Hopf point at p = 0 of a field whose first two states are the normal form r' = p r - r^3 at frequency w."""
+    return SpecialPoint("hopf", 0.0, np.zeros(2 + len(rest)), np.array([1j * w, -1j * w, *rest]), omega=w,
+                        eigenvector=np.array([1.0, -1j] + [0.0] * len(rest)) / math.sqrt(2.0))
+
+
+def test_period_doubling_where_a_half_turning_transverse_mode_loses_its_damping():
+    """Normal-form orbits r = sqrt(p) in (x, y) and a transverse pair (u, v) whose axes turn half a turn per
+    revolution, with rates l1 = p - 0.3 and l2 = -1 along them: over a period T the pair maps to -exp(l1 T),
+    -exp(l2 T) (the half turn flips both), so a real multiplier passes -1 at p = 0.3 exactly and the orbits lose
+    their stability there."""
+    w = 2.0
+
+    def field(X, P):
+        x, y, u, v = X.T
+        r2 = x * x + y * y
+        r = np.sqrt(r2 + 1e-30)  # finite (and c = s = 0) at the equilibrium; the orbits keep r > 0.03
+        c, s = x / r, y / r  # cos, sin of the orbit's angle
+        m, d = 0.5 * ((P - 0.3) - 1.0), 0.5 * ((P - 0.3) + 1.0)  # R(theta / 2) diag(l1, l2) R(theta / 2)^T = m I + d [[c, s], [s, -c]]
+        return np.stack([P * x - w * y - x * r2, w * x + P * y - y * r2,
+                         -0.5 * w * v + (m + d * c) * u + d * s * v, 0.5 * w * u + d * s * u + (m - d * c) * v], axis=1)
+
+    ob = orbits(field, rk4_flow(field, 200), _hopf_at_origin(w, [-0.5, -0.5]), (0.0, 0.6), amplitude=0.05, max_orbits=40)
+    assert ob.criticality == "supercritical"
+    assert [c.kind for c in ob.special_points] == ["period_doubling"]
+    pd = ob.points("period_doubling")[0]
+    assert pd.value == pytest.approx(0.3, abs=1e-6)
+    T = 2 * math.pi / w
+    assert np.sort(pd.multipliers.real) == pytest.approx(sorted([-1.0, -math.exp(-T), math.exp(-2 * 0.3 * T), 1.0]), abs=1e-5)
+    assert np.all(ob.stable == (ob.values < 0.3))
+
+
+def test_torus_bifurcation_where_a_turning_transverse_pair_loses_its_damping():
+    """Normal-form orbits in (x, y) and a transverse pair u + i v with rate (p - 0.3) + i kappa w: over a period T its
+    multipliers are exp((p - 0.3) T) exp(+-2 pi i kappa), a complex pair through the unit circle at p = 0.3 with
+    argument 2 pi kappa (Neimark-Sacker)."""
+    w, kappa = 2.0, 0.3
+
+    def field(X, P):
+        x, y, u, v = X.T
+        r2 = x * x + y * y
+        return np.stack([P * x - w * y - x * r2, w * x + P * y - y * r2, (P - 0.3) * u - kappa * w * v, kappa * w * u + (P - 0.3) * v], axis=1)
+
+    ob = orbits(field, rk4_flow(field, 200), _hopf_at_origin(w, [-0.3 + kappa * w * 1j, -0.3 - kappa * w * 1j]), (0.0, 0.6),
+                amplitude=0.05, max_orbits=40)
+    assert [c.kind for c in ob.special_points] == ["torus"]
+    ns = ob.points("torus")[0]
+    assert ns.value == pytest.approx(0.3, abs=1e-6)
+    pair = ns.multipliers[np.abs(ns.multipliers.imag) > 0.1]
+    assert np.abs(pair) == pytest.approx([1.0, 1.0], abs=1e-6)
+    assert np.sort(np.angle(pair)) == pytest.approx([-2 * math.pi * kappa, 2 * math.pi * kappa], abs=1e-5)
+    assert np.all(ob.stable == (ob.values < 0.3))
+    with pytest.raises(ValueError, match="the bifurcations of an orbit family are"):
+        ob.points("hopf")
 
 
 def test_an_orbit_family_between_two_hopf_points_ends_where_it_shrinks_back():
@@ -211,6 +308,8 @@ def test_rig_limit_cycle_by_shooting_is_the_one_a_long_simulation_settles_on(par
     assert np.mean(np.diff(t_up)) == pytest.approx(period, rel=2e-3)
     amp = np.degrees(ob.amplitudes[k, 0])
     assert amp > 2.0  # a real limit cycle of several degrees, not the equilibrium
+    # a small disturbance grew smoothly onto a stable orbit, with stable orbits from the Hopf point on: supercritical
+    assert ob.criticality == "supercritical" and ob.stable[0] and ob.special_points == ()
 
 
 def test_rig_pitch_only_over_the_elevator_has_no_hopf_point(params):
@@ -383,6 +482,44 @@ def test_sweep_of_the_centre_of_pressure_travel_opens_the_upper_band_between_0_0
     width = {k: np.ptp(loc[loc[:, 0] == k, 1]) for k in (0.1, 0.12)}
     assert 0.0 < width[0.1] < width[0.12]
     assert sw.locus("fold").shape == (8, 2)  # the tables' hysteresis window at every travel (the equilibria are the tables')
+
+
+def test_upper_band_hopf_point_is_subcritical_with_a_fold_of_cycles_and_simulate_shows_the_bistability(params):
+    """Fig. 8's upper band (sep_cp_travel 0.12 c, model pitch alone, unsteady): the Hopf point near 12.2 deg is
+    subcritical.  Its unstable orbits grow towards the stable side and turn at a fold of cycles into stable
+    orbits of about 1 deg, so between the fold and the Hopf point a stable equilibrium and a stable limit
+    cycle coexist, with the unstable orbit between them.  rig_env.simulate shows it: at an elevator inside
+    that window a 0.3 deg disturbance (inside the unstable orbit, about 0.9 deg) dies away, a 1.2 deg one
+    (outside it) grows onto the stable orbit, whose amplitude is the continuation's."""
+    rig = params.replace(**{"hawk_aero.sep_cp_travel": 0.12})
+    br = rig_env.continuation(rig, free_dofs=("model_pitch",), parameter="hawk_elevator", values=np.linspace(-1.2, -1.35, 16),
+                              aero_model="unsteady", q_guess=[0.0, 0.0, 0.0, math.radians(12.3), 0.0], max_orbits=42)
+    assert br.hopf.size == 1 and len(br.orbits) == 1
+    ob = br.orbits[0]
+    assert ob.criticality == "subcritical"
+    assert [c.kind for c in ob.special_points] == ["cycle_fold"]
+    fold = ob.points("cycle_fold")[0]
+    assert br.hopf[0] - 0.02 < fold.value < br.hopf[0]  # on the stable side, a narrow window (0.014 deg)
+    k = int(np.flatnonzero(ob.values == ob.values.min())[0])  # the family turns at the fold
+    inner, outer = slice(0, k), slice(k + 1, None)
+    # the inner orbits' multipliers can be read, and they are unstable; the outer ones' mostly cannot (errors of
+    # 1e-2 at the 1 ms step against a multiplier near 0.95), so simulate judges them below
+    assert not ob.stable[inner][ob.reliable[inner]].any() and ob.reliable[inner].sum() >= 10
+    el = -1.296
+    assert fold.value < el < br.hopf[0] and ob.values[outer].max() > el
+    amp = lambda part: float(np.interp(el, *zip(*sorted(zip(ob.values[part], np.degrees(ob.amplitudes[part, 0]))))))  # noqa: E731
+    assert 0.3 < amp(inner) < 1.0 < amp(outer)
+    eq = rig_env.continuation(rig, free_dofs=("model_pitch",), parameter="hawk_elevator", values=[el, el - 0.001], aero_model="unsteady",
+                              q_guess=[0.0, 0.0, 0.0, math.radians(12.3), 0.0], periodic=False)
+    assert eq.stable[0]
+    tails = []
+    for d in (0.3, 1.2):
+        r = rig_env.simulate(rig, [eq.states[0, 0] + math.radians(d)], [0.0], 150.0, free_dofs=("model_pitch",), controls={"hawk_elevator": el},
+                             airspeed=20.0, aero_model="unsteady", friction=False, servo=False, stops=False, control_rate=200.0)
+        q = np.degrees(r.q[r.t > 130.0, 0])
+        tails.append(0.5 * (q.max() - q.min()))
+    assert tails[0] < 0.01
+    assert tails[1] == pytest.approx(amp(outer), abs=0.02)
 
 
 def test_sweep_refuses_bad_input_by_name(params):

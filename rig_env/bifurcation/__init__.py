@@ -16,7 +16,8 @@ corrector on f(x, p) = 0, Jacobians by central differences (:mod:`.core`, :mod:`
 stability from the eigenvalues of the full Jacobian; folds, branch points and Hopf points located on the
 arclength by regula falsi.  Periodic orbits: single shooting on a flow map, for the rig the kernels
 :func:`rig_env.simulate` runs, continued by pseudo-arclength from a small orbit along the Hopf point's
-critical eigenvector; Floquet multipliers from the monodromy matrix (:mod:`.periodic`).  The rig as a
+critical eigenvector; Floquet multipliers from the monodromy matrix, the Hopf point's criticality (super- or
+subcritical) and the family's own folds of cycles, period doublings and tori (:mod:`.periodic`).  The rig as a
 vector field, its parameters (any surface, ``"airspeed"``, any :data:`rig_env.PARAM_NAMES` entry) and
 what continuation does with friction and the stops: :mod:`.rig`.  The core takes any vector field
 ``f(x, p)`` (:func:`equilibria`, :func:`orbits`), so it is tested on closed forms.
@@ -25,14 +26,14 @@ Two parameters: :func:`continuation_sweep` (``sweep``: the loci of the folds and
 parameter, by a branch at each of its sampled values; ``plot.plot_sweep``).
 
 Modules: ``core`` (the curve solver), ``equilibria``, ``periodic``, ``rig``, ``sweep``, ``result`` (:class:`Branch`,
-:class:`OrbitBranch`, :class:`SpecialPoint`), ``plot`` (the bifurcation diagram).
+:class:`OrbitBranch`, :class:`SpecialPoint`, :class:`CyclePoint`), ``plot`` (the bifurcation diagram).
 """
 
 from rig_env.bifurcation.core import Settings
 from rig_env.bifurcation.equilibria import equilibria
 from rig_env.bifurcation.periodic import orbits, rk4_flow
-from rig_env.bifurcation.result import Branch, OrbitBranch, SpecialPoint
+from rig_env.bifurcation.result import Branch, CyclePoint, OrbitBranch, SpecialPoint
 from rig_env.bifurcation.rig import AERO_MODELS, continuation
 from rig_env.bifurcation.sweep import Sweep, continuation_sweep
 
-__all__ = ["AERO_MODELS", "Branch", "OrbitBranch", "Settings", "SpecialPoint", "Sweep", "continuation", "continuation_sweep", "equilibria", "orbits", "rk4_flow"]
+__all__ = ["AERO_MODELS", "Branch", "CyclePoint", "OrbitBranch", "Settings", "SpecialPoint", "Sweep", "continuation", "continuation_sweep", "equilibria", "orbits", "rk4_flow"]

@@ -66,6 +66,15 @@ class _Problem:
         return Point(out[0], null_vector(out[1]), out[1], 0.0, 0.0)
 
 
+def equilibrium_at(f: VectorField, x_guess: np.ndarray, p: float, settings: Settings | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+    """The equilibrium of x' = f(x, p) nearest ``x_guess`` at the parameter p held (Newton, central-difference
+    Jacobian) and f_x there, or None when Newton fails."""
+    x0 = np.asarray(x_guess, dtype=np.float64)
+    prob = _Problem(f, None, np.ones(x0.size + 1))
+    pt = prob.solve_at(np.concatenate([x0, [p]]), settings or Settings())
+    return None if pt is None else (pt.y[: prob.n], prob.fx(pt))
+
+
 def _hopf_count(lam: np.ndarray, im_tol: float) -> int:
     c = lam[lam.imag > im_tol]
     return int(np.sum(c.real > 0))

@@ -12,8 +12,27 @@ integrated as one batch; dphi/dT = f(phi(x0, T), p) exactly.  The branch starts 
 linear orbit x_H + a Re(v e^(i omega t)) (v the critical eigenvector): two orbits at amplitudes a and
 2a along Re(v), with p free, give the first secant, then the curve solver of
 :mod:`rig_env.bifurcation.core` continues it, the phase reference moving with every accepted orbit.
-Floquet multipliers: the monodromy matrix's eigenvalues; stable when all but the trivial one (the one
-nearest 1) lie inside the unit circle.
+Floquet multipliers: the monodromy matrix's eigenvalues (read off the converged Jacobian, no further flow);
+stable when all but the trivial one (the one nearest 1) lie inside the unit circle.
+
+The family's own bifurcations (:class:`~rig_env.bifurcation.result.CyclePoint`), each a sign change of a
+test function between two computed orbits, located on the arclength by :func:`~rig_env.bifurcation.core.locate`:
+
+    fold of cycles      the tangent's parameter component (a multiplier through +1 where the family turns)
+    period doubling     det(M + I) (a real multiplier through -1; complex pairs add |mu + 1|^2 > 0)
+    torus               the product of |mu| - 1 over the complex multipliers (Im mu > 0, |arg mu| > 0.01: away
+                        from the 1:1 resonance, where the trivial and the amplitude's multipliers may pair up
+                        near the Hopf point), when both orbits have as many of them
+
+The accuracy of the multipliers: M maps the flow's direction g onto itself at an exact orbit, so
+|M g - g| / |g| (:func:`trivial_defect`) measures M's error; an orbit whose multipliers do not stand clear of
+the unit circle by more than that (:func:`~rig_env.bifurcation.result.readable`) has no stability verdict
+worth reading, and no period doubling or torus is located next to it (a fold of cycles is the curve's own
+turning point and needs no multiplier).
+
+The Hopf point's criticality (:func:`criticality`): on which side of the Hopf point the first orbit lies, the
+side where the crossing pair is unstable (supercritical: the orbits are born attracting) or stable
+(subcritical: born repelling).
 """
 
 from __future__ import annotations
@@ -22,8 +41,9 @@ from typing import Callable
 
 import numpy as np
 
-from rig_env.bifurcation.core import Point, Settings, null_vector, trace
-from rig_env.bifurcation.result import OrbitBranch, SpecialPoint
+from rig_env.bifurcation.core import Point, Settings, locate, null_vector, trace
+from rig_env.bifurcation.equilibria import equilibrium_at
+from rig_env.bifurcation.result import CyclePoint, OrbitBranch, SpecialPoint, readable
 
 Flow = Callable[[np.ndarray, float, np.ndarray, int], np.ndarray]
 """``flow(X0 (m, n), T, P (m,), samples) -> (m, samples + 1, n)``: each row's state at t = k T / samples,
@@ -94,6 +114,11 @@ class Shooting:
         dT = self.f(phi[None, :], np.array([p]))[0]
         return phi, M, dT, dp
 
+    def monodromy(self, J: np.ndarray) -> np.ndarray:
+        """The monodromy matrix dphi/dx0 from a Jacobian this object returned (scaled columns)."""
+        n = self.n
+        return J[:n, :n] / self.scale[None, :n] + np.eye(n)
+
     def __call__(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x, _, _ = self.unpack(z)
         phi, M, dT, dp = self.jacobian_parts(z)
@@ -126,12 +151,45 @@ def _solve_square(fj: Shooting, z: np.ndarray, s: Settings) -> np.ndarray | None
     return None
 
 
+def trivial_defect(M: np.ndarray, g: np.ndarray) -> float:
+    """|M g - g| / |g|, g the flow's direction at the orbit's point: zero for an exact monodromy matrix (the flow's
+    direction is the trivial multiplier's eigenvector), so a measure of M's error.  It is large where the flow map
+    is not smooth on the scale of the finite differences: an orbit through the tables' kinks under fixed-step RK4
+    (an error in proportion to the step)."""
+    return float(np.linalg.norm(M @ g - g) / np.linalg.norm(g))
+
+
 def floquet(M: np.ndarray) -> tuple[np.ndarray, bool]:
     """Multipliers (sorted by decreasing modulus) and stability (all but the one nearest 1 inside the unit circle)."""
     mu = np.linalg.eigvals(M)
     mu = mu[np.argsort(-np.abs(mu))]
     rest = np.delete(mu, int(np.argmin(np.abs(mu - 1.0))))
     return mu, bool(np.all(np.abs(rest) < 1.0))
+
+
+def _torus_test(mu: np.ndarray) -> tuple[int, float]:
+    """The complex multipliers away from the 1:1 resonance (Im > 0, |arg| > 0.01) and the product of |mu| - 1 over them."""
+    c = mu[(mu.imag > 0.0) & (np.abs(np.angle(mu)) > 0.01)]
+    return int(c.size), float(np.prod(np.abs(c) - 1.0))
+
+
+def criticality(f: BatchField, hopf: SpecialPoint, p_orbit: float, tol: float = 1e-9) -> str:
+    """"supercritical" when the orbits born at ``hopf`` lie on the side of it where the equilibrium's crossing pair
+    is unstable, "subcritical" when they lie where it is stable, "undetermined" when that pair's real part there
+    is within ``tol`` (times 1 + omega) of zero (or the first orbit sits at the Hopf point itself).
+
+    The pair's real part at the first orbit's parameter ``p_orbit``: the equilibrium there from the Hopf point's
+    state (:func:`~rig_env.bifurcation.equilibria.equilibrium_at`), the eigenvalue of f_x nearest i omega.  This is
+    the definition (via the first Lyapunov coefficient's sign and the crossing's direction) and needs no monodromy
+    matrix, so it holds where the orbits' multipliers are not :func:`~rig_env.bifurcation.result.readable`."""
+    eq = None if p_orbit == hopf.value else equilibrium_at(lambda x, p: f(x[None, :], np.array([p]))[0], hopf.state, p_orbit)
+    if eq is None or not np.all(np.isfinite(eq[1])):
+        return "undetermined"
+    lam = np.linalg.eigvals(eq[1])
+    re = float(lam[int(np.argmin(np.abs(lam - 1j * hopf.omega)))].real)
+    if abs(re) <= tol * (1.0 + hopf.omega):
+        return "undetermined"
+    return "supercritical" if re > 0.0 else "subcritical"
 
 
 def orbits(
@@ -175,8 +233,9 @@ def orbits(
             raise RuntimeError(f"orbits: no periodic orbit of amplitude {a:g} found near the Hopf point at {hopf.value:g}")
         found.append(z)
     sh.extra = []
-    t = found[1] - found[0]
-    t /= np.linalg.norm(t)
+    d01 = float(np.linalg.norm(found[1] - found[0]))
+    t = (found[1] - found[0]) / d01
+    J0 = sh(found[0])[1]
     x1, _, p1 = sh.unpack(found[1])
     sh.set_reference(x1, p1)
     J1 = sh(found[1])[1]
@@ -195,7 +254,7 @@ def orbits(
     # equilibrium as a zero-amplitude "orbit" of any period, which is no orbit at all.  Each orbit's extremes
     # (the widest state's peak-to-peak, against the first orbit's) are taken as the curve is traced, which
     # ends at the first orbit that has shrunk below half the first after growing past twice it
-    first = Point(found[0], t, J1, 0.0, 0.0)
+    first = Point(found[0], t, J0, 0.0, 0.0)
     seen = {id(z): extremes(z) for z in found}  # every orbit kept is here: the two found and each one trace accepts inside
 
     def width(z: np.ndarray) -> float:
@@ -213,7 +272,7 @@ def orbits(
         grown = grown or a >= 2.0 * size0
         return shrank if grown and a < 0.5 * size0 else ""
 
-    pts, why = trace(sh, Point(found[1], null_vector(J1, t), J1, 0.0, 0.0), inside, s,
+    pts, why = trace(sh, Point(found[1], null_vector(J1, t), J1, d01, d01), inside, s,
                      accepted=lambda b: sh.set_reference(*sh.unpack(b.y)[::2]), stop=shrunk)  # fmt: skip
     pts = [p for p in [first, *pts] if inside(p.y)]
     if why == shrank:
@@ -221,15 +280,47 @@ def orbits(
     if why == "left the parameter range":
         why = "left the parameter range or reached the largest period"
     rows = []
-    for pt in pts:
+    G = f(np.array([sh.unpack(pt.y)[0] for pt in pts]).reshape(-1, n), np.array([sh.unpack(pt.y)[2] for pt in pts]))  # the flow's directions
+    for pt, g in zip(pts, G):
         x, T, p = sh.unpack(pt.y)
-        _, M, _, _ = sh.jacobian_parts(pt.y)
+        M = sh.monodromy(pt.J)
         mu, stable = floquet(M)
-        rows.append((p, T, x, *seen[id(pt.y)], mu, stable))
-    cols = list(zip(*rows)) if rows else [()] * 7
+        rows.append((p, T, x, *seen[id(pt.y)], mu, stable, trivial_defect(M, g)))
+    cols = list(zip(*rows)) if rows else [()] * 8
+    errors = np.array(cols[7], dtype=float)
     return OrbitBranch(
         values=np.array(cols[0], dtype=float), periods=np.array(cols[1], dtype=float),
         initial_states=np.array(cols[2], dtype=float).reshape(-1, n), lower=np.array(cols[3], dtype=float).reshape(-1, n),
         upper=np.array(cols[4], dtype=float).reshape(-1, n), multipliers=np.array(cols[5], dtype=complex).reshape(-1, n),
-        stable=np.array(cols[6], dtype=bool), hopf=hopf, end=why,
+        stable=np.array(cols[6], dtype=bool), hopf=hopf, end=why, multiplier_errors=errors,
+        special_points=_cycle_points(sh, pts, [readable(mu, e) for mu, e in zip(cols[5], errors)], s, extremes),
+        criticality=criticality(f, hopf, float(cols[0][0])) if pts else "",
     )  # fmt: skip
+
+
+def _cycle_points(sh: Shooting, pts: list[Point], reliable: list[bool], s: Settings,
+                  extremes: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]) -> tuple[CyclePoint, ...]:
+    """The folds of cycles, period doublings and tori between consecutive orbits ``pts`` of a family, located (module
+    docstring); period doublings and tori only between two orbits whose multipliers are ``reliable``."""
+    n = sh.n
+    tests: dict[str, Callable[[Point], float]] = {
+        "cycle_fold": lambda pt: float(pt.t[-1]),
+        "period_doubling": lambda pt: float(np.linalg.det(sh.monodromy(pt.J) + np.eye(n))),
+        "torus": lambda pt: _torus_test(np.linalg.eigvals(sh.monodromy(pt.J)))[1],
+    }
+    g = [{kind: test(pt) for kind, test in tests.items()} for pt in pts]
+    complex_count = [_torus_test(np.linalg.eigvals(sh.monodromy(pt.J)))[0] for pt in pts]
+    found = []
+    for i, (a, b) in enumerate(zip(pts, pts[1:])):
+        for kind, test in tests.items():
+            ga, gb = g[i][kind], g[i + 1][kind]
+            if ga * gb >= 0.0 or (kind != "cycle_fold" and not (reliable[i] and reliable[i + 1])):
+                continue
+            if kind == "torus" and complex_count[i] != complex_count[i + 1]:
+                continue
+            sh.set_reference(*sh.unpack(a.y)[::2])  # the phase plane through the orbit the bracket starts at
+            c = locate(sh, a, b, test, s, ga, gb)
+            x, T, p = sh.unpack(c.y)
+            lower, upper = extremes(c.y)
+            found.append(CyclePoint(kind, p, T, x, lower, upper, floquet(sh.monodromy(c.J))[0], c.arclength))
+    return tuple(found)

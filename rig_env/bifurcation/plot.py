@@ -2,7 +2,9 @@
 
 A branch (:func:`plot_branch`): one state against the parameter: stable equilibria solid, unstable dashed, folds as triangles, Hopf
 points as circles, branch points as diamonds, and each Hopf point's periodic orbits as the envelope of
-the state's minimum and maximum over the orbit (stable orbits filled dots, unstable open).  Angles and
+the state's minimum and maximum over the orbit (stable orbits filled dots, unstable open, grey crosses where
+the multipliers cannot be read: ``OrbitBranch.reliable``; the family's folds of cycles, period doublings and
+tori marked on both envelopes).  Angles and
 rates are drawn in deg and deg/s.  A sweep (:func:`plot_sweep`): the loci of the special points and the unstable
 sampled equilibria in the plane of the two parameters.
 """
@@ -20,6 +22,8 @@ from rig_env.bifurcation.result import Branch
 from rig_env.bifurcation.sweep import Sweep
 
 _MARKERS = {"fold": ("v", "tab:red", "fold"), "hopf": ("o", "tab:purple", "Hopf"), "branch_point": ("D", "tab:brown", "branch point")}
+_CYCLE_MARKERS = {"cycle_fold": ("^", "tab:orange", "fold of orbits"), "period_doubling": ("s", "tab:olive", "period doubling"),
+                  "torus": ("P", "tab:cyan", "torus (Neimark-Sacker)")}
 
 
 def display_unit(unit: str) -> tuple[float, str]:
@@ -55,16 +59,25 @@ def plot_branch(branch: Branch, path: str | Path | None = None, *, state: str | 
         pts = [sp for sp in branch.special_points if sp.kind == kind]
         if pts:
             ax.plot([sp.value for sp in pts], [sp.state[k] * factor for sp in pts], marker, color=colour, ms=8, ls="none", label=label)
-    for i, ob in enumerate(branch.orbits):
+    labelled: set[str] = set()
+    for ob in branch.orbits:
         if not ob.values.size:
             continue
-        for e, env in enumerate((ob.lower[:, k], ob.upper[:, k])):
-            first = i == 0 and e == 0
+        kinds = (("stable orbits (min, max)", ob.stable & ob.reliable, {"mfc": "tab:green"}),
+                 ("unstable orbits (min, max)", ~ob.stable & ob.reliable, {"mfc": "none"}),
+                 ("orbits, stability not read (min, max)", ~ob.reliable, {"marker": "x", "color": "0.45"}))
+        for env in (ob.lower[:, k], ob.upper[:, k]):
             ax.plot(ob.values, env * factor, "-", color="tab:green", lw=0.8, alpha=0.7)
-            ax.plot(ob.values[ob.stable], env[ob.stable] * factor, "o", color="tab:green", ms=3.5,
-                    label="stable orbits (min, max)" if first and ob.stable.any() else None)
-            ax.plot(ob.values[~ob.stable], env[~ob.stable] * factor, "o", mfc="none", color="tab:green", ms=3.5,
-                    label="unstable orbits (min, max)" if first and (~ob.stable).any() else None)
+            for label, mask, style in kinds:
+                if mask.any():
+                    ax.plot(ob.values[mask], env[mask] * factor, ls="none", ms=3.5, **{"marker": "o", "color": "tab:green", **style},
+                            label=None if label in labelled else label)
+                    labelled.add(label)
+    for kind, (marker, colour, label) in _CYCLE_MARKERS.items():
+        pts = [c for ob in branch.orbits for c in ob.points(kind)]
+        if pts:
+            ax.plot([c.value for c in pts] * 2, [c.lower[k] * factor for c in pts] + [c.upper[k] * factor for c in pts], marker,
+                    color=colour, ms=7, ls="none", label=label)
     ax.set_xlabel(f"{branch.parameter} ({branch.parameter_unit})" if branch.parameter_unit else branch.parameter)
     ax.set_ylabel(f"{name} ({unit})" if unit else name)
     ax.grid(True, alpha=0.3)

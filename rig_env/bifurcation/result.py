@@ -8,6 +8,7 @@ Plain frozen dataclasses of numpy arrays (no solver state), shared by the generi
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -45,6 +46,55 @@ class SpecialPoint:
         return 2.0 * np.pi / self.omega if self.omega > 0 else np.inf
 
 
+READ_MARGIN = 3.0
+"""An orbit's multipliers are read (:func:`readable`) when they stand more than READ_MARGIN times the monodromy
+matrix's error off the unit circle (``periodic.trivial_defect``)."""
+
+
+def readable(multipliers: np.ndarray, error: float) -> bool:
+    """Whether an orbit's stability can be read from its Floquet ``multipliers`` given the monodromy matrix's
+    ``error``: every multiplier but the trivial one (the one nearest 1, exactly 1 for an exact matrix) more than
+    READ_MARGIN times the error from the unit circle, the error taken as the larger of ``error`` and the trivial
+    multiplier's distance from 1 (a multiplier nearer than that could lie on either side)."""
+    mu = np.asarray(multipliers)
+    if not (mu.size and np.all(np.isfinite(mu)) and math.isfinite(error)):
+        return False
+    k = int(np.argmin(np.abs(mu - 1.0)))
+    scale = max(float(error), float(abs(mu[k] - 1.0)))
+    return bool(np.all(np.abs(np.abs(np.delete(mu, k)) - 1.0) > READ_MARGIN * scale))
+
+CYCLE_KINDS = ("cycle_fold", "period_doubling", "torus")
+"""The bifurcations of a periodic-orbit family (:class:`CyclePoint`)."""
+
+
+@dataclass(frozen=True)
+class CyclePoint:
+    """A located bifurcation of a periodic-orbit family.
+
+    kind: ``"cycle_fold"`` (a turning point of the family in the parameter: a Floquet multiplier through +1,
+    where a stable and an unstable orbit meet; past it the family runs back), ``"period_doubling"`` (a real
+    multiplier through -1: orbits of twice the period branch off) or ``"torus"`` (a complex pair through the
+    unit circle, Neimark-Sacker: quasi-periodic motion on a torus branches off).  value: the parameter;
+    period: s; state: (n,) the orbit's point on the phase section; lower, upper: (n,) each state's minimum
+    and maximum over the orbit; multipliers: (n,) its Floquet multipliers (sorted by decreasing modulus,
+    the trivial one included); arclength: its position along the traced family (scaled units).
+    """
+
+    kind: str
+    value: float
+    period: float
+    state: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    multipliers: np.ndarray
+    arclength: float = 0.0
+
+    @property
+    def amplitudes(self) -> np.ndarray:
+        """(n,) half the peak-to-peak excursion of every state over the orbit."""
+        return 0.5 * (self.upper - self.lower)
+
+
 @dataclass(frozen=True)
 class OrbitBranch:
     """Periodic orbits continued in the parameter from one Hopf point, one row per computed orbit.
@@ -56,6 +106,22 @@ class OrbitBranch:
     end: why the continuation stopped (the parameter range or the largest period left, the orbits' limit,
     the curve solver's failure, or "shrank back to an equilibrium (another Hopf point)": a family that grows
     and shrinks to nothing again joins two Hopf points, and the orbits past the second are not kept).
+
+    special_points: the family's own bifurcations between its computed orbits (:class:`CyclePoint`: folds
+    of cycles, period doublings, tori), located on the arclength, in the order of the family.
+    criticality: the Hopf point's (``periodic.criticality``, from the side of it the first orbit lies on):
+    ``"supercritical"`` (the side where the equilibrium is unstable: the orbits are born attracting and grow
+    smoothly out of the equilibrium as it loses stability), ``"subcritical"`` (the side where it is still
+    stable: born repelling, so that the loss of stability is a jump, typically onto a large orbit past a
+    fold of cycles, with hysteresis), or ``"undetermined"`` (the crossing pair's real part there too small
+    to tell); "" when no orbit was computed.
+
+    multiplier_errors: (k,) each orbit's trivial-multiplier defect |M g - g| / |g| (g the flow's direction at
+    its point, M the finite-difference monodromy matrix), the multipliers' accuracy; ``reliable`` where the
+    multipliers stand clear of the unit circle by more than that (:func:`readable`).  Orbits through the tables'
+    kinks integrated by fixed-step RK4 have a flow map that is not smooth on the finite differences' scale
+    (errors of 1e-3 to 1e-2 at the default 1 ms step, in proportion to the step): where a multiplier lies
+    within that of the circle, ``stable`` is a guess, and no period doubling or torus is located next to it.
     """
 
     values: np.ndarray
@@ -67,11 +133,30 @@ class OrbitBranch:
     stable: np.ndarray
     hopf: SpecialPoint
     end: str
+    special_points: tuple[CyclePoint, ...] = ()
+    criticality: str = ""
+    multiplier_errors: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def reliable(self) -> np.ndarray:
+        """(k,) the orbits whose stability can be read from their multipliers (:func:`readable`)."""
+        return np.array([readable(mu, e) for mu, e in zip(self.multipliers, self.multiplier_errors)], dtype=bool)
 
     @property
     def amplitudes(self) -> np.ndarray:
         """(k, n) half the peak-to-peak excursion of every state over each orbit."""
         return 0.5 * (self.upper - self.lower)
+
+    def points(self, kind: str) -> tuple[CyclePoint, ...]:
+        """The family's bifurcations of one kind (one of :data:`CYCLE_KINDS`), in the order of the family."""
+        if kind not in CYCLE_KINDS:
+            raise ValueError(f"kind = {kind!r}: the bifurcations of an orbit family are {list(CYCLE_KINDS)}")
+        return tuple(c for c in self.special_points if c.kind == kind)
+
+    @property
+    def folds(self) -> np.ndarray:
+        """Parameter values of the folds of cycles (turning points of the family), in the order of the family."""
+        return np.array([c.value for c in self.points("cycle_fold")], dtype=np.float64)
 
 
 @dataclass(frozen=True)
