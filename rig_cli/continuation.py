@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import csv
 import math
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -30,6 +31,7 @@ import numpy as np
 
 from rig_env.bifurcation.result import Branch, OrbitBranch, SpecialPoint
 from rig_env.bifurcation.sweep import Sweep
+from rig_env.compile_watch import compile_watch
 from rig_env.params import PARAM_NAMES, SURFACES, ParameterError, RigParams
 
 OUTPUTS = ("branch.csv", "special_points.csv", "orbits.csv", "bifurcation.png")
@@ -162,9 +164,10 @@ def run(
     if state is not None and state not in free:
         raise ValueError(f"--state {state!r}: must be one of the free joints {list(free)}")
     if sweep is not None:
-        sw = rig_env.continuation_sweep(p, sweep=sweep[0], sweep_values=np.linspace(s_first, s_last, s_n), free_dofs=tuple(free),
-                                        parameter=parameter, values=np.linspace(first, last, n), airspeed=airspeed, controls=ctrl or None,
-                                        aero_model=aero_model, periodic=False, progress=echo)
+        with compile_watch(sys.stdout if echo else None):
+            sw = rig_env.continuation_sweep(p, sweep=sweep[0], sweep_values=np.linspace(s_first, s_last, s_n), free_dofs=tuple(free),
+                                            parameter=parameter, values=np.linspace(first, last, n), airspeed=airspeed, controls=ctrl or None,
+                                            aero_model=aero_model, periodic=False, progress=echo)
         folder.mkdir(parents=True, exist_ok=True)
         write_loci(sw, free, folder / "loci.csv")
         plot_sweep(sw, folder / "sweep.png", title=f"{', '.join(free)} free, {aero_model}")
@@ -174,8 +177,9 @@ def run(
     if echo:
         print(f"continuing {', '.join(free)} over {parameter} ({n} values, {aero_model} model"
               f"{'; then the orbits of each Hopf point by shooting, up to a minute' if orbits else ''}) ...", flush=True)
-    br = rig_env.continuation(p, free_dofs=tuple(free), parameter=parameter, values=np.linspace(first, last, n), airspeed=airspeed,
-                              controls=ctrl or None, aero_model=aero_model, periodic=orbits, physics_dt=physics_dt)
+    with compile_watch(sys.stdout if echo else None):  # a fresh installation compiles the kernels first (a minute or two): say so
+        br = rig_env.continuation(p, free_dofs=tuple(free), parameter=parameter, values=np.linspace(first, last, n), airspeed=airspeed,
+                                  controls=ctrl or None, aero_model=aero_model, periodic=orbits, physics_dt=physics_dt)
     folder.mkdir(parents=True, exist_ok=True)
     factors = [display_unit(u) for u in br.state_units]
     with open(folder / "branch.csv", "w", newline="") as fh:

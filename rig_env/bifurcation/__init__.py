@@ -14,8 +14,8 @@ Manual.  :func:`continuation` (also ``rig_env.continuation``) runs it on the rig
 How.  Equilibria: pseudo-arclength continuation (the curve is followed through its folds) with a Newton
 corrector on f(x, p) = 0, Jacobians by central differences (:mod:`.core`, :mod:`.equilibria`);
 stability from the eigenvalues of the full Jacobian; folds, branch points and Hopf points located on the
-arclength by regula falsi.  Periodic orbits: single shooting on a flow map, for the rig the kernels
-:func:`rig_env.simulate` runs, continued by pseudo-arclength from a small orbit along the Hopf point's
+arclength by regula falsi.  Periodic orbits: single shooting on a flow map, for the rig the environments'
+lane kernel (the same model as :func:`rig_env.simulate`'s per-environment kernel, to 1e-10), continued by pseudo-arclength from a small orbit along the Hopf point's
 critical eigenvector; Floquet multipliers from the monodromy matrix, the Hopf point's criticality (super- or
 subcritical) and the family's own folds of cycles, period doublings and tori (:mod:`.periodic`).  The rig as a
 vector field, its parameters (any surface, ``"airspeed"``, any :data:`rig_env.PARAM_NAMES` entry) and

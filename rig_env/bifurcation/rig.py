@@ -4,8 +4,10 @@ State: the free joints' angles (rad) and rates (rad/s), then any internal states
 model (none for ``"linear"`` and ``"tables"``; an unsteady model adds its separation states there,
 :class:`AeroModel`).  Right-hand side: the same accelerations as :func:`rig_env.trim` and
 :func:`rig_env.linearize` (:func:`rig_env.linear.joint_accelerations`: the joint-space kernel with ideal
-servos, the flaps at the limited commands).  Flow map of the periodic orbits: the kernels that
-:func:`rig_env.simulate` runs (:class:`rig_env.physics.pipeline.PhysicsBatch`, the "joint" kernel, RK4),
+servos, the flaps at the limited commands).  Flow map of the periodic orbits: the environments' lane kernel
+(:class:`rig_env.physics.pipeline.PhysicsBatch`, kind "lanes", serial: eight perturbed states per register,
+about 2.7 times the per-environment kernel's speed here; the same model as :func:`rig_env.simulate`'s
+"joint" kernel, to 1e-10; RK4),
 servo dynamics off (the surfaces sit at their held, limited command), every perturbed initial state of a
 shooting Jacobian one environment of one batch.
 
@@ -167,14 +169,14 @@ class RigField:
 
     def flow(self, X0: np.ndarray, T: float, values: np.ndarray, samples: int, physics_dt: float) -> np.ndarray:
         """States at t = k T / samples (k = 0..samples) of every row of X0 under its parameter value, by the
-        "joint" kernel of :class:`PhysicsBatch` (RK4 steps of at most physics_dt); NaN rows where it failed."""
+        serial lane kernel of :class:`PhysicsBatch` (RK4 steps of at most physics_dt); NaN rows where it failed."""
         m = X0.shape[0]
         n_sub = max(1, math.ceil(T / samples / physics_dt))
         P = np.empty((m, L.N_PARAMS))
         U = np.empty((m, L.N_INPUTS))
         for i, v in enumerate(values):
             U[i], P[i] = self.inputs(float(v))
-        batch = PhysicsBatch(P, self.tabs, self.idx, self.flags, T / (samples * n_sub), n_sub, kind="joint", parallel=False)
+        batch = PhysicsBatch(P, self.tabs, self.idx, self.flags, T / (samples * n_sub), n_sub, kind="lanes", parallel=False)
         batch.U[:] = U
         q = np.repeat(self.q_locked[None, :], m, axis=0)
         qd = np.zeros((m, 5))
