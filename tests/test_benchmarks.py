@@ -63,3 +63,14 @@ def test_aero_models_bench_reports_each_rounds_ratio(capsys):
     assert out["unsteady_over_linear_lanes_cpu_median/8"] == pytest.approx(0.5 * (per_round[0] + per_round[1]), rel=1e-12)
     assert set(out["rates"]) == {f"{m}/lanes/8" for m in ("linear", "tables", "unsteady")}
     assert "linear_lanes_over_joint/8" not in out
+
+
+def test_continuation_bench_times_both_orbit_kernels_and_finds_the_same_orbits():
+    """benchmarks/bench_continuation.py with two orbits per family: a time per kernel and round, and the lane and
+    per-environment kernels' orbits the same (they integrate the same model, to 1e-10 per step)."""
+    from benchmarks import bench_continuation
+
+    out = bench_continuation.run("lower", 1, 2)
+    assert len(out["seconds"]["lanes"]) == len(out["seconds"]["joint"]) == 1 and out["ratios"][0] > 0
+    assert len(out["orbits"]) == 1 and out["orbits"][0] >= 2  # one family (the second Hopf point starts none)
+    assert out["max_value_difference"] < 1e-6 and out["max_amplitude_difference"] < 1e-6

@@ -336,6 +336,8 @@ def test_continuation_refuses_bad_input_by_name(params):
         rig_env.continuation(params, **{**kw, "parameter": "geometry.hawk_cg_x", "values": [0.0, 0.5]})
     with pytest.raises(ValueError, match=r"values: expected at least two"):
         rig_env.continuation(params, **{**kw, "values": [1.0]})
+    with pytest.raises(ValueError, match=r"orbit_kernel = 'dae': allowed values: 'lanes', 'joint'"):
+        rig_env.continuation(params, **{**kw, "orbit_kernel": "dae"})
 
 
 def test_continuation_is_public_with_a_real_signature_and_plots(params, tmp_path):

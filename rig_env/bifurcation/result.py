@@ -63,6 +63,7 @@ def readable(multipliers: np.ndarray, error: float) -> bool:
     scale = max(float(error), float(abs(mu[k] - 1.0)))
     return bool(np.all(np.abs(np.abs(np.delete(mu, k)) - 1.0) > READ_MARGIN * scale))
 
+
 CYCLE_KINDS = ("cycle_fold", "period_doubling", "torus")
 """The bifurcations of a periodic-orbit family (:class:`CyclePoint`)."""
 

@@ -5,9 +5,9 @@ model (none for ``"linear"`` and ``"tables"``; an unsteady model adds its separa
 :class:`AeroModel`).  Right-hand side: the same accelerations as :func:`rig_env.trim` and
 :func:`rig_env.linearize` (:func:`rig_env.linear.joint_accelerations`: the joint-space kernel with ideal
 servos, the flaps at the limited commands).  Flow map of the periodic orbits: the environments' lane kernel
-(:class:`rig_env.physics.pipeline.PhysicsBatch`, kind "lanes", serial: eight perturbed states per register,
-about 2.7 times the per-environment kernel's speed here; the same model as :func:`rig_env.simulate`'s
-"joint" kernel, to 1e-10; RK4),
+(:class:`rig_env.physics.pipeline.PhysicsBatch`, kind "lanes", serial: eight perturbed states per register;
+the same model as :func:`rig_env.simulate`'s "joint" kernel, to 1e-10, which ``orbit_kernel="joint"`` runs
+instead; RK4),
 servo dynamics off (the surfaces sit at their held, limited command), every perturbed initial state of a
 shooting Jacobian one environment of one batch.
 
@@ -106,8 +106,9 @@ class RigField:
     """x' = f(x, value) of the rig with one parameter free; x = (free angles, free rates, internal states)."""
 
     def __init__(self, params: RigParams, free: tuple[str, ...], par: RigParameter, q_locked: np.ndarray,
-                 controls: Mapping[str, float], airspeed: float, aero: AeroModel, friction: str, stops: bool) -> None:
-        self.free, self.par, self.aero = free, par, aero
+                 controls: Mapping[str, float], airspeed: float, aero: AeroModel, friction: str, stops: bool,
+                 kernel: str = "lanes") -> None:
+        self.free, self.par, self.aero, self.kernel = free, par, aero, kernel
         self.idx = np.array([JOINTS.index(j) for j in free], dtype=np.int64)
         self.nf = len(free)
         self.n = 2 * self.nf + len(aero.internal)
@@ -169,14 +170,14 @@ class RigField:
 
     def flow(self, X0: np.ndarray, T: float, values: np.ndarray, samples: int, physics_dt: float) -> np.ndarray:
         """States at t = k T / samples (k = 0..samples) of every row of X0 under its parameter value, by the
-        serial lane kernel of :class:`PhysicsBatch` (RK4 steps of at most physics_dt); NaN rows where it failed."""
+        serial ``kernel`` of :class:`PhysicsBatch` (RK4 steps of at most physics_dt); NaN rows where it failed."""
         m = X0.shape[0]
         n_sub = max(1, math.ceil(T / samples / physics_dt))
         P = np.empty((m, L.N_PARAMS))
         U = np.empty((m, L.N_INPUTS))
         for i, v in enumerate(values):
             U[i], P[i] = self.inputs(float(v))
-        batch = PhysicsBatch(P, self.tabs, self.idx, self.flags, T / (samples * n_sub), n_sub, kind="lanes", parallel=False)
+        batch = PhysicsBatch(P, self.tabs, self.idx, self.flags, T / (samples * n_sub), n_sub, kind=self.kernel, parallel=False)
         batch.U[:] = U
         q = np.repeat(self.q_locked[None, :], m, axis=0)
         qd = np.zeros((m, 5))
@@ -229,6 +230,7 @@ def continuation(
     orbit_amplitude: float = 0.01,
     max_orbits: int = 40,
     physics_dt: float = 1e-3,
+    orbit_kernel: str = "lanes",
     settings: Settings | None = None,
 ) -> Branch:
     """Equilibria of the rig's free joints over ``parameter``, their stability, folds and Hopf points, and the
@@ -247,6 +249,9 @@ def continuation(
     module docstring); periodic: continue the orbits of every Hopf point (single shooting on the kernels,
     RK4 steps of at most ``physics_dt`` s), from an orbit of ``orbit_amplitude`` along the critical
     eigenvector (whose largest entry is 1: rad or rad/s), ``max_orbits`` orbits at most per Hopf point;
+    orbit_kernel: the shooting's kernel, ``"lanes"`` (the environments' lane kernel, eight perturbed states per
+    register: faster, ``benchmarks/bench_continuation.py``) or ``"joint"`` (the per-environment kernel
+    :func:`rig_env.simulate` runs: less to compile on a fresh installation);
     settings: the curve solver's steps and tolerances (:class:`rig_env.bifurcation.core.Settings`, scaled
     units: states in their units, the parameter by its range).
 
@@ -278,7 +283,9 @@ def continuation(
         raise ValueError("q_guess: expected 5 finite joint angles (rad, JOINTS order)")
     if not (physics_dt > 0 and math.isfinite(physics_dt)):
         raise ValueError(f"physics_dt = {physics_dt}: must be > 0 s")
-    rig = RigField(params, free, par, q0, controls, airspeed, aero, friction, bool(stops))
+    if orbit_kernel not in ("lanes", "joint"):
+        raise ValueError(f"orbit_kernel = {orbit_kernel!r}: allowed values: 'lanes', 'joint'")
+    rig = RigField(params, free, par, q0, controls, airspeed, aero, friction, bool(stops), orbit_kernel)
     x0, start = _first_equilibrium(rig, v)
     events = {}
     for a, j in enumerate(free):
