@@ -249,7 +249,7 @@ def trim(
         raise RuntimeError(f"trim: no equilibrium found for free_dofs={list(free)} (max |qdd| = {res:.3g} rad/s^2)")
     out_controls = dict(controls)
     if mix is not None:
-        out_controls.update({n: math.degrees(u[c]) for n, c in zip(mix.surfaces, cols) if u[c] != 0.0})
+        out_controls.update({n: math.degrees(u[c]) for n, c in zip(mix.surfaces, cols)})  # every mixed surface, 0.0 included
     sep = tuple(float(v) for v in separation_steady(q, qd, u, p, hawk_surfaces(u, p), tabs)) if flags & L.F_UNSTEADY else ()
     return OperatingPoint(q=q, qd=qd, controls_deg=out_controls, airspeed=float(airspeed), free_dofs=free, residual=res,
                           inputs={n: float(v[k]) for k, n in enumerate(names)}, aero_model=aero_model, separation=sep)
