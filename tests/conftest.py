@@ -21,7 +21,26 @@ def rng() -> np.random.Generator:
 
 
 RAY_TEST_LIMIT_S = 900
-"""A hard limit on a session's Ray tests: a hung cluster dumps every thread's stack and ends the run."""
+"""A hard limit on each Ray test, and on the cluster's start and shutdown: a hung cluster ends the run with
+status 1 (faulthandler's dump goes to pytest's fd capture, which the exit discards).  Armed per test, not over
+the session: the session's cluster stays up until the last test, and the tests after the Ray ones must not
+count against it (on a slow machine they did: the run ended 900 s after the cluster started, silently)."""
+
+
+@pytest.fixture(autouse=True)
+def _ray_test_watchdog(request: pytest.FixtureRequest):  # type: ignore[no-untyped-def]
+    """:data:`RAY_TEST_LIMIT_S` over each test that uses ``ray_cluster``; nothing for the others."""
+    if "ray_cluster" not in request.fixturenames:
+        yield
+        return
+    import faulthandler
+    import sys
+
+    faulthandler.dump_traceback_later(RAY_TEST_LIMIT_S, exit=True, file=sys.__stderr__)
+    try:
+        yield
+    finally:
+        faulthandler.cancel_dump_traceback_later()
 
 
 @pytest.fixture(scope="session")
@@ -40,7 +59,7 @@ def ray_cluster():  # type: ignore[no-untyped-def]
     from ray._private import ray_constants
 
     assert not ray_constants.ENABLE_RAY_CLUSTER, "ray was imported before tests/conftest.py chose loopback"
-    faulthandler.dump_traceback_later(RAY_TEST_LIMIT_S, exit=True, file=sys.stderr)
+    faulthandler.dump_traceback_later(RAY_TEST_LIMIT_S, exit=True, file=sys.__stderr__)  # the cluster's start
     os.environ.setdefault("RAY_DEDUP_LOGS", "0")
     env = worker_env()
     cluster = Cluster(initialize_head=True, head_node_args={"num_cpus": 0, "include_dashboard": False,
@@ -50,8 +69,10 @@ def ray_cluster():  # type: ignore[no-untyped-def]
             cluster.add_node(num_cpus=1, node_ip_address="127.0.0.1")
         ray.init(address=cluster.address, runtime_env={"env_vars": env}, logging_level="ERROR", log_to_driver=False)
         cluster.wait_for_nodes()
+        faulthandler.cancel_dump_traceback_later()  # each test arms its own (_ray_test_watchdog)
         yield cluster
     finally:
+        faulthandler.dump_traceback_later(RAY_TEST_LIMIT_S, exit=True, file=sys.__stderr__)  # the shutdown
         ray.shutdown()
         cluster.shutdown()
         faulthandler.cancel_dump_traceback_later()
