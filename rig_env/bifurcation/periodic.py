@@ -293,30 +293,31 @@ def orbits(
         initial_states=np.array(cols[2], dtype=float).reshape(-1, n), lower=np.array(cols[3], dtype=float).reshape(-1, n),
         upper=np.array(cols[4], dtype=float).reshape(-1, n), multipliers=np.array(cols[5], dtype=complex).reshape(-1, n),
         stable=np.array(cols[6], dtype=bool), hopf=hopf, end=why, multiplier_errors=errors,
-        special_points=_cycle_points(sh, pts, [readable(mu, e) for mu, e in zip(cols[5], errors)], s, extremes),
+        special_points=_cycle_points(sh, pts, cols[5], [readable(mu, e) for mu, e in zip(cols[5], errors)], s, extremes),
         criticality=criticality(f, hopf, float(cols[0][0])) if pts else "",
     )  # fmt: skip
 
 
-def _cycle_points(sh: Shooting, pts: list[Point], reliable: list[bool], s: Settings,
+def _cycle_points(sh: Shooting, pts: list[Point], multipliers: tuple[np.ndarray, ...], reliable: list[bool], s: Settings,
                   extremes: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]) -> tuple[CyclePoint, ...]:
     """The folds of cycles, period doublings and tori between consecutive orbits ``pts`` of a family, located (module
-    docstring); period doublings and tori only between two orbits whose multipliers are ``reliable``."""
+    docstring), given each orbit's ``multipliers``; period doublings and tori only between two orbits whose multipliers
+    are ``reliable``."""
     n = sh.n
     tests: dict[str, Callable[[Point], float]] = {
         "cycle_fold": lambda pt: float(pt.t[-1]),
         "period_doubling": lambda pt: float(np.linalg.det(sh.monodromy(pt.J) + np.eye(n))),
         "torus": lambda pt: _torus_test(np.linalg.eigvals(sh.monodromy(pt.J)))[1],
     }
-    g = [{kind: test(pt) for kind, test in tests.items()} for pt in pts]
-    complex_count = [_torus_test(np.linalg.eigvals(sh.monodromy(pt.J)))[0] for pt in pts]
+    tori = [_torus_test(mu) for mu in multipliers]
+    g = [{"cycle_fold": float(pt.t[-1]), "period_doubling": tests["period_doubling"](pt), "torus": torus[1]} for pt, torus in zip(pts, tori)]
     found = []
     for i, (a, b) in enumerate(zip(pts, pts[1:])):
         for kind, test in tests.items():
             ga, gb = g[i][kind], g[i + 1][kind]
             if ga * gb >= 0.0 or (kind != "cycle_fold" and not (reliable[i] and reliable[i + 1])):
                 continue
-            if kind == "torus" and complex_count[i] != complex_count[i + 1]:
+            if kind == "torus" and tori[i][0] != tori[i + 1][0]:
                 continue
             sh.set_reference(*sh.unpack(a.y)[::2])  # the phase plane through the orbit the bracket starts at
             c = locate(sh, a, b, test, s, ga, gb)
