@@ -14,7 +14,6 @@ import control
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-from scipy.linalg import solve_discrete_are
 from scipy.signal import cont2discrete
 
 from controllers import LoopSpec, UnsupportedTask, make_controller
@@ -133,20 +132,80 @@ def test_design_model_blocks_are_the_rigs_and_the_tasks(params, V):
     assert b[f + 1] == pytest.approx(wc**2) and np.count_nonzero(b) == 1
 
 
-def test_gain_solves_the_discrete_riccati_equation(params):
-    """K = (R + B'XB)^-1 B'XA with X from scipy's solve_discrete_are on the same augmented model and weights."""
-    pt = design_point(params, 20.0, DT, 1, MAX_DEVIATION, 0.5)
-    Ad, Bd = pt["Ad"], pt["Bd"]
+def riccati_by_doubling(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray, iters: int = 60) -> np.ndarray:
+    """X of X = A'XA - A'XB (R + B'XB)^-1 B'XA + Q by structure-preserving doubling (Chu, Fan & Lin, Linear Algebra
+    Appl. 396, 2005): A_k+1 = A_k W A_k, G_k+1 = G_k + A_k W G_k A_k', H_k+1 = H_k + A_k' H_k W A_k, W = (I + G_k H_k)^-1,
+    from A, B R^-1 B', Q; H_k -> X quadratically.  No Schur decomposition and no balancing: independent of scipy's solver."""
+    n = A.shape[0]
+    Ak, G, H = A.copy(), B @ np.linalg.solve(R, B.T), Q.copy()
+    for _ in range(iters):
+        W = np.linalg.inv(np.eye(n) + G @ H)
+        Ak, G, H_new = Ak @ W @ Ak, G + Ak @ W @ G @ Ak.T, H + Ak.T @ H @ W @ Ak
+        if np.linalg.norm(H_new - H) <= 1e-15 * np.linalg.norm(H_new):
+            return H_new
+        H = H_new
+    return H
+
+
+def _weights(params, V, pt, md=MAX_DEVIATION):
     from controllers.design.emulation import error_outputs
 
-    C = error_outputs(np.array([0.0, pt["q_op"][0], 0.0, pt["q_op"][1], 0.0]), 20.0, params.geometry.arm_length, Ad.shape[0])
-    W = np.diag([1 / MAX_DEVIATION["alpha_error"] ** 2, 1 / MAX_DEVIATION["q_error"] ** 2, 1 / MAX_DEVIATION["rig_pitch"] ** 2])
-    Q, R = (C.T @ W @ C + 1e-8 * np.eye(Ad.shape[0])) * DT, np.array([[DT / 0.5**2]])
-    X = solve_discrete_are(Ad, Bd, Q, R)
+    Ad = pt["Ad"]
+    C = error_outputs(np.array([0.0, pt["q_op"][0], 0.0, pt["q_op"][1], 0.0]), V, params.geometry.arm_length, Ad.shape[0])
+    W = np.diag([1 / md["alpha_error"] ** 2, 1 / md["q_error"] ** 2, 1 / md["rig_pitch"] ** 2])
+    return (C.T @ W @ C + 1e-8 * np.eye(Ad.shape[0])) * DT, np.array([[DT / (0.5 * 20.0 / V) ** 2]])
+
+
+@pytest.mark.parametrize("V", [20.0, 24.15])
+def test_gain_solves_the_discrete_riccati_equation(params, V):
+    """K = (R + B'XB)^-1 B'XA with X from structure-preserving doubling (the test's own solver) on the same augmented
+    model and weights.  At 24.15 m/s scipy's balanced Schur solver (python-control's dlqr) returned X with a relative
+    residual of 2.5e-2 and a gain of -232 on the pilot's command (the accurate one: 19.8); the design's checked solve
+    (controllers.design.riccati) must not."""
+    pt = design_point(params, V, DT, 1, MAX_DEVIATION, 0.5)
+    Ad, Bd = pt["Ad"], pt["Bd"]
+    Q, R = _weights(params, V, pt)
+    X = riccati_by_doubling(Ad, Bd, Q, R)
     K = np.linalg.solve(R + Bd.T @ X @ Bd, Bd.T @ X @ Ad)[0]
     np.testing.assert_allclose(pt["K"], K, rtol=1e-6, atol=1e-9)
     assert np.max(np.abs(np.linalg.eigvals(Ad - Bd @ K[None]))) < 1.0
     assert pt["d"] == 3  # 15 ms servo + 12.5 ms telemetry = 2.2 periods -> a delay line of 3
+
+
+def test_gain_is_smooth_in_airspeed(params):
+    """The scheduled law interpolates the gains linearly between design airspeeds 2.5 m/s apart: the gain on the pilot's
+    command at 24.0-24.3 m/s (where the unchecked solver's jumped between -232 and +33) is within 1 % of the straight line
+    through its values at the ends, as every other gain is."""
+    Vs = np.array([24.0, 24.1, 24.15, 24.2, 24.3])
+    K = np.array([design_point(params, float(v), DT, 1, MAX_DEVIATION, 0.5)["K"] for v in Vs])
+    line = K[0] + (Vs - Vs[0])[:, None] / (Vs[-1] - Vs[0]) * (K[-1] - K[0])
+    np.testing.assert_allclose(K, line, rtol=0.01, atol=1e-3)
+
+
+def test_checked_riccati_solutions(params):
+    """controllers.design.riccati: the residual is the equation's; an inaccurate first solution is solved again without
+    balancing; a solution no solver makes accurate stops the design with an error naming it."""
+    from controllers.design import riccati
+
+    pt = design_point(params, 24.15, DT, 1, MAX_DEVIATION, 0.5)
+    A, B = pt["Ad"], pt["Bd"]
+    Q, R = _weights(params, 24.15, pt)
+    X = riccati_by_doubling(A, B, Q, R)
+    assert riccati.are_residual(A, B, Q, R, X, discrete=True) < 1e-10
+    assert riccati.are_residual(A, B, Q, R, 1.01 * X, discrete=True) > 1e-4
+    K, Xs, E = riccati.lqr(A, B, Q, R, discrete=True, what="test")
+    np.testing.assert_allclose(Xs, X, rtol=1e-7, atol=1e-9 * np.abs(X).max())
+    np.testing.assert_allclose(np.sort(np.abs(E)), np.sort(np.abs(np.linalg.eigvals(A - B @ K))), rtol=1e-9)
+    Xe = riccati.solve_are(A, B, Q, R, discrete=True, what="test")
+    np.testing.assert_allclose(Xe, X, rtol=1e-7, atol=1e-9 * np.abs(X).max())
+    # continuous: a double integrator, X in closed form (Q = I, R = 1: X = [[sqrt 3, 1], [1, sqrt 3]])
+    Ac, Bc = np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[0.0], [1.0]])
+    Xc = riccati.solve_are(Ac, Bc, np.eye(2), np.eye(1), discrete=False, what="test")
+    np.testing.assert_allclose(Xc, [[3**0.5, 1.0], [1.0, 3**0.5]], rtol=1e-12)
+    with pytest.MonkeyPatch.context() as mp:  # every solver wrong: the design stops and says which equation
+        mp.setattr(riccati.sl, "solve_discrete_are", lambda *a, **k: 1.01 * X)
+        with pytest.raises(ArithmeticError, match="my design: no Riccati solution"):
+            riccati.solve_are(A, B, Q, R, discrete=True, what="my design")
 
 
 def test_estimator_gain_is_the_converged_kalman_filter(params):

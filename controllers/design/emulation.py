@@ -10,7 +10,8 @@ airspeed of a grid over ``spec.airspeed_range`` (:data:`controllers.laws.emulati
    :mod:`controllers.laws.emulation`).
 2. :func:`zoh_with_delay`: exact zero-order-hold discretisation at the control period with the loop's
    input delay (servo delay + ``link_delay_steps`` periods), the delay line appended to the state.
-3. ``control.dlqr`` with the Bryson weights of the module docstring; :func:`kalman_gain`, the estimator's.
+3. ``control.dlqr`` with the Bryson weights of the module docstring; :func:`kalman_gain`, the estimator's; both
+   Riccati solutions checked by their residuals (:mod:`controllers.design.riccati`).
 4. :func:`loop_as_flown`: the margins of the law as it flies (estimator and delay line, the rig with
    servo and delay), recorded in ``design["points"]``.
 """
@@ -50,6 +51,7 @@ from controllers.laws.emulation import (
     check_emulation,
     state_labels,
 )
+from controllers.design import riccati
 from controllers.design.signals import signal_scales
 from rig_env import linearize, trim
 from rig_env.params import RigParams
@@ -161,15 +163,13 @@ def kalman_gain(A_est: np.ndarray, C_est: np.ndarray, dt: float, sigma_a: tuple[
     (``sigma_ref``, over ``dt``: its derivatives differ from the task's by the episode's mass and air), and the
     gust's own innovation ``sigma_g^2 (1 - a^2)``, ``a`` its one-period decay (a Gauss-Markov process of variance
     ``sigma_g^2`` sampled exactly); measurement noise: the two angles ``sigma_z`` (rad), the flap ``sigma_zf``
-    (normalised), q_ref and a_n / V ``sigma_zr``.  The a-priori covariance from scipy's discrete Riccati solver;
+    (normalised), q_ref and a_n / V ``sigma_zr``.  The a-priori covariance from scipy's discrete Riccati solver (checked: :mod:`controllers.design.riccati`);
     ``L = P C' (C P C' + R)^-1``, the correction applied to the prediction.  Measuring the flap (the plant's
     input, as the rig's encoders do) keeps the law's margins close to the state feedback's (loop transfer
     recovery; an estimator driven by the commanded input alone lost some 15 deg of phase margin here).  The gust
     is seen in the free Hawk's normal acceleration (its lift responds at once), and in the rig's angles as the
     accelerations the rest of the model does not explain.
     """
-    from scipy.linalg import solve_discrete_are
-
     h2 = 0.5 * dt * dt
     e = {k: i for i, k in enumerate(ESTIMATED)}
     Gn = np.zeros((len(ESTIMATED), 5))
@@ -180,7 +180,7 @@ def kalman_gain(A_est: np.ndarray, C_est: np.ndarray, dt: float, sigma_a: tuple[
     g = e["gust_alpha"]
     Qn[g, g] = sigma_g**2 * (1.0 - A_est[g, g] ** 2)
     Rn = np.diag([sigma_z**2, sigma_z**2, sigma_zf**2, sigma_zr[0] ** 2, sigma_zr[1] ** 2])
-    P = solve_discrete_are(A_est.T, C_est.T, Qn, Rn)
+    P = riccati.solve_are(A_est.T, C_est.T, Qn, Rn, discrete=True, what="model-following LQR's estimator")
     return P @ C_est.T @ np.linalg.inv(C_est @ P @ C_est.T + Rn)
 
 
@@ -211,7 +211,7 @@ def design_point(params: RigParams, airspeed: float, dt: float, link_delay_steps
     u_max = max_input * V_REF / airspeed
     Q = (C.T @ W @ C + 1e-8 * np.eye(N)) * dt  # the tiny identity only makes Q definite (every mode is stable or controlled)
     R = np.array([[dt / u_max**2]])
-    K, _, poles = control.dlqr(Ad, Bd, Q, R)
+    K, _, poles = riccati.lqr(Ad, Bd, Q, R, discrete=True, what=f"model-following LQR at {airspeed:g} m/s")
     pt = {"airspeed": float(airspeed), "K": np.asarray(K)[0], "q_op": q_op[[1, 3]], "Ad": Ad, "Bd": Bd, "poles": np.asarray(poles), "d": d,
           "hawk_wn": float(ref.wn[0]), "hawk_zeta": float(ref.zeta[0]), "hawk_delay_steps": int(ref.delay_steps[0])}
     pt["meas_rows"] = measurement_rows(ref, N)

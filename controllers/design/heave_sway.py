@@ -49,6 +49,7 @@ from controllers.design.signals import reference_constants, signal_scales
 from controllers.design.tuning import AxisTuning, margins, rate_tf, shape_loops
 from controllers.laws.axes import AXIS_OF
 from controllers.laws.base import LoopSpec
+from controllers.design import riccati
 from controllers.design.estimator import kalman_gain
 from controllers.laws.heave_sway import ANGLE_MAX_DEG, LQR_TARGETS, V_STEP, HeaveSwayTables
 from rig_env import linearize, trim
@@ -111,7 +112,7 @@ def lqr_point(q_op: np.ndarray, sys: control.StateSpace, free_dofs: tuple[str, .
     used = [AXIS_OF[j] for j in DRIVEN if j in free_dofs]
     axis_name = {1: "heave", 2: "sway"}
     R = np.diag([1.0 / (mi[axis_name[k]] * V_REF / airspeed) ** 2 for k in used])
-    Kr, P, poles = control.lqr(Aa, Ba[:, used], Q, R)
+    Kr, P, poles = riccati.lqr(Aa, Ba[:, used], Q, R, discrete=False, what=f"heave/sway LQR at {airspeed:g} m/s")
     K = np.zeros((3, Aa.shape[0]))
     K[used] = Kr
     q_free = q_op[[JOINTS.index(j) for j in free_dofs]]

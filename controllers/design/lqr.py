@@ -23,6 +23,7 @@ import numpy as np
 
 from controllers.laws.axes import AXES, AXIS_OF, axes_of
 from controllers.laws.base import LoopSpec
+from controllers.design import riccati
 from controllers.design.estimator import kalman_gain
 from controllers.design.model import design_aero_model, design_model, loop_elements
 from controllers.design.signals import signal_scales
@@ -87,7 +88,7 @@ def design_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: float,
     Q = np.diag([1.0 / MAX_DEVIATION[s] ** 2 for s in labels])
     used = [AXIS_OF[j] for j in axes_of(free_dofs)]
     R = np.diag([1.0 / (MAX_INPUT[AXES[k]] * V_REF / airspeed) ** 2 for k in used])
-    Kr, P, poles = control.lqr(Aa, Ba[:, used], Q, R)
+    Kr, P, poles = riccati.lqr(Aa, Ba[:, used], Q, R, discrete=False, what=f"roll LQR at {airspeed:g} m/s, phi {math.degrees(phi):g} deg")
     K = np.zeros((3, Aa.shape[0]))
     K[used] = Kr
     q_op = dp.op.q[[JOINTS.index(j) for j in free_dofs]]
