@@ -237,12 +237,14 @@ def test_estimator_gain_is_the_converged_kalman_filter(params):
     assert np.max(np.abs(np.linalg.eigvals(A @ (np.eye(9) - pt["kalman_gain"] @ C)))) < 1.0
 
 
+@pytest.mark.parametrize("f", [0.0, 0.37])
 @pytest.mark.parametrize("V", [15.0, 25.0])
-def test_measurement_rows_are_the_tasks_reference(params, V):
+def test_measurement_rows_are_the_tasks_reference(params, V, f):
     """The estimator's model of q_ref and a_n / V is the task's: FreeHawkShortPeriod's q state and its
     normal_acceleration (with the gust's alpha) over V, for random reference states, elevators and gusts."""
     from controllers.design.emulation import measurement_rows
 
+    params = params.replace(**{"hawk_aero.alphadot_fraction": f})  # f > 0: a_n holds alpha_ff' (FreeHawkShortPeriod.lift_row)
     m = FreeHawkShortPeriod(6, DT)
     m.configure(np.arange(6), np.full(6, V), np.repeat(params.to_vector()[None], 6, axis=0))
     rng = np.random.default_rng(3)

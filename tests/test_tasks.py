@@ -168,20 +168,41 @@ def test_three_two_one_one_timing_and_the_tasks_pilot_input():
 
 # ---------------------------------------------------------------------- the free Hawk against theory
 def _derivatives(p: rig_env.RigParams, V: float) -> dict[str, float]:
-    """Dimensional short-period derivatives written out from eq. (23) and the Hawk's mass data."""
+    """Dimensional short-period derivatives written out from eq. (23) and the Hawk's mass data, the combined q
+    derivatives split by alphadot_fraction f: (1 - f) on q (Zq, Mq), f on alpha-dot (Zad, Mad)."""
     a, m = p.hawk_aero, p.mass
     qbar = 0.5 * p.environment.air_density * V**2
+    f = a.alphadot_fraction
     return {
         "Za": qbar * a.S * a.CLalpha / (m.hawk_mass * V),
-        "Zq": qbar * a.S * a.CLq * a.c / (2 * m.hawk_mass * V**2),
+        "Zq": (1 - f) * qbar * a.S * a.CLq * a.c / (2 * m.hawk_mass * V**2),
+        "Zad": f * qbar * a.S * a.CLq * a.c / (2 * m.hawk_mass * V**2),
         "Zd": qbar * a.S * a.CLde / (m.hawk_mass * V),
         "Ma": qbar * a.S * a.c * a.CMalpha / m.hawk_Iyy,
-        "Mq": qbar * a.S * a.c**2 * a.CMq / (2 * V * m.hawk_Iyy),
+        "Mq": (1 - f) * qbar * a.S * a.c**2 * a.CMq / (2 * V * m.hawk_Iyy),
+        "Mad": f * qbar * a.S * a.c**2 * a.CMq / (2 * V * m.hawk_Iyy),
         "Md": qbar * a.S * a.c * a.CMde / m.hawk_Iyy,
     }
 
 
-def test_free_hawk_short_period_matches_the_closed_form_characteristic_equation(params):
+def _alpha_q_rows(d: dict[str, float]) -> np.ndarray:
+    """(2, 6): the (alpha, q) rows of x' = A x, x = (alpha, q, theta, h, delta, delta'), from the equations as they stand,
+    E (alpha', q')' = A0 x with E = [[1 + Zad, 0], [-Mad, 1]] (alpha' = q - a_n / V and q' both hold alpha'), solved
+    numerically: an elimination of its own."""
+    E = np.array([[1.0 + d["Zad"], 0.0], [-d["Mad"], 1.0]])
+    A0 = np.array([[-d["Za"], 1 - d["Zq"], 0, 0, -d["Zd"], 0], [d["Ma"], d["Mq"], 0, 0, d["Md"], 0]])
+    return np.linalg.solve(E, A0)
+
+
+ALPHADOT_FRACTIONS = [0.0, 0.37]
+"""The paper's lumped derivatives and the consistent set's split (tail-volume theory)."""
+
+
+@pytest.mark.parametrize("f", ALPHADOT_FRACTIONS)
+def test_free_hawk_short_period_matches_the_closed_form_characteristic_equation(params, f):
+    """(1 + Zad) s^2 + (Za - (1 + Zad) Mq - (1 - Zq) Mad) s - Za Mq - (1 - Zq) Ma = 0 (f = 0: s^2 + (Za - Mq) s - Za Mq
+    - (1 - Zq) Ma), against the one-step map of the exact discretisation."""
+    params = params.replace(**{"hawk_aero.alphadot_fraction": f})
     speeds = np.array([15.0, 20.0, 25.0])
     dt = 1 / 80
     model = FreeHawkShortPeriod(3, dt)
@@ -196,7 +217,8 @@ def test_free_hawk_short_period_matches_the_closed_form_characteristic_equation(
     wn, zeta = model.short_period()
     for i, V in enumerate(speeds):
         d = _derivatives(params, V)
-        roots = np.roots([1.0, d["Za"] - d["Mq"], -d["Za"] * d["Mq"] - (1 - d["Zq"]) * d["Ma"]])
+        D = 1.0 + d["Zad"]
+        roots = np.roots([D, d["Za"] - D * d["Mq"] - (1 - d["Zq"]) * d["Mad"], -d["Za"] * d["Mq"] - (1 - d["Zq"]) * d["Ma"]])
         s = np.log(np.linalg.eigvals(M[i]).astype(complex)) / dt  # continuous roots of the discrete map
         np.testing.assert_allclose(np.sort_complex(s), np.sort_complex(roots), rtol=1e-9)  # exact discretisation
         assert wn[i] == pytest.approx(abs(roots[0]), rel=1e-12)
@@ -212,7 +234,9 @@ def test_batched_matrix_exponential_equals_scipy():
     assert np.max(np.abs(E - R) / np.abs(R).max(axis=(1, 2))[:, None, None]) < 1e-10
 
 
-def test_free_hawk_3211_response_matches_the_exact_discretisation(params):
+@pytest.mark.parametrize("f", ALPHADOT_FRACTIONS)
+def test_free_hawk_3211_response_matches_the_exact_discretisation(params, f):
+    params = params.replace(**{"hawk_aero.alphadot_fraction": f})
     V, dt, amp = 20.0, 1 / 80, 1.0 * D
     model = FreeHawkShortPeriod(1, dt)
     model.configure(np.arange(1), np.array([V]), param_batch(params, 1))
@@ -220,8 +244,7 @@ def test_free_hawk_3211_response_matches_the_exact_discretisation(params):
     wn_s, z_s = 2 * math.pi * params.servos.hawk.natural_freq_hz, params.servos.hawk.damping
     # x = (alpha, q, theta, h, delta, delta'), written out independently
     A = np.zeros((6, 6))
-    A[0] = [-d["Za"], 1 - d["Zq"], 0, 0, -d["Zd"], 0]
-    A[1] = [d["Ma"], d["Mq"], 0, 0, d["Md"], 0]
+    A[:2] = _alpha_q_rows(d)
     A[2, 1] = 1.0
     A[3, 0], A[3, 2] = -V, V
     A[4, 5] = 1.0
@@ -254,17 +277,21 @@ def test_free_hawk_3211_response_matches_the_exact_discretisation(params):
     np.testing.assert_allclose((hs[2:] - 2 * hs[1:-1] + hs[:-2]) / dt**2, an[1:-1], atol=0.02 * np.abs(an).max())
 
 
-def test_free_hawk_flies_in_the_gust_it_is_given(params):
+@pytest.mark.parametrize("f", ALPHADOT_FRACTIONS)
+def test_free_hawk_flies_in_the_gust_it_is_given(params, f):
     """The reference's gust channel against theory: held in a steady updraft alpha_g, the statically stable
     free Hawk weathercocks into it (q' = 0 and theta' = q = 0 need alpha + alpha_g = 0): its kinematic alpha
     goes to -alpha_g, q and a_n to 0; and its response equals the exact zero-order-hold discretisation of
-    x' = A x + B_g alpha_g with B_g = (-Za, Ma, 0, 0, 0, 0), written out independently."""
+    x' = A x + B_g alpha_g with B_g = (-Za, Ma, 0, 0, 0, 0) (with the alpha-dot split, E^-1 of it), written out independently."""
+    params = params.replace(**{"hawk_aero.alphadot_fraction": f})
     V, dt, ag = 20.0, 1 / 80, 0.5 * D
     model = FreeHawkShortPeriod(1, dt)
     model.configure(np.arange(1), np.array([V]), param_batch(params, 1))
     d = _derivatives(params, V)
     A, _ = model.matrices(np.arange(1))
-    Bg = np.array([-d["Za"], d["Ma"], 0.0, 0.0, 0.0, 0.0])
+    np.testing.assert_allclose(A[0, :2], _alpha_q_rows(d), rtol=1e-12)
+    Bg = np.zeros(6)
+    Bg[:2] = np.linalg.solve([[1.0 + d["Zad"], 0.0], [-d["Mad"], 1.0]], [-d["Za"], d["Ma"]])
     Phi = expm(np.block([[A[0], Bg[:, None]], [np.zeros((1, 7))]]) * dt)
     x = np.zeros(6)
     zero = np.zeros(1)

@@ -143,11 +143,12 @@ def error_outputs(q_op: np.ndarray, airspeed: float, arm_length: float, n: int) 
 
 def measurement_rows(ref: Any, n: int) -> np.ndarray:
     """(5, n): the :data:`controllers.laws.emulation.MEASURED` quantities as rows of the design state: the two angles,
-    the heave flap, q_ff, and a_n / V = Za (alpha_ff + alpha_g) + Zq q_ff + Zd delta of the free Hawk
-    (``FreeHawkShortPeriod.normal_acceleration`` over V; ``ref`` its model at the design airspeed)."""
+    the heave flap, q_ff, and a_n / V of the free Hawk, linear in alpha_ff + alpha_g, q_ff and delta
+    (``FreeHawkShortPeriod.lift_row``, which its ``normal_acceleration`` uses; ``ref`` its model at the design airspeed)."""
     C = np.zeros((len(MEASURED), n))
     C[0, _S["rig_pitch"]] = C[1, _S["model_pitch"]] = C[2, _S["flap"]] = C[3, _S["q_ff"]] = 1.0
-    C[4, [_S["alpha_ff"], _S["gust_alpha"], _S["q_ff"], _S["hawk_elevator"]]] = [ref.Za[0], ref.Za[0], ref.Zq[0], ref.Zd[0]]
+    ka, kq, kd = (float(k[0]) for k in ref.lift_row())
+    C[4, [_S["alpha_ff"], _S["gust_alpha"], _S["q_ff"], _S["hawk_elevator"]]] = [ka, ka, kq, kd]
     return C
 
 

@@ -46,7 +46,7 @@ in the measured airspeed, and ``x`` built from the observation:
   ``accel_ref`` entries; noise :data:`SIGMA_A`, :data:`SIGMA_F`, :data:`SIGMA_Z`, :data:`SIGMA_ZF`,
   :data:`SIGMA_REF`, :data:`SIGMA_ZR`, the gust's :data:`SIGMA_GUST`; started from the measurements and the
   loop's filtered rates, in calm air.  The free Hawk's normal acceleration holds its lift, a_n / V = Za
-  (alpha_ff + alpha_g) + Zq q_ff + Zd delta, and alpha_ff follows from q_ff through the reference's
+  (alpha_ff + alpha_g) + Zq q_ff + Zd delta (+ Zad alpha_ff' with the alpha-dot split), and alpha_ff follows from q_ff through the reference's
   dynamics, so the gust is read from the reference almost at once (in the comparison's 1 % gusts the
   estimate correlates 0.99 with the true gust of the step before, at 0.85 of its RMS);
 * ``pilot_cmd`` = the ``elevator_cmd`` entry;

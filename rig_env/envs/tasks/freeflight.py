@@ -48,16 +48,17 @@ class FreeHawkShortPeriod:
     airspeed V (held constant: the short-period approximation, e.g. Etkin & Reid, *Dynamics of
     Flight*, longitudinal modes; Cook, *Flight Dynamics Principles*, short-period approximation).
     With qbar = rho V^2 / 2 and the Hawk's derivatives of eq. (23) (``RigParams.hawk_aero``, the same
-    ones the rig's Hawk flies with: in the default file Table 4's CL and Table 3's CM terms; CMq is
-    CMq + CMalphadot, lumped on q as the rig's aero model does), flying in the same air as the rig: a
+    ones the rig's Hawk flies with: in the default file Table 4's CL and Table 3's CM terms; CMq and CLq the
+    combined derivatives, split by ``alphadot_fraction`` f as the rig's aero model splits them: (1 - f) on q,
+    f on alpha-dot; f = 0, the paper's model, lumps them on q), flying in the same air as the rig: a
     vertical gust w_g (m/s, world z down) adds alpha_g = -w_g / V to the angle of attack the aerodynamics
     see, alpha_a = alpha + alpha_g, while alpha, the kinematic angle between the body and the flight path,
     is what the rig's model is scored on (Etkin & Reid, response to atmospheric turbulence; the gust's
     longitudinal part changes V, which the short-period approximation holds constant):
 
-        a_n    = (qbar S / m) (CLa alpha_a + CLq q c / (2V) + CLde delta)          normal acceleration, up, m/s^2
+        a_n    = (qbar S / m) (CLa alpha_a + CLq ((1 - f) q + f alpha') c / (2V) + CLde delta)   normal acceleration, up, m/s^2
         alpha' = q - a_n / V                                                        (V gamma' = a_n, gamma = theta - alpha)
-        q'     = (qbar S c / Iyy) (CMa alpha_a + CMq q c / (2V) + CMde delta)
+        q'     = (qbar S c / Iyy) (CMa alpha_a + CMq ((1 - f) q + f alpha') c / (2V) + CMde delta)
         theta' = q,    h' = V (theta - alpha)                                       heave, up, m
         delta'' = wn^2 (u(t - d) - delta) - 2 zeta wn delta'                        the Hawk servo (rig_env.physics.servo)
 
@@ -65,10 +66,12 @@ class FreeHawkShortPeriod:
     control step (as the environment holds it) and delayed by d rounded to whole control steps; alpha_g
     held over the step as the environment holds the gust.  The linear system x' = A x + B u + B_g alpha_g
     is discretised exactly for that zero-order hold (Phi = expm, per environment at reset), so a step is
-    one batched matrix-vector product.  The (alpha, q)
-    characteristic equation is ``s^2 + (Za - Mq) s - Za Mq - (1 - Zq) Ma = 0`` with Za = qbar S CLa /
-    (m V), Zq = qbar S CLq c / (2 m V^2), Ma = qbar S c CMa / Iyy, Mq = qbar S c^2 CMq / (2 V Iyy)
-    (:meth:`short_period`).  Servo rate and position limits are not modelled (inputs of a few deg stay
+    one batched matrix-vector product.  With Za = qbar S CLa / (m V), Zq = (1 - f) qbar S CLq c / (2 m V^2),
+    Zad = f qbar S CLq c / (2 m V^2), Ma = qbar S c CMa / Iyy, Mq = (1 - f) qbar S c^2 CMq / (2 V Iyy) and
+    Mad = f qbar S c^2 CMq / (2 V Iyy), the alpha' equation is implicit, alpha' (1 + Zad) = (1 - Zq) q - Za
+    alpha_a - Zd delta, and with D = 1 + Zad the (alpha, q) characteristic equation is
+    ``D s^2 + (Za - D Mq - (1 - Zq) Mad) s - Za Mq - (1 - Zq) Ma = 0`` (:meth:`short_period`; Etkin & Reid's
+    short-period approximation with its Z_alphadot and M_alphadot terms).  Servo rate and position limits are not modelled (inputs of a few deg stay
     far from them).
     """
 
@@ -79,7 +82,7 @@ class FreeHawkShortPeriod:
         self.x = np.zeros((n, self.N))
         self.an = np.zeros(n)
         self.V = np.ones(n)
-        self.Za, self.Zq, self.Zd, self.Ma, self.Mq, self.Md = (np.zeros(n) for _ in range(6))
+        self.Za, self.Zq, self.Zd, self.Ma, self.Mq, self.Md, self.Zad, self.Mad = (np.zeros(n) for _ in range(8))
         self.wn, self.zeta, self.delay_steps = np.ones(n), np.ones(n), np.zeros(n, dtype=np.int64)
         self.Phi = np.repeat(np.eye(self.N)[None], n, axis=0)
         self.Gam = np.zeros((n, self.N))
@@ -96,10 +99,13 @@ class FreeHawkShortPeriod:
         kz, km = qbar * S / (m * V), qbar * S * c / Iyy
         self.V[idx] = V
         self.Za[idx] = kz * P[:, L.P_HAWK_AERO_CLALPHA]
-        self.Zq[idx] = kz * P[:, L.P_HAWK_AERO_CLQ] * c / (2.0 * V)
+        f = P[:, L.P_HAWK_AERO_ALPHADOT_FRACTION]
+        self.Zq[idx] = (1.0 - f) * kz * P[:, L.P_HAWK_AERO_CLQ] * c / (2.0 * V)
+        self.Zad[idx] = f * kz * P[:, L.P_HAWK_AERO_CLQ] * c / (2.0 * V)
         self.Zd[idx] = kz * P[:, L.P_HAWK_AERO_CLDE]
         self.Ma[idx] = km * P[:, L.P_HAWK_AERO_CMALPHA]
-        self.Mq[idx] = km * P[:, L.P_HAWK_AERO_CMQ] * c / (2.0 * V)
+        self.Mq[idx] = (1.0 - f) * km * P[:, L.P_HAWK_AERO_CMQ] * c / (2.0 * V)
+        self.Mad[idx] = f * km * P[:, L.P_HAWK_AERO_CMQ] * c / (2.0 * V)
         self.Md[idx] = km * P[:, L.P_HAWK_AERO_CMDE]
         self.wn[idx] = 2.0 * math.pi * P[:, L.P_SERVOS_HAWK_NATURAL_FREQ_HZ]
         self.zeta[idx] = P[:, L.P_SERVOS_HAWK_DAMPING]
@@ -119,8 +125,12 @@ class FreeHawkShortPeriod:
         V, Za, Zq, Zd = self.V[idx], self.Za[idx], self.Zq[idx], self.Zd[idx]
         wn, zeta = self.wn[idx], self.zeta[idx]
         A, B = np.zeros((m, self.N, self.N)), np.zeros((m, self.N))
-        A[:, 0, 0], A[:, 0, 1], A[:, 0, 4] = -Za, 1.0 - Zq, -Zd  # alpha' = q - a_n / V
-        A[:, 1, 0], A[:, 1, 1], A[:, 1, 4] = self.Ma[idx], self.Mq[idx], self.Md[idx]
+        D, Mad = 1.0 + self.Zad[idx], self.Mad[idx]
+        A[:, 0, 0], A[:, 0, 1], A[:, 0, 4] = -Za / D, (1.0 - Zq) / D, -Zd / D  # alpha' = q - a_n / V, solved for alpha'
+        A[:, 1] = Mad[:, None] * A[:, 0]  # q' = ... + Mad alpha'
+        A[:, 1, 0] += self.Ma[idx]
+        A[:, 1, 1] += self.Mq[idx]
+        A[:, 1, 4] += self.Md[idx]
         A[:, 2, 1] = 1.0
         A[:, 3, 0], A[:, 3, 2] = -V, V
         A[:, 4, 5] = 1.0
@@ -131,17 +141,27 @@ class FreeHawkShortPeriod:
     def gust_column(self, idx: np.ndarray) -> np.ndarray:
         """(m, 6) B_g of envs idx: d x' / d alpha_g (alpha_g enters where alpha does in the loads)."""
         Bg = np.zeros((idx.size, self.N))
-        Bg[:, 0], Bg[:, 1] = -self.Za[idx], self.Ma[idx]
+        D = 1.0 + self.Zad[idx]
+        Bg[:, 0] = -self.Za[idx] / D
+        Bg[:, 1] = self.Ma[idx] + self.Mad[idx] * Bg[:, 0]
         return Bg
 
     def short_period(self) -> tuple[np.ndarray, np.ndarray]:
         """(n,) natural frequency (rad/s) and damping ratio of the closed-form characteristic equation."""
-        wn = np.sqrt(-self.Za * self.Mq - (1.0 - self.Zq) * self.Ma)
-        return wn, (self.Za - self.Mq) / (2.0 * wn)
+        D = 1.0 + self.Zad
+        wn = np.sqrt((-self.Za * self.Mq - (1.0 - self.Zq) * self.Ma) / D)
+        return wn, ((self.Za - (1.0 - self.Zq) * self.Mad) / D - self.Mq) / (2.0 * wn)
+
+    def lift_row(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(n,) each: a_n / V per unit alpha_a, q and delta, alpha' eliminated: a_n / V = Za alpha_a + Zq q + Zd delta +
+        Zad alpha' = (Za alpha_a + Zd delta) / D + (Zq + Zad (1 - Zq) / D) q, D = 1 + Zad."""
+        D = 1.0 + self.Zad
+        return self.Za / D, self.Zq + self.Zad * (1.0 - self.Zq) / D, self.Zd / D
 
     def normal_acceleration(self, x: np.ndarray, alpha_g: np.ndarray | float = 0.0) -> np.ndarray:
         """(n,) a_n, m/s^2, of states x (n, 6) in a gust of alpha_g (n,) rad."""
-        return self.V * (self.Za * (x[:, 0] + alpha_g) + self.Zq * x[:, 1] + self.Zd * x[:, 4])
+        ka, kq, kd = self.lift_row()
+        return self.V * (ka * (x[:, 0] + alpha_g) + kq * x[:, 1] + kd * x[:, 4])
 
     def step(self, u: np.ndarray, alpha_g: np.ndarray | None = None) -> None:
         """Advance every env one control step with the elevator command u (n,) rad and the gust's angle of
