@@ -161,7 +161,7 @@ def test_gain_solves_the_discrete_riccati_equation(params, V):
     """K = (R + B'XB)^-1 B'XA with X from structure-preserving doubling (the test's own solver) on the same augmented
     model and weights.  At 24.15 m/s scipy's balanced Schur solver (python-control's dlqr) returned X with a relative
     residual of 2.5e-2 and a gain of -232 on the pilot's command (the accurate one: 19.8); the design's checked solve
-    (controllers.design.riccati) must not."""
+    (rig_env.riccati) must not."""
     pt = design_point(params, V, DT, 1, MAX_DEVIATION, 0.5)
     Ad, Bd = pt["Ad"], pt["Bd"]
     Q, R = _weights(params, V, pt)
@@ -183,9 +183,9 @@ def test_gain_is_smooth_in_airspeed(params):
 
 
 def test_checked_riccati_solutions(params):
-    """controllers.design.riccati: the residual is the equation's; an inaccurate first solution is solved again without
+    """rig_env.riccati: the residual is the equation's; an inaccurate first solution is solved again without
     balancing; a solution no solver makes accurate stops the design with an error naming it."""
-    from controllers.design import riccati
+    from rig_env import riccati
 
     pt = design_point(params, 24.15, DT, 1, MAX_DEVIATION, 0.5)
     A, B = pt["Ad"], pt["Bd"]

@@ -11,7 +11,7 @@ airspeed of a grid over ``spec.airspeed_range`` (:data:`controllers.laws.emulati
 2. :func:`zoh_with_delay`: exact zero-order-hold discretisation at the control period with the loop's
    input delay (servo delay + ``link_delay_steps`` periods), the delay line appended to the state.
 3. ``control.dlqr`` with the Bryson weights of the module docstring; :func:`kalman_gain`, the estimator's; both
-   Riccati solutions checked by their residuals (:mod:`controllers.design.riccati`).
+   Riccati solutions checked by their residuals (:mod:`rig_env.riccati`).
 4. :func:`loop_as_flown`: the margins of the law as it flies (estimator and delay line, the rig with
    servo and delay), recorded in ``design["points"]``.
 """
@@ -51,7 +51,7 @@ from controllers.laws.emulation import (
     check_emulation,
     state_labels,
 )
-from controllers.design import riccati
+from rig_env import riccati
 from controllers.design.signals import signal_scales
 from rig_env import linearize, trim
 from rig_env.params import RigParams
@@ -164,7 +164,7 @@ def kalman_gain(A_est: np.ndarray, C_est: np.ndarray, dt: float, sigma_a: tuple[
     (``sigma_ref``, over ``dt``: its derivatives differ from the task's by the episode's mass and air), and the
     gust's own innovation ``sigma_g^2 (1 - a^2)``, ``a`` its one-period decay (a Gauss-Markov process of variance
     ``sigma_g^2`` sampled exactly); measurement noise: the two angles ``sigma_z`` (rad), the flap ``sigma_zf``
-    (normalised), q_ref and a_n / V ``sigma_zr``.  The a-priori covariance from scipy's discrete Riccati solver (checked: :mod:`controllers.design.riccati`);
+    (normalised), q_ref and a_n / V ``sigma_zr``.  The a-priori covariance from scipy's discrete Riccati solver (checked: :mod:`rig_env.riccati`);
     ``L = P C' (C P C' + R)^-1``, the correction applied to the prediction.  Measuring the flap (the plant's
     input, as the rig's encoders do) keeps the law's margins close to the state feedback's (loop transfer
     recovery; an estimator driven by the commanded input alone lost some 15 deg of phase margin here).  The gust

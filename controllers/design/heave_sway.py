@@ -49,7 +49,7 @@ from controllers.design.signals import reference_constants, signal_scales
 from controllers.design.tuning import AxisTuning, margins, rate_tf, shape_loops
 from controllers.laws.axes import AXIS_OF
 from controllers.laws.base import LoopSpec
-from controllers.design import riccati
+from rig_env import riccati
 from controllers.design.estimator import kalman_gain
 from controllers.laws.heave_sway import ANGLE_MAX_DEG, LQR_TARGETS, V_STEP, HeaveSwayTables
 from rig_env import linearize, trim

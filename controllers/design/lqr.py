@@ -23,7 +23,7 @@ import numpy as np
 
 from controllers.laws.axes import AXES, AXIS_OF, axes_of
 from controllers.laws.base import LoopSpec
-from controllers.design import riccati
+from rig_env import riccati
 from controllers.design.estimator import kalman_gain
 from controllers.design.model import design_aero_model, design_model, loop_elements
 from controllers.design.signals import signal_scales

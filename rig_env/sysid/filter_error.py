@@ -29,8 +29,8 @@ import math
 from typing import Callable, Mapping
 
 import numpy as np
-from scipy.linalg import solve_discrete_are
 
+from rig_env import riccati
 from rig_env.physics import layout as L
 from rig_env.sysid.output_error import STEP_TOL, Solution
 from rig_env.sysid.problem import Evaluation, Problem
@@ -72,7 +72,7 @@ def _gains(Phi: np.ndarray, C: np.ndarray, Fstd: np.ndarray, r: np.ndarray, dt: 
         Q[n:, n:] = np.diag(Fstd[i] ** 2 * dt)
         Q += 1e-14 * np.eye(n2)
         Rm = np.diag(r[i])
-        P = solve_discrete_are(Phi[i].T, C.T, Q, Rm)
+        P = riccati.solve_are(Phi[i].T, C.T, Q, Rm, discrete=True, what="filter-error Kalman gain")
         Bi = C @ P @ C.T + Rm
         B[i] = 0.5 * (Bi + Bi.T)
         K[i] = P @ C.T @ np.linalg.inv(B[i])

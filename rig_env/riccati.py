@@ -1,4 +1,6 @@
-"""Riccati solutions the designs can trust: each checked by its residual, and solved again without balancing when it fails.
+"""Riccati solutions the laws' designs and the identification can trust: each checked by its residual, and solved again
+without balancing when it fails (``controllers.design``: the LQRs and Kalman filters; ``rig_env.sysid.filter_error``: the
+filter-error method's steady-state gains).
 
 python-control's ``lqr``/``dlqr`` and scipy's ``solve_continuous_are``/``solve_discrete_are`` balance the
 Hamiltonian pencil before the Schur decomposition by default.  On the model-following design's
@@ -22,7 +24,6 @@ is, so accurate designs are bit for bit what they were.
 
 from __future__ import annotations
 
-import control
 import numpy as np
 import scipy.linalg as sl
 
@@ -61,6 +62,8 @@ def solve_are(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray, *, dis
 def lqr(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray, *, discrete: bool, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(K, X, poles)`` of python-control's ``lqr`` (``dlqr`` if ``discrete``), checked as the module docstring says:
     u = -K x; X the Riccati solution; poles the closed loop's eigenvalues.  ``what`` names the design in the error."""
+    import control  # python-control: the designs' solver (imported here, so that identification need not load it)
+
     K, X, E = (control.dlqr if discrete else control.lqr)(A, B, Q, R)
     K, X, E = np.asarray(K), np.asarray(X), np.asarray(E)
     res = are_residual(A, B, Q, R, X, discrete=discrete)
