@@ -131,6 +131,31 @@ def test_overlapping_score_intervals_are_a_tie():
     assert rec["law"] is None and set(rec["tied"]) == {"a", "b"} and rec["caveats"][0].startswith("tie:")
 
 
+def test_episodes_every_law_failed_are_named_with_their_airspeeds():
+    """Paired episodes: those every law failed (and only those) are a caveat and in ``shared_failures``, with their
+    airspeeds; one law alone, or no common failure, gives none."""
+    from controllers.evaluation.score import shared_failures
+
+    n = 12
+    v = np.linspace(15.0, 25.0, n)
+    a = np.ones(n)
+    b = np.ones(n)
+    a[[0, 1, 5]] = 0.0  # a fails 0, 1, 5; b fails 1, 5, 9: both fail 1 and 5
+    b[[1, 5, 9]] = 0.0
+    res = _result({"a": {"success": a, "airspeed": v}, "b": {"success": b, "airspeed": v}}, n)
+    shared = shared_failures(res.metrics)
+    assert shared == {"laws": ["a", "b"], "episodes": [1, 5], "airspeed_m_s": [round(v[1], 3), round(v[5], 3)]}
+    rows = rows_of(res)
+    rec = recommend({r["law"]: r for r in rows}, shared=shared)
+    assert rec["shared_failures"] == shared
+    text = [c for c in rec["caveats"] if "failed by every law" in c]
+    assert len(text) == 1 and text[0].startswith("2 of 12 episodes failed by every law (a, b)") and "episodes 1, 5" in text[0]
+    assert f"at {v[1]:.1f}-{v[5]:.1f} m/s" in text[0]
+    assert shared_failures({"a": res.metrics["a"]}) is None  # one law: nothing to pair
+    assert shared_failures({"a": {"success": np.ones(n)}, "b": {"success": b}}) is None
+    assert recommend({r["law"]: r for r in rows})["shared_failures"] is None
+
+
 def test_a_stop_and_an_oscillation_are_caveats():
     one = np.ones(12)
     rec, _ = _rec({"osc": {"success": one, "cmd_freq": np.full(12, 2.5), "cmd_osc_amp": np.full(12, 30.0),

@@ -33,7 +33,7 @@ from typing import Any, Mapping, Sequence, TextIO
 from controllers import CONTROLLERS, Controller, LoopSpec, UnsupportedTask, make_controller
 from controllers.evaluation import figures, report, schema
 from controllers.evaluation.contenders import load_contenders
-from controllers.evaluation.score import DEFAULT_RULE, ScoreRule, recommend
+from controllers.evaluation.score import DEFAULT_RULE, ScoreRule, recommend, shared_failures
 from controllers.evaluation.summary import Comparison, format_table, rows_of
 from controllers.evaluation.evaluate import MODES, evaluate
 from controllers.design import DESIGNS
@@ -199,7 +199,7 @@ def _compare(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes:
                 cmp.results.append(res)
                 rows = rows_of(res, rule)
                 cmp.rows += rows
-                cmp.recommendations.setdefault(task, {})[mode] = recommend({r["law"]: r for r in rows}, rule)
+                cmp.recommendations.setdefault(task, {})[mode] = recommend({r["law"]: r for r in rows}, rule, shared_failures(res.metrics))
     cmp.seconds = time.perf_counter() - t0
     for mode in modes:
         rows = [r for r in cmp.rows if r["mode"] == mode]

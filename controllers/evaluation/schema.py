@@ -38,6 +38,7 @@ REC, the recommendation for a task and mode (:func:`controllers.evaluation.score
 | ``criterion`` | str | the eligibility criterion, e.g. ``"success >= 80 %"`` |
 | ``ranking`` | list | every law, ranked: ``{law, success, score, score_ci95, eligible}`` |
 | ``caveats`` | list of str | what a reader must know before flying the law (the first says "no law meets the criterion" when none does) |
+| ``shared_failures`` | object or null | the episodes every law failed (two or more laws): ``{laws, episodes, airspeed_m_s}`` (:func:`controllers.evaluation.score.shared_failures`); null when there are none |
 
 ``summary.csv``: one line per (mode, task, law): ``success_pct`` with ``success_pct_lo``/``_hi``,
 ``score`` with ``score_lo``/``_hi``, and for every metric ``<key>_<unit>`` (the median; the key alone

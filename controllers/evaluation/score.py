@@ -23,7 +23,12 @@ The recommendation for a task and mode (:func:`recommend`):
 4. caveats for the top law: a success interval reaching below the criterion (too few episodes to be sure),
    saturation (median >= 5 % of the episode), a command rate RMS of half the slew reference or more, a
    dominant command oscillation of 2 Hz or more and +-5 deg or more, stop contact, an RMS error over two or
-   more reference steps dominated by the steps (hold error below half the RMS error).
+   more reference steps dominated by the steps (hold error below half the RMS error);
+5. episodes that every law failed (with two or more laws; :func:`shared_failures`): the episodes are paired, the
+   same draw for every law, so a draw that defeats them all points at the rig's reach or the task (a hold
+   beyond the compensator's trim authority, an airspeed too low for the aileron against the roll imbalance)
+   rather than at any one law.  The caveat names how many, their episodes and their airspeeds, and
+   ``shared_failures`` carries them.
 """
 
 from __future__ import annotations
@@ -114,17 +119,41 @@ def _caveats(law: str, r: Mapping[str, Any], rule: ScoreRule) -> list[str]:
     return out
 
 
-def recommend(rows: Mapping[str, Mapping[str, Any]], rule: ScoreRule = DEFAULT_RULE) -> dict[str, Any]:
+def shared_failures(metrics: Mapping[str, Mapping[str, np.ndarray]]) -> dict[str, Any] | None:
+    """The episodes every law failed, from the laws' per-episode ``success`` (and ``airspeed``, m/s) of one paired
+    batch (:class:`controllers.evaluation.evaluate.EvalResult.metrics`): ``{"laws", "episodes", "airspeed_m_s"}``
+    (episode indices from 0, in the comparison's order), or None with fewer than two laws or no such episode."""
+    if len(metrics) < 2:
+        return None
+    ok = np.array([np.asarray(m["success"], dtype=bool) for m in metrics.values()])
+    idx = np.flatnonzero(~ok.any(axis=0))
+    if idx.size == 0:
+        return None
+    first = next(iter(metrics.values()))
+    v = np.asarray(first["airspeed"], dtype=np.float64)[idx] if "airspeed" in first else np.full(idx.size, np.nan)
+    return {"laws": list(metrics), "episodes": idx.tolist(), "airspeed_m_s": [round(float(x), 3) for x in v]}
+
+
+def _shared_caveat(shared: Mapping[str, Any], n: int) -> str:
+    eps, v = shared["episodes"], np.asarray(shared["airspeed_m_s"], dtype=np.float64)
+    shown = ", ".join(str(e) for e in eps[:12]) + (", ..." if len(eps) > 12 else "")
+    speeds = f" at {np.nanmin(v):.1f}-{np.nanmax(v):.1f} m/s" if np.isfinite(v).any() else ""
+    return (f"{len(eps)} of {n} episodes failed by every law ({', '.join(shared['laws'])}){speeds} (episodes {shown}): the same draws "
+            "defeat every law, which points at the rig's reach or the task rather than at one law")
+
+
+def recommend(rows: Mapping[str, Mapping[str, Any]], rule: ScoreRule = DEFAULT_RULE, shared: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The recommendation for one task and mode from its laws' rows (law -> row with ``success``,
     ``success_ci95``, ``episodes``, ``score``, ``score_ci95``, ``metrics``); see the module docstring.
+    ``shared``: :func:`shared_failures` of the same batch (None: none, or not known).
 
-    Returns ``{"law", "score", "score_ci95", "tied", "criterion", "ranking", "caveats"}``."""
+    Returns ``{"law", "score", "score_ci95", "tied", "criterion", "ranking", "caveats", "shared_failures"}``."""
     ranking = sorted(rows, key=lambda k: (rows[k]["success"] >= rule.min_success, rows[k]["score"], rows[k]["success"]), reverse=True)
     eligible = [k for k in ranking if rows[k]["success"] >= rule.min_success]
     rec: dict[str, Any] = {"law": None, "score": None, "score_ci95": None, "tied": [], "criterion": f"success >= {_pct(rule.min_success)} %",
                            "ranking": [{"law": k, "success": rows[k]["success"], "score": rows[k]["score"], "score_ci95": list(rows[k]["score_ci95"]),
                                         "eligible": rows[k]["success"] >= rule.min_success} for k in ranking],
-                           "caveats": []}
+                           "caveats": [], "shared_failures": dict(shared) if shared else None}
     caveats: list[str] = rec["caveats"]
     if not rows:
         caveats.append("no law flew this task")
@@ -149,6 +178,8 @@ def recommend(rows: Mapping[str, Mapping[str, Any]], rule: ScoreRule = DEFAULT_R
         else:
             rec["law"] = top
             caveats += _caveats(top, rows[top], rule)
+    if shared:
+        caveats.append(_shared_caveat(shared, max(int(r["episodes"]) for r in rows.values())))
     return rec
 
 
