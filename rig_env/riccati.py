@@ -48,15 +48,8 @@ def solve_are(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray, *, dis
     """``X`` of the Riccati equation (scipy's solver, balanced first), checked as the module docstring says.
     ``what`` names the equation in the error."""
     solver = sl.solve_discrete_are if discrete else sl.solve_continuous_are
-    X: np.ndarray = np.asarray(solver(A, B, Q, R))
-    res = are_residual(A, B, Q, R, X, discrete=discrete)
-    if res > RETRY_TOL:
-        X2 = np.asarray(solver(A, B, Q, R, balanced=False))
-        res2 = are_residual(A, B, Q, R, X2, discrete=discrete)
-        if res2 < res:
-            X, res = X2, res2
-    _accept(res, what)
-    return X
+    X = np.asarray(solver(A, B, Q, R))
+    return _checked(A, B, Q, R, X, discrete, what)[0]
 
 
 def lqr(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray, *, discrete: bool, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -64,19 +57,32 @@ def lqr(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray, *, discrete:
     u = -K x; X the Riccati solution; poles the closed loop's eigenvalues.  ``what`` names the design in the error."""
     import control  # python-control: the designs' solver (imported here, so that identification need not load it)
 
-    K, X, E = (control.dlqr if discrete else control.lqr)(A, B, Q, R)
-    K, X, E = np.asarray(K), np.asarray(X), np.asarray(E)
+    K, X, E = (np.asarray(m) for m in (control.dlqr if discrete else control.lqr)(A, B, Q, R))
+    X, replaced = _checked(A, B, Q, R, X, discrete, what)
+    if replaced:  # the gain and the poles of the accurate solution
+        B2, R2 = np.atleast_2d(B), np.atleast_2d(R)
+        K = np.linalg.solve(R2 + B2.T @ X @ B2, B2.T @ X @ A) if discrete else np.linalg.solve(R2, B2.T @ X)
+        E = np.linalg.eigvals(A - B2 @ K)
+    return K, X, E
+
+
+def _checked(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray, X: np.ndarray, discrete: bool, what: str) -> tuple[np.ndarray, bool]:
+    """``(X, replaced)``: X as it is when its residual is below RETRY_TOL, else the better of it and the unbalanced
+    solution (replaced: the latter); ArithmeticError if the better is above ACCEPT_TOL."""
     res = are_residual(A, B, Q, R, X, discrete=discrete)
+    replaced = False
     if res > RETRY_TOL:
         solver = sl.solve_discrete_are if discrete else sl.solve_continuous_are
-        X2 = solver(A, B, Q, R, balanced=False)
-        res2 = are_residual(A, B, Q, R, X2, discrete=discrete)
-        if res2 < res:
-            B2, R2 = np.atleast_2d(B), np.atleast_2d(R)
-            K = np.linalg.solve(R2 + B2.T @ X2 @ B2, B2.T @ X2 @ A) if discrete else np.linalg.solve(R2, B2.T @ X2)
-            X, res, E = X2, res2, np.linalg.eigvals(A - B2 @ K)
+        X2: np.ndarray | None
+        try:
+            X2 = np.asarray(solver(A, B, Q, R, balanced=False))
+        except (np.linalg.LinAlgError, ValueError):  # no stabilising solution found this way: the first stands or falls alone
+            X2 = None
+        res2 = are_residual(A, B, Q, R, X2, discrete=discrete) if X2 is not None else np.inf
+        if X2 is not None and res2 < res:
+            X, res, replaced = X2, res2, True
     _accept(res, what)
-    return K, X, E
+    return X, replaced
 
 
 def _accept(res: float, what: str) -> None:
