@@ -156,6 +156,22 @@ def test_episodes_every_law_failed_are_named_with_their_airspeeds():
     assert recommend({r["law"]: r for r in rows})["shared_failures"] is None
 
 
+def test_compare_on_another_rig_says_which_draws_are_beyond_its_reach():
+    """rig compare --params: a task whose draws this rig cannot hold (Task.reach) is named in the output and in
+    summary.json's settings.reach, before its laws fly."""
+    import io
+
+    from controllers.evaluation.compare import compare
+
+    import rig_env
+
+    out = io.StringIO()
+    c = compare(tasks=["bank_to_bank"], kinds=["pid"], episodes=2, modes=["nominal"], out_dir=None, stream=out, progress=False,
+                params_file=Path(rig_env.__file__).parent / "data" / "consistent_rig.toml")
+    assert "note: bank_to_bank: holding 90 deg of bank at 15 m/s needs 76 %" in out.getvalue()
+    assert len(c.settings["reach"]["bank_to_bank"]) == 1
+
+
 def test_a_stop_and_an_oscillation_are_caveats():
     one = np.ones(12)
     rec, _ = _rec({"osc": {"success": one, "cmd_freq": np.full(12, 2.5), "cmd_osc_amp": np.full(12, 30.0),

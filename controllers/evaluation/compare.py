@@ -180,6 +180,12 @@ def _compare(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes:
             cmp.skipped += skipped
             if not laws:
                 continue
+            if params is not None:  # an identified (or other) rig: do the task's draws stay within its reach?
+                lo, hi = min(conditions[m].airspeed[0] for m in modes), max(conditions[m].airspeed[1] for m in modes)
+                beyond = TASKS[task].reach(params, (lo, hi))
+                for line in beyond:
+                    stream.write(f"  note: {line}\n")
+                cmp.settings.setdefault("reach", {})[task] = beyond
             for law_name, law in laws.items():
                 if hasattr(law, "describe"):
                     cmp.margins.setdefault(task, {})[law_name] = plain(law.describe())
