@@ -156,8 +156,29 @@ def test_episodes_every_law_failed_are_named_with_their_airspeeds():
     assert recommend({r["law"]: r for r in rows})["shared_failures"] is None
 
 
+def test_reach_of_the_default_and_the_consistent_rig():
+    """controllers.evaluation.reach: the default rig holds every task's draws within the tasks' own shares of the compensator's travel
+    over the comparison's 15-25 m/s (nothing to say); the consistent set (the measured 0.398 kg m roll imbalance,
+    Table 3's trim at 4 deg) does not: 90 deg of bank at 15 m/s needs 76 % of the aileron (the roll tasks allow 60 %;
+    34 % on the default rig), and the pull-up's 15 deg hold more than the elevator has.  From 20 m/s its bank is within
+    reach.  The shares are rig_env.trim's, as the pull-up's own test computes them."""
+    import rig_env
+    from controllers.evaluation.reach import hold_share, reach
+    from rig_env.envs import TASKS
+
+    default, consistent = rig_env.RigParams.default(), rig_env.RigParams.consistent()
+    assert {k: reach(k, default, (15.0, 25.0)) for k in TASKS} == {k: [] for k in TASKS}
+    got = {k: reach(k, consistent, (15.0, 25.0)) for k in TASKS}
+    assert {k for k, v in got.items() if v} == {"velocity_vector_roll", "bank_to_bank", "pull_up_push_over"}
+    assert len(got["bank_to_bank"]) == 1 and "90 deg of bank at 15 m/s needs 76 %" in got["bank_to_bank"][0]
+    assert any("rig pitch at 15 deg" in line and "more than all" in line for line in got["pull_up_push_over"])
+    assert reach("bank_to_bank", consistent, (20.0, 25.0)) == []
+    share = hold_share(default, ("rig_roll", "model_pitch"), "rig_roll", 90.0, "comp_aileron", 15.0)
+    assert share == pytest.approx(0.34, abs=0.01)
+
+
 def test_compare_on_another_rig_says_which_draws_are_beyond_its_reach():
-    """rig compare --params: a task whose draws this rig cannot hold (Task.reach) is named in the output and in
+    """rig compare --params: a task whose draws this rig cannot hold (controllers.evaluation.reach) is named in the output and in
     summary.json's settings.reach, before its laws fly."""
     import io
 

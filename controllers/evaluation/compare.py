@@ -33,6 +33,7 @@ from typing import Any, Mapping, Sequence, TextIO
 from controllers import CONTROLLERS, Controller, LoopSpec, UnsupportedTask, make_controller
 from controllers.evaluation import figures, report, schema
 from controllers.evaluation.contenders import load_contenders
+from controllers.evaluation.reach import reach
 from controllers.evaluation.score import DEFAULT_RULE, ScoreRule, recommend, shared_failures
 from controllers.evaluation.summary import Comparison, format_table, rows_of
 from controllers.evaluation.evaluate import MODES, evaluate
@@ -182,7 +183,7 @@ def _compare(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes:
                 continue
             if params is not None:  # an identified (or other) rig: do the task's draws stay within its reach?
                 lo, hi = min(conditions[m].airspeed[0] for m in modes), max(conditions[m].airspeed[1] for m in modes)
-                beyond = TASKS[task].reach(params, (lo, hi))
+                beyond = reach(task, params, (lo, hi))
                 for line in beyond:
                     stream.write(f"  note: {line}\n")
                 cmp.settings.setdefault("reach", {})[task] = beyond

@@ -66,7 +66,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from rig_env.params import JOINTS, LIMITED_JOINTS, RigParams
+from rig_env.params import JOINTS, LIMITED_JOINTS
 from rig_env.physics import layout as L
 from rig_env.physics.jit import kernel
 
@@ -219,30 +219,6 @@ class Task:
         options, or None when the task drives none (the roll tasks track rig_roll; departure recovery levels the rig)."""
         return None
 
-    # ------------------------------------------------------------------ the rig's reach
-    @classmethod
-    def reach(cls, params: RigParams, airspeed: tuple[float, float]) -> list[str]:
-        """What this task's draws ask of the rig ``params`` beyond its reach at airspeeds in ``airspeed`` (m/s): one line
-        per static hold the task draws whose trim (``rig_env.trim``) needs more of a compensator surface's travel than
-        the task allows itself (:meth:`hold_share`).  Empty: within reach, or a task with no static hold to check (the
-        base class).  The task's draws were chosen for the default rig; an identified rig may reach less, and then
-        those episodes fail every law (``rig compare --params`` prints these lines)."""
-        return []
-
-    @staticmethod
-    def hold_share(params: RigParams, free_dofs: tuple[str, ...], joint: str, angle_deg: float, surface: str, airspeed: float) -> float:
-        """The share of the compensator's travel (``servos.compensator.limit_deg``) that surface ``surface`` needs to hold
-        ``joint`` at ``angle_deg`` deg at ``airspeed`` m/s with ``free_dofs`` free (``rig_env.trim``; the other joints
-        settle); inf when no trim exists."""
-        from rig_env.linear import trim  # the trim solver: loaded only when a reach is asked for
-
-        q0 = [0.0] * 5
-        q0[JOINTS.index(joint)] = angle_deg * D
-        op = trim(params, free_dofs, q0, airspeed=airspeed, hold={joint: angle_deg * D}, unknown_inputs=[surface], max_residual=None)
-        if not op.residual <= 1e-6:
-            return math.inf
-        return abs(op.controls_deg[surface]) / params.servos.compensator.limit_deg
-
     # ------------------------------------------------------------------ shared pieces
     def col(self, joint: str) -> int:
         """Column of ``joint`` in the measured (free-joint) arrays, -1 when it is locked."""
@@ -341,11 +317,6 @@ def smooth_ramp(x: np.ndarray) -> np.ndarray:
     """0 for x <= 0, 1 for x >= 1, ``x^2 (3 - 2 x)`` between (zero slope at both ends)."""
     s = np.clip(x, 0.0, 1.0)
     return s * s * (3.0 - 2.0 * s)
-
-
-def share_text(share: float) -> str:
-    """A share of a surface's travel for :meth:`Task.reach`'s lines: "76 %", or "more than all" (no trim)."""
-    return f"{100 * share:.0f} %" if math.isfinite(share) else "more than all"
 
 
 def sign_of(u: np.ndarray) -> np.ndarray:

@@ -8,8 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from rig_env.envs.tasks.base import G0, D, Task, share_text as _share, sign_of
-from rig_env.params import RigParams
+from rig_env.envs.tasks.base import G0, D, Task, sign_of
 
 
 def pulse_heave(tau: np.ndarray, T: np.ndarray, A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -115,22 +114,9 @@ class PullUpPushOver(Task):
         return "rig_pitch"
 
     REACH_SHARE = 0.85
-    """The most of the heave flap's travel a hold at an end of ``HOLDABLE_DEG`` may need (:meth:`reach`): a fifth left to
+    """The most of the heave flap's travel a hold at an end of ``HOLDABLE_DEG`` may need (the check of a rig's reach,
+    :mod:`controllers.evaluation.reach`): a fifth left to
     regulate with, less a margin for the mass spread (the default rig: 74-81 % at 15-25 m/s, the class docstring)."""
-
-    @classmethod
-    def reach(cls, params: RigParams, airspeed: tuple[float, float]) -> list[str]:
-        """The holds at ``HOLDABLE_DEG``'s ends at both ends of ``airspeed`` whose trim needs more than ``REACH_SHARE`` of
-        the compensator elevator's travel (:meth:`Task.reach`)."""
-        out = []
-        for V in sorted({float(airspeed[0]), float(airspeed[1])}):
-            for th in cls.HOLDABLE_DEG:
-                share = cls.hold_share(params, ("rig_pitch", "model_pitch"), "rig_pitch", th, "comp_elevator", V)
-                if share > cls.REACH_SHARE:
-                    out.append(f"{cls.name}: holding rig pitch at {th:g} deg at {V:g} m/s needs {_share(share)} of the compensator "
-                               f"elevator's travel (this task allows {100 * cls.REACH_SHARE:.0f} %; it draws holds in {list(cls.HOLDABLE_DEG)} deg): "
-                               "holds near there are beyond this rig's reach")
-        return out
 
     def __init__(self, n_envs: int, free_dofs: tuple[str, ...], dt: float, episode_seconds: float) -> None:
         super().__init__(n_envs, free_dofs, dt, episode_seconds)

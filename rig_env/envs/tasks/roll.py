@@ -6,8 +6,7 @@ import math
 
 import numpy as np
 
-from rig_env.envs.tasks.base import D, Task, share_text
-from rig_env.params import RigParams
+from rig_env.envs.tasks.base import D, Task
 from rig_env.physics.jit import kernel
 
 _JIT = {"cache": True, "error_model": "numpy", "_nrt": False}  # allocation-free kernels, compiled lazily
@@ -80,22 +79,10 @@ def _roll_tracked(t, q, qd, ref, R, phi0, Th, Td, t_start, t_ramp, band_rate, ba
 
 ROLL_REACH_SHARE = 0.6
 """The most of the compensator aileron's travel that holding the rig at 90 deg of bank may need at the lowest airspeed
-(:func:`roll_reach`): the rest starts and stops the roll through the tasks' 30-90 deg steps and spins.  The default rig
+(the check of a rig's reach, :mod:`controllers.evaluation.reach`): the rest starts and stops the roll through the tasks' 30-90 deg steps and spins.  The default rig
 needs 34 % at 15 m/s; the consistent set (the measured 0.398 kg m roll imbalance) 76 %, and there every bank-to-bank
 episode the designed laws and PPO all failed (7 of 64 nominal) was flown at 15.1-15.7 m/s, where the share is 0.72-0.76,
 none above 16 m/s (0.67 and less)."""
-
-
-def roll_reach(task: str, doing: str, params: RigParams, airspeed: tuple[float, float]) -> list[str]:
-    """:meth:`Task.reach` of a roll task: the aileron share (``Task.hold_share``, rig roll and model pitch free) that holds
-    +-90 deg of bank at the lowest airspeed, against :data:`ROLL_REACH_SHARE`; ``doing`` says what the task asks."""
-    V = float(min(airspeed))
-    share = max(Task.hold_share(params, ("rig_roll", "model_pitch"), "rig_roll", bank, "comp_aileron", V) for bank in (90.0, -90.0))
-    if share <= ROLL_REACH_SHARE:
-        return []
-    return [f"{task}: holding 90 deg of bank at {V:g} m/s needs {share_text(share)} of the compensator aileron's travel (the roll "
-            f"tasks allow {100 * ROLL_REACH_SHARE:.0f} %: the rest {doing}): at the low airspeeds this rig's roll imbalance leaves "
-            "too little to fly the task"]
 
 
 class VelocityVectorRoll(Task):
@@ -140,11 +127,6 @@ class VelocityVectorRoll(Task):
     def __init__(self, n_envs: int, free_dofs: tuple[str, ...], dt: float, episode_seconds: float) -> None:
         super().__init__(n_envs, free_dofs, dt, episode_seconds)
         self.phi0, self.R, self.Th, self.Td = np.zeros(n_envs), np.zeros(n_envs), np.ones(n_envs), np.ones(n_envs)
-
-    @classmethod
-    def reach(cls, params: RigParams, airspeed: tuple[float, float]) -> list[str]:
-        """:func:`roll_reach`: the roll must pass 90 deg of bank against the rig's imbalance at every airspeed."""
-        return roll_reach(cls.name, "accelerates the roll through the worst angle", params, airspeed)
 
     def reset(self, idx: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         self.phi0[idx] = (20.0 * u[:, 0] - 10.0) * D
@@ -233,11 +215,6 @@ class BankToBank(Task):
         # 4 s steps from 1 s) would make the last reference jump on the final step and fail every law
         n_steps = math.ceil((episode_seconds - self.T_START) / self.T_SEG - 1e-9)
         self.last_seg = int(min(max(n_steps, 1), self.N_SEG) - 1)
-
-    @classmethod
-    def reach(cls, params: RigParams, airspeed: tuple[float, float]) -> list[str]:
-        """:func:`roll_reach`: the banks are drawn up to 90 deg at every airspeed."""
-        return roll_reach(cls.name, "starts and stops the 30-90 deg steps", params, airspeed)
 
     def reset(self, idx: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         self.phi0[idx] = (10.0 * u[:, 0] - 5.0) * D
