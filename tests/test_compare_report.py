@@ -178,8 +178,8 @@ def test_reach_of_the_default_and_the_consistent_rig():
 
 
 def test_compare_on_another_rig_says_which_draws_are_beyond_its_reach():
-    """rig compare --params: a task whose draws this rig cannot hold (controllers.evaluation.reach) is named in the output and in
-    summary.json's settings.reach, before its laws fly."""
+    """rig compare --params: a task whose draws this rig cannot hold (controllers.evaluation.reach) is named in the output
+    before its laws fly, in summary.json's settings.reach, and again under the recommendations (printed and report.md)."""
     import io
 
     from controllers.evaluation.compare import compare
@@ -191,6 +191,11 @@ def test_compare_on_another_rig_says_which_draws_are_beyond_its_reach():
                 params_file=Path(rig_env.__file__).parent / "data" / "consistent_rig.toml")
     assert "note: bank_to_bank: holding 90 deg of bank at 15 m/s needs 76 %" in out.getvalue()
     assert len(c.settings["reach"]["bank_to_bank"]) == 1
+    from controllers.evaluation.report import verdict
+
+    text, md = verdict(c), verdict(c, markdown=True)
+    assert any(line.startswith("beyond this rig's reach") for line in text) and "### Beyond this rig's reach" in md
+    assert sum("holding 90 deg of bank at 15 m/s" in line for line in text) == 1
 
 
 def test_a_stop_and_an_oscillation_are_caveats():

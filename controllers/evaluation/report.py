@@ -1,7 +1,7 @@
 """The one-page Markdown report of a comparison (``report.md``) and its printed recommendations.
 
 Sections: what was run; which law per task and mode (:func:`verdict`: the recommendation, its score
-and caveats; the score's definition); per mode the tracking table and the command table, every number a
+and caveats; the score's definition; with ``--params``, the tasks' holds beyond that rig's reach); per mode the tracking table and the command table, every number a
 median over episodes with its 95 % interval and every header with its unit; per task the history of one
 episode beside the distributions over all episodes (:mod:`controllers.evaluation.figures`); the designed
 laws' loop margins; skipped laws.
@@ -36,6 +36,16 @@ def verdict(cmp: Comparison, markdown: bool = False) -> list[str]:
             head = f"**{head}**" if markdown else head
             out.append(f"- {task}, {mode}: {head}")
             out += [f"    - {c}" if markdown else f"    {c}" for c in rec["caveats"]]
+    beyond = [line for lines in cmp.settings.get("reach", {}).values() for line in lines]
+    if beyond:  # rig compare --params: draws this rig cannot hold (controllers.evaluation.reach)
+        params = cmp.settings.get("params_file")
+        if markdown:
+            out += ["", "### Beyond this rig's reach", "", f"The tasks' draws were chosen for the default rig; on `{params}` these holds need more "
+                    "of the compensator's travel than the task allows (`controllers.evaluation.reach`), and the episodes that ask for "
+                    "them fail whatever the law:", ""]
+        else:
+            out.append(f"beyond this rig's reach ({params}: the tasks' draws were chosen for the default rig)")
+        out += [f"- {line}" if markdown else f"    {line}" for line in beyond]
     return out
 
 
