@@ -217,7 +217,7 @@ def hawk_loads(p: np.ndarray, Aa: np.ndarray, v_rel: np.ndarray, w: np.ndarray, 
     v_rel: c.g. velocity relative to the air (world, m/s); w: angular velocity (world, rad/s);
     de, da, dr: elevator, aileron, rudder (rad).  The combined q derivatives CLq, CMq are shared between q
     ((1 - f) of them) and alpha-dot (f, ``alphadot_fraction``); the induced drag takes the lift with
-    ``alpha_dot``.  The fin's derivatives (CYbeta, Cnbeta and the rudder's) are scaled by
+    alpha-dot's velocity part alone, q - v (p u + r w) / (u^2 + w^2).  The fin's derivatives (CYbeta, Cnbeta and the rudder's) are scaled by
     :func:`fin_factor`; Clbeta grows with the static lift by Clbeta_CL.  sep (with nonlinear): the flow-separation
     state x; the tables' lift and moment then move by the Kirchhoff lift CL_att (F(x) - F0) and that lift times
     CMalpha / CLalpha (docs/MODEL.md 3.1.1).
@@ -252,7 +252,10 @@ def hawk_loads(p: np.ndarray, Aa: np.ndarray, v_rel: np.ndarray, w: np.ndarray, 
     CMq_q, CMq_ad = (1 - f) * p[L.P_HAWK_AERO_CMQ], f * p[L.P_HAWK_AERO_CMQ]
     ad_hat = alpha_dot * c / (2 * V)
     CL = cl_alpha + CLq_q * q_hat + CLq_ad * ad_hat + p[L.P_HAWK_AERO_CLDE] * de
-    CD = p[L.P_HAWK_AERO_CD0] + CL**2 / (math.pi * p[L.P_HAWK_AERO_E_OSWALD] * b * b / S)
+    # the induced drag takes the lift with alpha-dot's velocity part alone (the c.g. acceleration's left out)
+    ad_v = qb - v * (pb * u + rb * wz) / (u * u + wz * wz) if u * u + wz * wz > 0.0 else 0.0
+    CL_d = CL + CLq_ad * (ad_v - alpha_dot) * c / (2 * V)
+    CD = p[L.P_HAWK_AERO_CD0] + CL_d**2 / (math.pi * p[L.P_HAWK_AERO_E_OSWALD] * b * b / S)
     CM = cm_alpha + CMq_q * q_hat + CMq_ad * ad_hat + p[L.P_HAWK_AERO_CMDE] * de
     fin = fin_factor(alpha, p)
     CY = fin * (p[L.P_HAWK_AERO_CYBETA] * beta + p[L.P_HAWK_AERO_CYDR] * dr)

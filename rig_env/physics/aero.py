@@ -221,7 +221,7 @@ def hawk_aero_full(p, A, v_cg, omega, v_air, a_bias, de, da, dr, nonlinear, tab_
     deflections (rad).  All vectors in the caller's axes (world, or the arm's: any inertial components).
 
     Eq. (23) with the combined q derivatives split (``alphadot_fraction`` f):
-    CL = CL(alpha) + (1 - f) CLq q^ + f CLq alphadot^ + CLde de, CD = CD0 + CL_v^2/(pi e AR),
+    CL = CL(alpha) + (1 - f) CLq q^ + f CLq alphadot^ + CLde de, CD = CD0 + CL_v^2/(pi e AR) (CL_v: alphadot's velocity part alone, below),
     CM = CM(alpha) + (1 - f) CMq q^ + f CMq alphadot^ + CMde de, with x^ = x c/2V; plus CY, Cl, Cn in beta,
     p, r, da, dr, the fin's terms times the blanking factor (Cnbeta's fuselage part Cnbeta_body not) and
     Clbeta + Clbeta_CL CL(alpha).
@@ -237,8 +237,10 @@ def hawk_aero_full(p, A, v_cg, omega, v_air, a_bias, de, da, dr, nonlinear, tab_
     The loads returned use alphadot_v, the value with a_cg = a_bias; the caller adds the rest, n . (a_cg -
     a_bias), through the returned (fd, md, n): the force and moment per unit of it and n, which makes the
     loads linear in the accelerations (an added-mass-like term the solvers handle: joint_space.solve_free_rank1,
-    dae_solve.accelerations).  The induced drag takes CL_v, the lift with alphadot_v (its dependence on the
-    acceleration part is left out, so that the loads stay linear in it).
+    dae_solve.accelerations).  The induced drag takes the lift with alpha-dot's velocity part alone,
+    q - v (p u + r w) / (u^2 + w^2) (its dependence on the c.g. acceleration is left out, so that the loads stay
+    linear in the accelerations; the velocity part, unlike a_bias, is the same in every formulation, so the
+    joint-space and DAE kernels fly one model).
 
     Returns (f, m, fd, md, n); all zero below MIN_AIRSPEED.
     """
@@ -260,8 +262,8 @@ def hawk_aero_full(p, A, v_cg, omega, v_air, a_bias, de, da, dr, nonlinear, tab_
     ixz = 1.0 / vxz
     ixz2 = ixz * ixz if vxz > 0.0 else 0.0
     n = mv(A, (-(vb[2] * ixz2), 0.0, vb[0] * ixz2))
-    adot = wb[1] - vb[1] * (wb[0] * vb[0] + wb[2] * vb[2]) * ixz2 + dot(n, a_bias)
-    adh = adot * c * (0.5 * iV)
+    adot_v = wb[1] - vb[1] * (wb[0] * vb[0] + wb[2] * vb[2]) * ixz2  # the velocities' part
+    adh = (adot_v + dot(n, a_bias)) * c * (0.5 * iV)
     a0 = p[L.P_HAWK_AERO_ALPHA0]
     if nonlinear and unsteady:
         cl_static, cm_static = separated_coefficients(p, alpha, xsep, tab_alpha, tab_cl, tab_cm)
@@ -275,8 +277,9 @@ def hawk_aero_full(p, A, v_cg, omega, v_air, a_bias, de, da, dr, nonlinear, tab_
     clq = p[L.P_HAWK_AERO_CLQ]
     cmq = p[L.P_HAWK_AERO_CMQ]
     CL = cl_static + (1.0 - f_ad) * clq * qh + f_ad * clq * adh + p[L.P_HAWK_AERO_CLDE] * de
+    CL_d = CL + f_ad * clq * (dot(n, a_bias) * c * (-0.5 * iV))  # the lift with alphadot's velocity part alone
     k_ind = S / (math.pi * p[L.P_HAWK_AERO_E_OSWALD] * b * b)  # 1 / (pi e AR), AR = b^2 / S
-    CD = p[L.P_HAWK_AERO_CD0] + k_ind * CL * CL
+    CD = p[L.P_HAWK_AERO_CD0] + k_ind * CL_d * CL_d
     CM = cm_static + (1.0 - f_ad) * cmq * qh + f_ad * cmq * adh + p[L.P_HAWK_AERO_CMDE] * de
     eta = blanking(alpha, p)
     CY = eta * (p[L.P_HAWK_AERO_CYBETA] * beta + p[L.P_HAWK_AERO_CYDR] * dr)
