@@ -11,6 +11,7 @@ import functools
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
+from rig_env.envs.tasks import TASKS
 from rig_env.params import JOINTS, RigParams
 
 _AERO_DERIVATIVES = [f"hawk_aero.{k}" for k in ("CLalpha", "CLq", "CLde", "CMalpha", "CMq", "CMde", "CYbeta", "CYdr", "Clbeta",
@@ -49,8 +50,11 @@ class Conditions:
     angle_noise_deg: float = 0.05
     link_delay_steps: int = 1
 
-    def env_fields(self) -> dict[str, Any]:
-        return {"airspeed": self.airspeed, "turbulence": self.turbulence, "randomise": dict(self.randomise),
+    def env_fields(self, task: str | None = None) -> dict[str, Any]:
+        """The :class:`rig_env.envs.RigEnvConfig` settings; with ``task`` its airspeed floor applied
+        (``Task.airspeed_for``: the roll tasks fly from 17 m/s, where the default rig can hold 90 deg of bank)."""
+        airspeed = self.airspeed if task is None else TASKS[task].airspeed_for(self.airspeed)
+        return {"airspeed": airspeed, "turbulence": self.turbulence, "randomise": dict(self.randomise),
                 "angle_noise_deg": self.angle_noise_deg, "link_delay_steps": self.link_delay_steps}
 
 

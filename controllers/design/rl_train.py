@@ -317,7 +317,7 @@ def training_overrides(args: argparse.Namespace, table: dict[str, Any]) -> dict[
 
     out: dict[str, Any] = {}
     if args.conditions not in (None, "none"):
-        out.update(MODES[args.conditions].env_fields())
+        out.update(MODES[args.conditions].env_fields(args.task))
     out.update(table)
     out.update(getattr(args, "env_kv", {}))
     if "task" in out:

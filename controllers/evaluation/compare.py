@@ -169,8 +169,14 @@ def _compare(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes:
     t0 = time.perf_counter()
     with compile_watch(prog):  # anything left to compile is announced while it compiles
         for task in tasks:
-            laws, skipped = _build(kinds, task, n, {**conditions[modes[0]].env_fields(), **env_params}, stream, params)
-            spec = LoopSpec.from_env(RigVectorEnv(1, task=task, **{**conditions[modes[0]].env_fields(), **env_params}))
+            floor = {m: conditions[m].env_fields(task)["airspeed"] for m in modes}
+            if any(tuple(floor[m]) != tuple(conditions[m].airspeed) for m in modes):
+                a = floor[modes[0]]
+                stream.write(f"  note: {task} flies at {a[0]:g}-{a[1]:g} m/s: below {TASKS[task].min_airspeed:g} m/s the default "
+                             "rig cannot hold what the task draws (Task.min_airspeed)\n")
+                cmp.settings.setdefault("airspeed", {})[task] = [float(a[0]), float(a[1])]
+            laws, skipped = _build(kinds, task, n, {**conditions[modes[0]].env_fields(task), **env_params}, stream, params)
+            spec = LoopSpec.from_env(RigVectorEnv(1, task=task, **{**conditions[modes[0]].env_fields(task), **env_params}))
             for c in (c for c in contenders if c.task == task):
                 try:
                     c.check(spec)
@@ -182,7 +188,7 @@ def _compare(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes:
             if not laws:
                 continue
             if params is not None:  # an identified (or other) rig: do the task's draws stay within its reach?
-                lo, hi = min(conditions[m].airspeed[0] for m in modes), max(conditions[m].airspeed[1] for m in modes)
+                lo, hi = min(floor[m][0] for m in modes), max(floor[m][1] for m in modes)
                 beyond = reach(task, params, (lo, hi))
                 for line in beyond:
                     stream.write(f"  note: {line}\n")

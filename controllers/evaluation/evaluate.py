@@ -132,7 +132,7 @@ def _evaluate(
         raise ValueError(f"first_episode = {first_episode!r}: must be a non-negative integer")
     names = list(laws)
     n, C = n_episodes, len(names)
-    fields = {**conditions.env_fields(), **dict(env_overrides or {})}
+    fields = {**conditions.env_fields(task), **dict(env_overrides or {})}
     env = RigVectorEnv(n * C, task=task, **fields)
     spec = LoopSpec.from_env(env)
     built: dict[str, Controller] = {}

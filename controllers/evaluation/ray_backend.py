@@ -140,7 +140,7 @@ def run_chunk(ledger: Any, key: str, laws: Mapping[str, LawFactory], task: str, 
     import ray
 
     attempt = int(ray.get(ledger.start.remote(key, where)))
-    fields = {**conditions.env_fields(), **dict(env_overrides or {})}
+    fields = {**conditions.env_fields(task), **dict(env_overrides or {})}
     warm_s = distributed.warm_once(f"{task}|{sorted(fields.items())!r}|{m * len(laws)}", _warm(task, fields, m * len(laws)))
     res = evaluate(dict(laws), task, n_episodes=m, seed=seed, conditions=conditions, record=record,
                    env_overrides=env_overrides, first_episode=first)

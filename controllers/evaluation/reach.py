@@ -1,18 +1,19 @@
 """Can this rig fly what a task draws?  The tasks' static holds, trimmed on the rig the comparison flies.
 
 The tasks' draws were chosen for the default rig (the pull-up's holds in ``PullUpPushOver.HOLDABLE_DEG``, banks up
-to 90 deg from the comparison's lowest airspeed).  An identified rig, or the consistent parameter set with the
-measured roll imbalance, may reach less; then those episodes fail every law and the comparison reads as the laws'
+to 90 deg from the roll tasks' airspeed floor ``roll.ROLL_MIN_AIRSPEED``, 17 m/s).  An identified rig, or the paper's
+model with its 7 deg trim, may reach less; then those episodes fail every law and the comparison reads as the laws'
 fault.  :func:`reach` trims a task's extreme static holds (``rig_env.trim``, the holding surface solved for) and
 names each that needs more of the compensator's travel than the task allows itself:
 
 | task | hold | allowed share of the travel |
 |---|---|---|
 | pull_up_push_over | rig pitch at both ends of ``HOLDABLE_DEG``, at both ends of the airspeed range | ``PullUpPushOver.REACH_SHARE`` (85 %) |
-| bank_to_bank, velocity_vector_roll | +-90 deg of bank at the lowest airspeed (rig roll and model pitch free) | ``roll.ROLL_REACH_SHARE`` (60 %) |
+| bank_to_bank, velocity_vector_roll | +-90 deg of bank at the lowest airspeed flown (rig roll and model pitch free) | ``roll.ROLL_REACH_SHARE`` (60 %) |
 
 The other tasks hold nothing static to check (an empty list).  ``rig compare --params`` prints the lines before a
-task flies and keeps them in ``summary.json``'s ``settings.reach``.  The default rig produces none (tested).
+task flies and keeps them in ``summary.json``'s ``settings.reach``.  The default rig produces none at the airspeeds the
+comparison flies (tested); the paper's model cannot hold the pull-up's -4 deg.
 Here and not in the tasks' modules: the deployed rig process imports the tasks, and must not import the trim
 solver (scipy, numba's model).
 """

@@ -7,7 +7,7 @@ it).  Undefined numbers (a rise time where nothing rose) are ``null``; every int
 | key | type | meaning |
 |---|---|---|
 | ``schema_version`` | int | :data:`SCHEMA_VERSION` |
-| ``settings`` | object | ``command`` (the ``rig compare`` line that reproduces it), ``tasks``, ``laws`` (registered kinds), ``policies`` (name -> ``{path, sha256, kind, task}`` of every ``--policy`` artefact), ``episodes``, ``seed``, ``quick``, ``modes``, ``conditions`` (mode -> the environment settings it flies), ``params_file``, ``reach`` (with ``params_file``: task -> the lines of :func:`controllers.evaluation.reach.reach`, draws beyond that rig's reach), ``score`` (the rule's numbers) |
+| ``settings`` | object | ``command`` (the ``rig compare`` line that reproduces it), ``tasks``, ``laws`` (registered kinds), ``policies`` (name -> ``{path, sha256, kind, task}`` of every ``--policy`` artefact), ``episodes``, ``seed``, ``quick``, ``modes``, ``conditions`` (mode -> the environment settings it flies), ``params_file``, ``reach`` (with ``params_file``: task -> the lines of :func:`controllers.evaluation.reach.reach`, draws beyond that rig's reach), ``airspeed`` (task -> [low, high] m/s where a task's floor, ``Task.min_airspeed``, raised the conditions' draw), ``score`` (the rule's numbers) |
 | ``metrics`` | object | metric key -> ``{unit, meaning}``: every metric the results carry |
 | ``score`` | object | ``definition`` (the formula in words) and the rule's numbers (:class:`controllers.evaluation.score.ScoreRule`) |
 | ``results`` | object | task -> mode -> ``{"laws": {law: LAW}, "recommendation": REC}`` |

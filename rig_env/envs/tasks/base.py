@@ -147,6 +147,7 @@ class Task:
     | display_joint | index in ``JOINTS`` of the joint :meth:`display` shows (None: a derived quantity) |
     | display_rate | (joint index, reference column) of a commanded rate to plot beside it, or None |
     | rate_weight | weight of the command activity in the control cost (default :data:`RATE_WEIGHT`) |
+    | min_airspeed | m/s: the lowest airspeed the comparison and RL training fly the task at (None: no floor; the default rig's reach, :meth:`airspeed_for`) |
 
     Named constants a control law needs to rebuild a task's reference from its observation are class
     attributes too (e.g. ``ForcedOscillation.T_RAMP``, :data:`G0`); :meth:`driven_joint` names the rig
@@ -171,6 +172,9 @@ class Task:
     display_label: str = "tracked quantity, deg"
     display_joint: int | None = None
     display_rate: tuple[int, int] | None = None
+    min_airspeed: ClassVar[float | None] = None
+    """m/s: below it the default rig cannot fly what the task draws (the roll tasks' 90 deg banks); the comparison's
+    and RL training's airspeed draw starts here (:meth:`airspeed_for`).  None: no floor."""
     rate_weight: ClassVar[float] = RATE_WEIGHT
     """Weight of the command activity in this task's control cost (default :data:`RATE_WEIGHT`; a task that
     lowers it says why in its docstring)."""
@@ -212,6 +216,16 @@ class Task:
     def free_dofs_for(cls, options: Mapping[str, Any]) -> tuple[str, ...]:
         """Default free joints for these options (most tasks: ``default_free_dofs``)."""
         return cls.default_free_dofs
+
+    @classmethod
+    def airspeed_for(cls, airspeed: tuple[float, float]) -> tuple[float, float]:
+        """The airspeed range (m/s) the comparison and RL training draw this task's episodes from, given theirs:
+        its low end raised to :attr:`min_airspeed` (documented, not silent: ``rig compare`` prints it); unchanged
+        without a floor or when the range lies wholly below it (a deliberate low-speed study)."""
+        lo, hi = float(airspeed[0]), float(airspeed[1])
+        if cls.min_airspeed is None or lo >= cls.min_airspeed or hi <= cls.min_airspeed:
+            return (lo, hi)
+        return (float(cls.min_airspeed), hi)
 
     @classmethod
     def driven_joint(cls, options: Mapping[str, Any]) -> str | None:

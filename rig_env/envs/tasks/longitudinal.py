@@ -30,18 +30,18 @@ class PullUpPushOver(Task):
     """Fly the rig's heave (rig pitch) so that the model feels a pull-up / push-over normal-acceleration history.
 
     Target normal acceleration (vertical, up positive, increment over the 1 g of steady flight): per
-    episode a base rig pitch theta_b ~ U(4, 10) deg (near the rig's zero-input trim of about 7 deg),
-    a heave step of rig pitch dtheta ~ U(4, min(10, room)) deg with a random sign s, room being the
-    distance from theta_b to the end of ``HOLDABLE_DEG`` in that direction (5-11 deg), a manoeuvre
-    time T ~ U(0.7, 1.4) s and a hold T_h ~ U(1, 2) s.  The held rig pitch theta_1 = theta_b + s dtheta
-    stays within HOLDABLE_DEG = [-1, 15] deg, where the compensator can hold the arm: the trim there
-    needs 29-32 deg of its 40 deg heave deflection at 15-25 m/s (at most 81 %; ``rig_env.trim`` holding
-    rig_pitch with comp_elevator as the unknown, default rig), leaving a fifth of the authority to
-    regulate with.  The steps used to reach U(4, 10) deg in either direction, so theta_1 spanned [-6, 20]
-    deg; beyond about -3.5 and 17 deg the trim needs more than full deflection: in 7 of the comparison's
-    64 nominal episodes the hold was out of reach, every law (LQR, PID, PPO) held the flap on its stop
-    through the hold and missed the band by 0.6-3 deg, and those 7 were exactly the LQR's failures.  With l the arm length (pivot to model gimbal),
-    H = l (sin(theta_b + s dtheta) - sin theta_b) and A = 2 pi H / T^2:
+    episode a base rig pitch theta_b ~ U(1, 7) deg (about the rig's zero-input trim of 4 deg), a heave step
+    of rig pitch dtheta ~ U(4, min(10, room)) deg with a random sign s, room being the distance from theta_b
+    to the end of ``HOLDABLE_DEG`` in that direction (5-11 deg), a manoeuvre time T ~ U(0.7, 1.4) s and a
+    hold T_h ~ U(1, 2) s.  The held rig pitch theta_1 = theta_b + s dtheta stays within HOLDABLE_DEG =
+    [-4, 12] deg, where the compensator can hold the arm: the trim at the ends needs 72-81 % of its 40 deg
+    heave deflection at 15-25 m/s (``rig_env.trim`` holding rig_pitch with comp_elevator as the unknown,
+    default rig: -4 deg 80-81 %, 12 deg 81 % at 15 m/s, 72 % at 25 m/s), leaving a fifth of the authority to
+    regulate with; 15 deg needs more than all of it.  (The paper's model, ``RigParams.paper()``, trims at
+    7 deg and held [-1, 15] deg with these shares.)  Holds out of reach fail every law: with the steps drawn
+    U(4, 10) deg either way, theta_1 spanned [-6, 20] deg, and in 7 of the comparison's 64 nominal episodes
+    every law (LQR, PID, PPO) held the flap on its stop through the hold and missed the band by 0.6-3 deg.
+    With l the arm length (pivot to model gimbal), H = l (sin(theta_b + s dtheta) - sin theta_b) and A = 2 pi H / T^2:
 
         a_n(t) = A sin(2 pi (t - t1) / T)   on [t1, t1 + T],  t1 = 1 s        (pull-up then push-over, s > 0)
                - A sin(2 pi (t - t2) / T)   on [t2, t2 + T],  t2 = t1 + T + T_h (the reverse, back to theta_b)
@@ -55,7 +55,7 @@ class PullUpPushOver(Task):
 
     exact for the vertical acceleration of the gimbal (the component along the flight path,
     angle atan(h' / V) below 1.5 deg here, is neglected).  Peak |a_n| = 2 pi |H| / T^2: 0.018-0.18 g;
-    rig pitch stays within [-1, 15] deg (stops +-25 deg).
+    rig pitch stays within [-4, 12] deg (stops +-25 deg).
 
     | appended observation | meaning | normalisation |
     |---|---|---|
@@ -105,7 +105,7 @@ class PullUpPushOver(Task):
     T_LEAD = 1.0
     ANGLE_SCALE = 0.5 * D
     """rad: the reward's rig-pitch error scale (class docstring)."""
-    HOLDABLE_DEG = (-1.0, 15.0)
+    HOLDABLE_DEG = (-4.0, 12.0)
     """deg: the rig pitch range the held target theta_1 is drawn in (the compensator's trim authority, class docstring)."""
 
     @classmethod
@@ -116,7 +116,7 @@ class PullUpPushOver(Task):
     REACH_SHARE = 0.85
     """The most of the heave flap's travel a hold at an end of ``HOLDABLE_DEG`` may need (the check of a rig's reach,
     :mod:`controllers.evaluation.reach`): a fifth left to
-    regulate with, less a margin for the mass spread (the default rig: 74-81 % at 15-25 m/s, the class docstring)."""
+    regulate with, less a margin for the mass spread (the default rig: 72-81 % at 15-25 m/s, the class docstring)."""
 
     def __init__(self, n_envs: int, free_dofs: tuple[str, ...], dt: float, episode_seconds: float) -> None:
         super().__init__(n_envs, free_dofs, dt, episode_seconds)
@@ -128,7 +128,7 @@ class PullUpPushOver(Task):
 
     def reset(self, idx: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         l = self.l[idx]
-        tb = (4.0 + 6.0 * u[:, 0]) * D
+        tb = (1.0 + 6.0 * u[:, 0]) * D
         s = sign_of(u[:, 1])
         lo, hi = self.HOLDABLE_DEG
         room = np.where(s > 0.0, hi * D - tb, tb - lo * D)

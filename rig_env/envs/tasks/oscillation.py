@@ -13,7 +13,7 @@ from rig_env.params import JOINTS
 
 AXES: dict[str, tuple[str, tuple[str, ...], tuple[float, float]]] = {
     # axis: (driven joint, default free joints, base angle range in deg)
-    "heave_pitch": ("rig_pitch", ("rig_pitch", "model_pitch"), (4.0, 10.0)),
+    "heave_pitch": ("rig_pitch", ("rig_pitch", "model_pitch"), (1.0, 7.0)),
     "sway_yaw": ("rig_yaw", ("rig_yaw", "model_yaw"), (-3.0, 3.0)),
 }
 
@@ -25,7 +25,8 @@ class ForcedOscillation(Task):
     the model free in pitch) or ``"sway_yaw"`` (drives rig_yaw, the model free in yaw).
 
     Reference (per episode: amplitude A ~ U(2, 6) deg, frequency f ~ U(0.25, 1.0) Hz, base angle
-    theta_b ~ U(4, 10) deg for heave (around the rig's zero-input trim of about 7 deg) or U(-3, 3) deg
+    theta_b ~ U(1, 7) deg for heave (around the rig's zero-input trim of about 4 deg: the oscillation spans
+    -5 to 13 deg, about ``PullUpPushOver.HOLDABLE_DEG``; the paper's model trims at 7 deg) or U(-3, 3) deg
     for sway):
 
         theta_ref(t) = theta_b + A e(t) sin(phi),  phi = 2 pi f (t - 0.5 s),

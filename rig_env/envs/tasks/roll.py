@@ -79,10 +79,17 @@ def _roll_tracked(t, q, qd, ref, R, phi0, Th, Td, t_start, t_ramp, band_rate, ba
 
 ROLL_REACH_SHARE = 0.6
 """The most of the compensator aileron's travel that holding the rig at 90 deg of bank may need at the lowest airspeed
-(the check of a rig's reach, :mod:`controllers.evaluation.reach`): the rest starts and stops the roll through the tasks' 30-90 deg steps and spins.  The default rig
-needs 34 % at 15 m/s; the consistent set (the measured 0.398 kg m roll imbalance) 76 %, and there every bank-to-bank
-episode the designed laws and PPO all failed (7 of 64 nominal) was flown at 15.1-15.7 m/s, where the share is 0.72-0.76,
-none above 16 m/s (0.67 and less)."""
+flown (the check of a rig's reach, :mod:`controllers.evaluation.reach`): the rest starts and stops the roll through
+the tasks' 30-90 deg steps and spins.  On the paper's model (0.185 kg m roll imbalance) 34 % at 15 m/s; on the
+default rig (the measured 0.398 kg m) 76 % at 15 m/s, and there every bank-to-bank episode the designed laws and PPO
+all failed (7 of 64 nominal) was flown at 15.1-15.7 m/s, where the share is 0.72-0.76, none above 16 m/s (0.67 and
+less): hence :data:`ROLL_MIN_AIRSPEED`."""
+
+ROLL_MIN_AIRSPEED = 17.0
+"""m/s: the roll tasks' airspeed floor on the default rig (``Task.min_airspeed``): the lowest airspeed at which holding
+90 deg of bank needs no more than :data:`ROLL_REACH_SHARE` of the aileron's travel (``rig_env.trim``: 15 m/s 76 %,
+16 m/s 67 %, 16.5 m/s 63 %, 17 m/s 59 %, 20 m/s 43 %, 25 m/s 27 %); the share goes as 1 / V^2, the imbalance's
+moment m l g sin(phi) being fixed and the flaps' dynamic-pressure moment growing."""
 
 
 class VelocityVectorRoll(Task):
@@ -116,6 +123,7 @@ class VelocityVectorRoll(Task):
     default_free_dofs = ("rig_roll", "model_pitch")
     default_airspeed = (18.0, 22.0)
     default_episode_seconds = 8.0
+    min_airspeed = ROLL_MIN_AIRSPEED
     required = ("rig_roll",)
     ref_labels = ("roll_error", "roll_rate_ref", "roll_rate_error")
     ref_scales = {"roll_error": 45.0 * D, "roll_rate_ref": 12.0, "roll_rate_error": 12.0}
@@ -179,7 +187,8 @@ class BankToBank(Task):
     """Roll-angle steps between banks: the paper's 4-DOF set (rig roll, rig yaw, model pitch, model yaw).
 
     Reference: phi0 ~ U(-5, 5) deg until 1 s, then every 4 s a step to the next bank: magnitudes
-    U(30, 90) deg, signs alternating from a random first sign.  Airspeed U(15, 20) m/s.
+    U(30, 90) deg, signs alternating from a random first sign.  Airspeed U(17, 20) m/s (from
+    :data:`ROLL_MIN_AIRSPEED`: below it the default rig's roll imbalance leaves too little aileron for 90 deg).
 
     | appended observation | meaning | normalisation |
     |---|---|---|
@@ -190,14 +199,15 @@ class BankToBank(Task):
     (rig_yaw term only when it is free); the wide term ranks actions through a 30-90 deg step, where
     ``exp(-c)`` is flat until the roll is within about 30 deg of the new bank.  Metrics: one segment per bank step (band 2 deg); RMS error is
     the roll-angle error, deg.  Success: reached the time limit, every step settled, final |error| < 5 deg.
-    Defaults: the 4-DOF set above (rig_roll required), airspeed U(15, 20) m/s, 17 s.
+    Defaults: the 4-DOF set above (rig_roll required), airspeed U(17, 20) m/s, 17 s.
     """
 
     name = "bank_to_bank"
     display_label, display_joint = "roll angle, deg", 0
     default_free_dofs = ("rig_roll", "rig_yaw", "model_pitch", "model_yaw")
-    default_airspeed = (15.0, 20.0)
+    default_airspeed = (ROLL_MIN_AIRSPEED, 20.0)
     default_episode_seconds = 17.0
+    min_airspeed = ROLL_MIN_AIRSPEED
     required = ("rig_roll",)
     ref_labels = ("roll_error", "roll_ref")
     ref_scales = {"roll_error": 45.0 * D, "roll_ref": 90.0 * D}
