@@ -68,10 +68,14 @@ NEUTRAL_DEFAULTS: dict[str, tuple[float, str]] = {
 (source ``estimate``), which switch the added terms off, so that an older file keeps its model exactly."""
 DATA_DIR = Path(__file__).parent / "data"
 DEFAULT_FILE = DATA_DIR / "default_rig.toml"
-CONSISTENT_FILE = DATA_DIR / "consistent_rig.toml"
-"""The consistent set (issue 21): CM0 and alpha0 from one table, the compensator on the arm axis, the later
-rig's roll imbalance, the alpha-dot split, fin blanking and Clbeta with lift on; not yet the default (the
-designed laws and the shipped policies were tuned on the default set)."""
+"""The default rig, the consistent set (issue 21): CM0 and alpha0 from one table, the compensator on the arm axis
+with its force point at its c.g., the later rig's measured roll imbalance, the alpha-dot split, fin blanking and
+Clbeta with lift on."""
+PAPER_FILE = DATA_DIR / "paper_rig.toml"
+"""The paper's model (Figs. 5 and 7): Table 4's alpha0 with Table 3's CM0, the compensator's force point off its
+c.g., a 0.185 kg m roll imbalance, the added terms off."""
+CONSISTENT_FILE = DEFAULT_FILE
+"""The consistent set's file: the default since issue 21 made it so (kept for scripts that name it)."""
 
 
 
@@ -323,10 +327,18 @@ class RigParams:
 
     @classmethod
     def consistent(cls) -> RigParams:
-        """The consistent set, from ``rig_env/data/consistent_rig.toml`` (:data:`CONSISTENT_FILE`): the default
-        rig with CM0 and alpha0 from Table 3, the compensator on the arm axis, the measured 0.398 kg m roll
-        imbalance, and the alpha-dot split, fin blanking and Clbeta with lift switched on."""
-        return cls.from_toml(CONSISTENT_FILE)
+        """The consistent set, which is the default rig (:meth:`default`): CM0 and alpha0 from Table 3, the
+        compensator on the arm axis, the measured 0.398 kg m roll imbalance, and the alpha-dot split, fin blanking
+        and Clbeta with lift switched on.  Kept for scripts written before it became the default."""
+        return cls.from_toml(DEFAULT_FILE)
+
+    @classmethod
+    def paper(cls) -> RigParams:
+        """The paper's model, from ``rig_env/data/paper_rig.toml`` (:data:`PAPER_FILE`): Table 4's alpha0 with Table
+        3's CM0 (trim 7.7 deg), the compensator's force point 2 cm from its c.g., a 0.185 kg m roll imbalance, no
+        alpha-dot split, fin blanking or Clbeta with lift.  The set Figs. 5 and 7 are reproduced with
+        (``rig_env.reference``)."""
+        return cls.from_toml(PAPER_FILE)
 
     @classmethod
     def from_toml(cls, path: str | Path) -> "RigParams":
