@@ -5,7 +5,7 @@
 Runs ``rig_env.continuation`` with ``orbit_kernel="lanes"`` (the default: the environments' serial lane
 kernel, eight perturbed states per register) and ``orbit_kernel="joint"`` (the per-environment kernel that
 ``rig_env.simulate`` runs), the two taking turns, on one of Fig. 8's bands (model pitch alone, unsteady model,
-20 m/s; docs/MODEL.md 7):
+20 m/s, the paper's model ``RigParams.paper()``; docs/MODEL.md 7):
 
 * ``lower``: the README's example, ``with_lift_break(6, 0.05)`` and ``sep_cp_travel`` 0.2, elevator 1.5 to 0.3
   deg (two Hopf points, one family of 21 stable orbits);
@@ -39,7 +39,7 @@ import rig_env  # noqa: E402
 
 def case(name: str, max_orbits: int) -> tuple[rig_env.RigParams, dict[str, Any]]:
     """The rig and the continuation's arguments of a case (module docstring)."""
-    p = rig_env.RigParams.default()
+    p = rig_env.RigParams.paper()
     kw: dict[str, Any] = {"free_dofs": ("model_pitch",), "parameter": "hawk_elevator", "aero_model": "unsteady", "max_orbits": max_orbits}
     if name == "lower":
         return p.with_lift_break(6.0, 0.05).replace(**{"hawk_aero.sep_cp_travel": 0.2}), {**kw, "values": np.linspace(1.5, 0.3, 25)}

@@ -1,6 +1,7 @@
 """What Fig. 8's lower pitch limit cycle (near 5 deg) takes: ``python scripts/fig8_lower_band.py [--out DIR]``.
 
-The default tables are linear to 8 deg, so the flow-separation model never acts near 5 deg (x0 = 1) and the
+On the paper's model (``RigParams.paper()``, which the analysis of Figs. 8 and 9 uses: its trims put the bands
+where docs/MODEL.md 7 gives them) the tables are linear to 8 deg, so the flow-separation model never acts near 5 deg (x0 = 1) and the
 model shows no limit cycle there (docs/MODEL.md 7).  A wing at the rig's Reynolds number (about 1.6e5 at
 20 m/s) can lose some lift to a laminar separation bubble at moderate incidence; this script puts such a
 local break into the Hawk's tables (:meth:`rig_env.RigParams.with_lift_break`: ``depth`` of lift lost at 6 deg,
@@ -96,9 +97,9 @@ def main(argv: list[str] | None = None) -> int:
         if f.exists() and not args.overwrite:
             ap.error(f"{f} exists; give --overwrite to replace it, or another --out")
     args.out.mkdir(parents=True, exist_ok=True)
-    base = RigParams.default()
+    base = RigParams.paper()
     none = [k for k in (0.0, 0.1, 0.2, 0.3) if unstable_band(base.replace(**{"hawk_aero.sep_cp_travel": k}))[0].size]
-    print(f"default tables, k = 0, 0.1, 0.2, 0.3: unstable equilibria near 5 deg for k in {none or 'none'}", flush=True)
+    print(f"the paper's model's tables, k = 0, 0.1, 0.2, 0.3: unstable equilibria near 5 deg for k in {none or 'none'}", flush=True)
     ks = (0.05, 0.1, 0.15, 0.2, 0.25, 0.3)
     depths = np.arange(args.step, MAX_DEPTH + 1e-12, args.step)
     boundary = []

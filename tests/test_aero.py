@@ -50,7 +50,8 @@ def test_hawk_eq23_linear(params, alpha_deg, de_deg, q_rate):
 
 
 def test_hawk_sideslip_and_gust(params):
-    """A lateral gust gives sideslip beta = asin(v/V); Cn = Cnbeta beta (weathercock), Cl = Clbeta beta."""
+    """A lateral gust gives sideslip beta = asin(v/V); Cn = (Cnbeta_body + Cnbeta) beta (weathercock, the fin unblanked
+    at zero incidence), Cl = (Clbeta + Clbeta_CL CL) beta."""
     p = params.to_vector()
     a = params.hawk_aero
     V, vg = 20.0, 2.0
@@ -59,7 +60,7 @@ def test_hawk_sideslip_and_gust(params):
     beta = math.asin(-vg / Vt)  # air from the right, relative velocity of the body to the left
     qSb = 0.5 * params.environment.air_density * Vt**2 * a.S * a.b
     CL_static = a.CL0 + a.CLalpha * (0.0 - a.alpha0)  # zero incidence: the fin is not blanked
-    assert M[2] / qSb == pytest.approx(a.Cnbeta * beta, rel=1e-12)
+    assert M[2] / qSb == pytest.approx((a.Cnbeta_body + a.Cnbeta) * beta, rel=1e-12)
     assert M[0] / qSb == pytest.approx((a.Clbeta + a.Clbeta_CL * CL_static) * beta, rel=1e-12)
     assert M[2] < 0.0  # nose turns into the wind (to the right, the gust's origin... negative yaw = nose left)
 
@@ -189,7 +190,7 @@ def test_tail_blanking_off_below_the_break_and_falls_above(params):
     """Fin derivatives (CYbeta, Cnbeta, and the rudder's) unchanged below 12 deg, falling to a quarter by
     18 deg (paper Sec. VII: the fuselage wake blanks the fin at the onset of the upper limit cycle); the
     fuselage's Cnbeta_body is not blanked."""
-    params = RigParams.consistent()  # the set with the new terms on (default_rig.toml keeps them off)
+    params = RigParams.default()  # the set with the new terms on (paper_rig.toml keeps them off)
     a = params.hawk_aero
     be = math.radians(2.0)
     for alpha_deg in (0.0, 5.0, 11.9):
@@ -215,7 +216,7 @@ def test_tail_blanking_off_below_the_break_and_falls_above(params):
 def test_clbeta_grows_with_lift(params):
     """Clbeta = Clbeta (dihedral) + Clbeta_CL CL(alpha): the swept wing's dihedral effect, which is
     proportional to lift; with the stall tables it follows the table's CL."""
-    params = RigParams.consistent()  # the set with the new terms on (default_rig.toml keeps them off)
+    params = RigParams.default()  # the set with the new terms on (paper_rig.toml keeps them off)
     a = params.hawk_aero
     be = math.radians(2.0)
     for alpha_deg in (0.0, 6.0, 10.0):
@@ -231,7 +232,7 @@ def test_clbeta_grows_with_lift(params):
 def test_alphadot_split_leaves_pure_pitching_unchanged(params):
     """Pitching about the c.g. (no plunge) has alpha-dot = q: the split share of CLq and CMq gives the
     paper's combined derivatives back, whatever the share."""
-    params = RigParams.consistent()  # the set with the new terms on (default_rig.toml keeps them off)
+    params = RigParams.default()  # the set with the new terms on (paper_rig.toml keeps them off)
     tabs = params.tables()[:3]
     V = 20.0
     for f in (0.0, 0.37, 0.8):
@@ -257,7 +258,7 @@ def test_heave_acceleration_drives_a_pitch_moment_through_alphadot(params):
     from the independent numpy model and r = M qdd_0 from the kernel's accelerations without the split:
     the kernel's accelerations with the split must match it.  The sign: heaving up (theta'' > 0) gives
     alpha-dot < 0 and, CMq < 0, a nose-up moment D_model G_rig theta'' > 0 on the model."""
-    params = RigParams.consistent()  # the set with the new terms on (default_rig.toml keeps them off)
+    params = RigParams.default()  # the set with the new terms on (paper_rig.toml keeps them off)
     from rig_env import numpy_model as nm
     from rig_env.physics import layout as L
     from rig_env.reference import continuous_rhs
@@ -295,7 +296,7 @@ def test_heave_locked_pitch_motion_unchanged_by_the_split(params):
     nothing (to rounding); with the default 1 cm offset the c.g.'s own acceleration, |rho| (theta'' +
     theta'^2) / V ~ 0.01 x 40 / 20 = 0.02 rad/s against q ~ 1 rad/s, changes alpha-dot by a few per cent of
     the split share's damping, far below a degree over a 3 s ring-down."""
-    params = RigParams.consistent()  # the set with the new terms on (default_rig.toml keeps them off)
+    params = RigParams.default()  # the set with the new terms on (paper_rig.toml keeps them off)
     import rig_env
 
     def run(p):

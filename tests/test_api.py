@@ -24,7 +24,9 @@ def test_result_shapes(params):
 def test_controls_as_functions_and_arrays(params):
     r = rig_env.simulate(params, np.zeros((2, 1)), np.zeros((2, 1)), 2.0, free_dofs=["rig_roll"],
                          controls={"comp_aileron": lambda t: np.array([10.0, -10.0]) * min(t, 1.0)})
-    assert r.qd[0, -1, 0] > 0.5 and r.qd[1, -1, 0] < -0.5
+    # each environment its own command: the rig banks each way (the roll imbalance holds it near 35 deg at 10 deg
+    # of aileron, where 90 deg would need 43 % of the travel at 20 m/s)
+    assert r.q[0, -1, 0] > 0.2 and r.q[1, -1, 0] < -0.2
 
 
 @pytest.mark.parametrize(

@@ -53,7 +53,8 @@ def test_continuation_command_reports_hopf_points_and_orbits_of_the_lower_band(t
     """The lower band of Fig. 8 (docs/MODEL.md 7): a lift break and centre-of-pressure travel given on the command line."""
     out = tmp_path / "band"
     assert main(["continuation", "--free", "model_pitch", "--parameter", "hawk_elevator", "--values", "1.5", "0.3", "25",
-                 "--aero-model", "unsteady", "--set", "hawk_aero.sep_cp_travel=0.2", "--lift-break", "6", "0.05", "--out", str(out)]) == 0
+                 "--aero-model", "unsteady", "--set", "hawk_aero.sep_cp_travel=0.2", "--lift-break", "6", "0.05",
+                 "--params", str(rig_env.params.PAPER_FILE), "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "orbit family 0 from the supercritical Hopf point" in text and "all stable" in text
     sp = read(out / "special_points.csv")[1:]
@@ -97,14 +98,14 @@ def test_continuation_command_sweeps_a_second_parameter(tmp_path, capsys):
     rig_env.continuation_sweep), sweep.png; a bad --sweep refused by name."""
     out = tmp_path / "sweep"
     argv = ["continuation", "--free", "model_pitch", "--parameter", "hawk_elevator", "--values", "2", "-3", "101", "--aero-model", "unsteady",
-            "--sweep", "hawk_aero.sep_cp_travel", "0.08", "0.12", "3", "--out", str(out)]
+            "--sweep", "hawk_aero.sep_cp_travel", "0.08", "0.12", "3", "--params", str(rig_env.params.PAPER_FILE), "--out", str(out)]
     assert main(argv) == 0
     text = capsys.readouterr().out
     assert "sweep 1/3: hawk_aero.sep_cp_travel = 0.08 c: 2 fold, 0 hopf" in text and "sweep 2/3: hawk_aero.sep_cp_travel = 0.1 c: 2 fold, 2 hopf" in text
     assert sorted(p.name for p in out.iterdir()) == ["loci.csv", "sweep.png"]
     rows = read(out / "loci.csv")
     assert rows[0] == ["hawk_aero.sep_cp_travel (c)", "kind", "hawk_elevator (deg)", "model_pitch (deg)", "frequency (Hz)", "note"]
-    sw = rig_env.continuation_sweep(rig_env.RigParams.default(), sweep="hawk_aero.sep_cp_travel", sweep_values=np.linspace(0.08, 0.12, 3),
+    sw = rig_env.continuation_sweep(rig_env.RigParams.paper(), sweep="hawk_aero.sep_cp_travel", sweep_values=np.linspace(0.08, 0.12, 3),
                                     free_dofs=("model_pitch",), parameter="hawk_elevator", values=np.linspace(2, -3, 101), aero_model="unsteady")
     hopf = np.array([[float(r[0]), float(r[2])] for r in rows[1:] if r[1] == "hopf"])
     assert np.allclose(hopf, sw.locus("hopf"), atol=1e-8)

@@ -156,30 +156,34 @@ def test_episodes_every_law_failed_are_named_with_their_airspeeds():
     assert recommend({r["law"]: r for r in rows})["shared_failures"] is None
 
 
-def test_reach_of_the_default_and_the_consistent_rig():
-    """controllers.evaluation.reach: the default rig holds every task's draws within the tasks' own shares of the compensator's travel
-    over the comparison's 15-25 m/s (nothing to say); the consistent set (the measured 0.398 kg m roll imbalance,
-    Table 3's trim at 4 deg) does not: 90 deg of bank at 15 m/s needs 76 % of the aileron (the roll tasks allow 60 %;
-    34 % on the default rig), and the pull-up's 15 deg hold more than the elevator has.  From 20 m/s its bank is within
-    reach.  The shares are rig_env.trim's, as the pull-up's own test computes them."""
+def test_reach_of_the_default_rig_and_the_paper_s_model():
+    """controllers.evaluation.reach: the default rig holds every task's draws within the tasks' own shares of the compensator's
+    travel over the airspeeds the comparison flies them at (15-25 m/s, the roll tasks from their 17 m/s floor): nothing to
+    say.  Without the floor, 90 deg of bank at 15 m/s needs 76 % of the aileron (the roll tasks allow 60 %): the measured
+    0.398 kg m roll imbalance.  The paper's model (0.185 kg m, trim 7 deg) needs 34 % there, but cannot hold the pull-up's
+    -4 deg.  The shares are rig_env.trim's, as the pull-up's own test computes them."""
     import rig_env
     from controllers.evaluation.reach import hold_share, reach
     from rig_env.envs import TASKS
+    from rig_env.envs.tasks.roll import ROLL_MIN_AIRSPEED
 
-    default, consistent = rig_env.RigParams.default(), rig_env.RigParams.consistent()
-    assert {k: reach(k, default, (15.0, 25.0)) for k in TASKS} == {k: [] for k in TASKS}
-    got = {k: reach(k, consistent, (15.0, 25.0)) for k in TASKS}
-    assert {k for k, v in got.items() if v} == {"velocity_vector_roll", "bank_to_bank", "pull_up_push_over"}
-    assert len(got["bank_to_bank"]) == 1 and "90 deg of bank at 15 m/s needs 76 %" in got["bank_to_bank"][0]
-    assert any("rig pitch at 15 deg" in line and "more than all" in line for line in got["pull_up_push_over"])
-    assert reach("bank_to_bank", consistent, (20.0, 25.0)) == []
-    share = hold_share(default, ("rig_roll", "model_pitch"), "rig_roll", 90.0, "comp_aileron", 15.0)
-    assert share == pytest.approx(0.34, abs=0.01)
+    default, paper = rig_env.RigParams.default(), rig_env.RigParams.paper()
+    flown = {k: TASKS[k].airspeed_for((15.0, 25.0)) for k in TASKS}
+    assert flown["bank_to_bank"] == flown["velocity_vector_roll"] == (ROLL_MIN_AIRSPEED, 25.0) == (17.0, 25.0)
+    assert {k: reach(k, default, flown[k]) for k in TASKS} == {k: [] for k in TASKS}
+    low = reach("bank_to_bank", default, (15.0, 25.0))
+    assert len(low) == 1 and "90 deg of bank at 15 m/s needs 76 %" in low[0]
+    got = {k: reach(k, paper, flown[k]) for k in TASKS}
+    assert {k for k, v in got.items() if v} == {"pull_up_push_over"}
+    assert all("rig pitch at -4 deg" in line and "more than all" in line for line in got["pull_up_push_over"])
+    assert hold_share(paper, ("rig_roll", "model_pitch"), "rig_roll", 90.0, "comp_aileron", 15.0) == pytest.approx(0.34, abs=0.01)
+    assert hold_share(default, ("rig_roll", "model_pitch"), "rig_roll", 90.0, "comp_aileron", ROLL_MIN_AIRSPEED) <= 0.6
 
 
 def test_compare_on_another_rig_says_which_draws_are_beyond_its_reach():
     """rig compare --params: a task whose draws this rig cannot hold (controllers.evaluation.reach) is named in the output
-    before its laws fly, in summary.json's settings.reach, and again under the recommendations (printed and report.md)."""
+    before its laws fly, in summary.json's settings.reach, and again under the recommendations (printed and report.md);
+    a task's airspeed floor is printed and kept in settings.airspeed."""
     import io
 
     from controllers.evaluation.compare import compare
@@ -187,15 +191,16 @@ def test_compare_on_another_rig_says_which_draws_are_beyond_its_reach():
     import rig_env
 
     out = io.StringIO()
-    c = compare(tasks=["bank_to_bank"], kinds=["pid"], episodes=2, modes=["nominal"], out_dir=None, stream=out, progress=False,
-                params_file=Path(rig_env.__file__).parent / "data" / "consistent_rig.toml")
-    assert "note: bank_to_bank: holding 90 deg of bank at 15 m/s needs 76 %" in out.getvalue()
-    assert len(c.settings["reach"]["bank_to_bank"]) == 1
+    c = compare(tasks=["pull_up_push_over", "bank_to_bank"], kinds=["pid"], episodes=2, modes=["nominal"], out_dir=None, stream=out,
+                progress=False, params_file=rig_env.params.PAPER_FILE)
+    assert "note: pull_up_push_over: holding rig pitch at -4 deg at 15 m/s needs more than all" in out.getvalue()
+    assert len(c.settings["reach"]["pull_up_push_over"]) == 2 and c.settings["reach"]["bank_to_bank"] == []
+    assert "note: bank_to_bank flies at 17-25 m/s" in out.getvalue() and c.settings["airspeed"] == {"bank_to_bank": [17.0, 25.0]}
     from controllers.evaluation.report import verdict
 
     text, md = verdict(c), verdict(c, markdown=True)
     assert any(line.startswith("beyond this rig's reach") for line in text) and "### Beyond this rig's reach" in md
-    assert sum("holding 90 deg of bank at 15 m/s" in line for line in text) == 1
+    assert sum("holding rig pitch at -4 deg at 15 m/s" in line for line in text) == 1
 
 
 def test_a_stop_and_an_oscillation_are_caveats():

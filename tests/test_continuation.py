@@ -22,6 +22,12 @@ from rig_env.bifurcation.plot import plot_branch
 from rig_env.bifurcation.result import SpecialPoint, readable
 
 
+@pytest.fixture(scope="module")
+def params() -> rig_env.RigParams:
+    """The paper's model: the rig's branches below, and the analysis of Figs. 8 and 9 (docs/MODEL.md 7), were made on it."""
+    return rig_env.RigParams.paper()
+
+
 # ---------------------------------------------------------------------------- closed forms
 def test_fold_of_p_minus_x_squared_is_passed_by_pseudo_arclength():
     """x' = p - x^2 from the unstable branch x = -sqrt(p) at p = 1 down through the fold at p = 0 and back up
@@ -420,11 +426,11 @@ def test_fig8_yaw_divergence_of_the_blanked_hawk_is_the_closed_form(elevator):
     """Fig. 8's yaw departure (the fin blanked above 12 deg): on the model-yaw gimbal, whose axis is the vertical,
     the static yaw stiffness at pitch theta is qSb (Cnbeta_eff cos theta - Clbeta_eff sin theta) plus the side
     force's moment at the c.g.'s lever, Cnbeta_eff = Cnbeta_body + eta Cnbeta.  Continuation over the
-    fuselage's Cnbeta_body (consistent set, model pitch and yaw free, the stall tables, 20 m/s) finds the
+    fuselage's Cnbeta_body (the default rig, the consistent set, model pitch and yaw free, the stall tables, 20 m/s) finds the
     symmetric branch's pitchfork where that stiffness is zero (0.002).  The dihedral effect that grows with lift
     (Clbeta_CL) holds the yaw: the departure needs Cnbeta_body below -0.105 at 19.5 deg, twice the
     DATCOM estimate -0.05, with which the branch keeps its yaw stability up to the stop (docs/MODEL.md 7)."""
-    P = rig_env.RigParams.consistent()
+    P = rig_env.RigParams.default()
     free = ("model_pitch", "model_yaw")
     br = rig_env.continuation(P, free_dofs=free, parameter="hawk_aero.Cnbeta_body", values=np.linspace(0.0, -0.3, 61), airspeed=20.0,
                               controls={"hawk_elevator": elevator}, aero_model="tables", periodic=False, q_guess=[0, 0, 0, 0.35, 0])

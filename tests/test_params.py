@@ -91,8 +91,10 @@ def test_batch_override_errors(params):
         param_batch(params, 2, {"mass.hawk_mass": [1.0, 100.0]})
 
 
-def test_static_balance_and_roll_imbalance(params):
-    """Sec. I: the compensator balances the pendulum in pitch; a small roll imbalance remains (Sec. VI)."""
+def test_static_balance_and_roll_imbalance():
+    """The paper's model: Sec. I, the compensator balances the pendulum in pitch; a small roll imbalance remains
+    (Sec. VI), below the later rig's measured value."""
+    params = RigParams.paper()
     g, m = params.geometry, params.mass
     pitch_moment = m.hawk_mass * (g.arm_length + g.hawk_cg_x) + m.arm_mass * g.arm_cg_x + m.comp_mass * g.comp_cg_x
     roll_moment = m.hawk_mass * g.hawk_cg_z + m.arm_mass * g.arm_cg_z + m.comp_mass * g.comp_cg_z
@@ -101,9 +103,10 @@ def test_static_balance_and_roll_imbalance(params):
 
 
 def test_consistent_set_balance_roll_imbalance_and_compensator_axis():
-    """The consistent set: pitch balanced; the rig's roll imbalance without the model is the later rig's
+    """The consistent set, the default rig: pitch balanced; the rig's roll imbalance without the model is the later rig's
     measured 0.398 kg m (rig-code); the compensator on the arm axis with its force at its c.g. (eq. 17)."""
     params = RigParams.consistent()
+    assert params == RigParams.default()
     g, m = params.geometry, params.mass
     pitch_moment = m.hawk_mass * (g.arm_length + g.hawk_cg_x) + m.arm_mass * g.arm_cg_x + m.comp_mass * g.comp_cg_x
     rig_roll_moment = m.arm_mass * g.arm_cg_z + m.comp_mass * g.comp_cg_z  # without the model

@@ -247,16 +247,19 @@ def test_equation_error_gives_start_values_that_output_error_finishes(pitch_run,
 def test_a_frame_log_of_the_loop_flying_the_simulated_rig_is_read_and_fitted(tmp_path):
     """The real-time loop flies the simulated rig (velocity-vector roll, the linear law), its frame log is read
     as a record and the compensator's flap effectiveness fitted from it: the loop's commands, the sim rig's
-    sensors (noise, quantisation) and its measured airspeed, on the default rig, give the default value back."""
+    sensors (noise, quantisation) and its measured airspeed, on the default rig, give the default value back.
+    Started 18 % high: the rig rolls over the top only with enough aileron power against its 0.398 kg m roll
+    imbalance, so from below the simulated roll falls back and the fit stops in a local minimum (1.42 from starts of
+    1.3 and 1.5, 1.64 from 1.6); from 1.8 or 2.0 it reaches 1.6943 (README, Identification: start from above)."""
     from test_sysid_records import fly_sim_rig
 
     log, rig, spec = fly_sim_rig(tmp_path, 4.0)
     rec = FlightRecord.read(log, allow_gaps=True)
     rec = rec.resample(80.0, allow_gaps=True) if np.ptp(np.diff(rec.t)) > 1e-6 else rec
-    fit = sysid.fit(rec, P, ["comp_aero.CLde"], start={"comp_aero.CLde": 1.3})
+    fit = sysid.fit(rec, P, ["comp_aero.CLde"], start={"comp_aero.CLde": 2.0})
     z = (fit.values["comp_aero.CLde"] - P.comp_aero.CLde) / fit.std["comp_aero.CLde"]
     print(f"CLde {fit.values['comp_aero.CLde']:.4f} +- {fit.std['comp_aero.CLde']:.4f} (truth {P.comp_aero.CLde}), z = {z:.2f}")
-    # 0.06 % (z = -2.4) measured: the frames the loop missed on a loaded machine (resampled over) and the
+    # 0.01 % (z = 3.9) measured on the default rig (0.06 %, z = -2.4, on the paper's model): the frames the loop missed on a loaded machine (resampled over) and the
     # sim rig's float32 wire leave a small bias beside a very small standard error; 0.5 % is the physical bar
     assert fit.converged and abs(fit.values["comp_aero.CLde"] / P.comp_aero.CLde - 1.0) < 0.005
 

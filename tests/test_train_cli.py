@@ -162,11 +162,13 @@ def test_rig_train_refuses_a_bad_settings_file_naming_the_field(tmp_path):
 
 
 def test_default_conditions_are_the_comparisons_nominal_ones(tmp_path):
-    """Without --conditions a run trains (and is evaluated) under the nominal randomised conditions;
-    --conditions none keeps the task's own defaults."""
+    """Without --conditions a run trains (and is evaluated) under the nominal randomised conditions, the task's
+    airspeed floor applied as the comparison applies it (bank-to-bank from 17 m/s); --conditions none keeps the task's
+    own defaults."""
     assert main(["--algo", "ppo", "--task", "bank_to_bank", *TINY, "--out", str(tmp_path / "a")]) == 0
     assert main(["--algo", "ppo", "--task", "bank_to_bank", *TINY, "--conditions", "none", "--out", str(tmp_path / "b")]) == 0
-    nominal = json.loads(json.dumps(MODES["nominal"].env_fields()))
+    nominal = json.loads(json.dumps(MODES["nominal"].env_fields("bank_to_bank")))
+    assert nominal["airspeed"] == [17.0, 25.0] and MODES["nominal"].airspeed == (15.0, 25.0)
     assert load(tmp_path / "a" / "policy.json").provenance["env_overrides"] == nominal
     assert load(tmp_path / "b" / "policy.json").provenance["env_overrides"] == {}
 

@@ -31,7 +31,8 @@ UNSTEADY = flags_of(True, False, False, False, "unsteady")
 
 @pytest.fixture(scope="module")
 def params() -> RigParams:
-    return RigParams.default()
+    """The paper's model: the analysis of Figs. 8 and 9 (docs/MODEL.md 7) was made on it, its trims and bands are its."""
+    return RigParams.paper()
 
 
 def _segment(P: np.ndarray, A: np.ndarray, B: np.ndarray, rc: float) -> np.ndarray:
