@@ -55,8 +55,8 @@ in the measured airspeed, and ``x`` built from the observation:
 
 No integrator: the rig's heave is meant to wash out, not to hold.  ``law.describe()``: closed-loop poles
 and, per design airspeed, the margins of the loop as flown, broken at the heave command: the law with its
-estimator and delay line, the rig with servo and delay (:func:`controllers.design.emulation.loop_as_flown`; default rig, 15-25 m/s: GM 9.2-11.0 dB, PM 45-47 deg,
-delay margin 0.15-0.26 s, with the weights tightened to 0.5 of the reward's scales).
+estimator and delay line, the rig with servo and delay (:func:`controllers.design.emulation.loop_as_flown`; default rig, 15-25 m/s: GM 10.4-12.4 dB, PM 48-50 deg,
+delay margin 0.15-0.26 s, with the weights tightened to 0.5 of the reward's scales; the paper's model: GM 9.2-11.0 dB, PM 45-47 deg).
 
 Why the gust: the task's reference flies in the rig's air, so the rig must answer a gust as the free Hawk
 would.  Without the gust state (and with the reference meeting the gusts from the input's start only) the
