@@ -567,3 +567,18 @@ def test_display_is_the_tracked_quantity_and_its_reference(task):
         assert T.display_joint is not None
         np.testing.assert_allclose(y, q[:, T.display_joint] / D, rtol=1e-12)
         np.testing.assert_allclose(r, ref[:, 0] / D, rtol=1e-9, atol=1e-9)
+
+
+def test_airspeed_floor_raises_only_the_low_end_of_a_range_that_crosses_it():
+    """Task.airspeed_for: the roll tasks' 17 m/s floor (ROLL_MIN_AIRSPEED) lifts a draw's low end when the range
+    crosses it; a range above it, or wholly below it (a deliberate low-speed study), and a task without a floor
+    are left as given."""
+    from rig_env.envs.tasks.roll import ROLL_MIN_AIRSPEED
+
+    vvr, pupo = TASKS["velocity_vector_roll"], TASKS["pull_up_push_over"]
+    assert vvr.min_airspeed == TASKS["bank_to_bank"].min_airspeed == ROLL_MIN_AIRSPEED == 17.0
+    assert vvr.airspeed_for((15.0, 25.0)) == (17.0, 25.0)
+    assert vvr.airspeed_for((18.0, 22.0)) == (18.0, 22.0)
+    assert vvr.airspeed_for((12.0, 16.0)) == (12.0, 16.0)
+    assert pupo.min_airspeed is None and pupo.airspeed_for((15.0, 25.0)) == (15.0, 25.0)
+    assert TASKS["bank_to_bank"].default_airspeed[0] >= ROLL_MIN_AIRSPEED  # its own default flies within reach
