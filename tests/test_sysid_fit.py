@@ -248,15 +248,18 @@ def test_a_frame_log_of_the_loop_flying_the_simulated_rig_is_read_and_fitted(tmp
     """The real-time loop flies the simulated rig (velocity-vector roll, the linear law), its frame log is read
     as a record and the compensator's flap effectiveness fitted from it: the loop's commands, the sim rig's
     sensors (noise, quantisation) and its measured airspeed, on the default rig, give the default value back.
-    Started 18 % high: the rig rolls over the top only with enough aileron power against its 0.398 kg m roll
-    imbalance, so from below the simulated roll falls back and the fit stops in a local minimum (1.42 from starts of
-    1.3 and 1.5, 1.64 from 1.6); from 1.8 or 2.0 it reaches 1.6943 (README, Identification: start from above)."""
+    From two starts (sysid.fit_from_starts): the rig rolls over the top only with enough aileron power against its
+    0.398 kg m roll imbalance, so from below the simulated roll falls back and the fit stops in a local minimum
+    (1.42 from starts of 1.3 and 1.5, 1.64 from 1.6) of higher cost; from 1.8 or 2.0 it reaches 1.6943."""
     from test_sysid_records import fly_sim_rig
 
     log, rig, spec = fly_sim_rig(tmp_path, 4.0)
     rec = FlightRecord.read(log, allow_gaps=True)
     rec = rec.resample(80.0, allow_gaps=True) if np.ptp(np.diff(rec.t)) > 1e-6 else rec
-    fit = sysid.fit(rec, P, ["comp_aero.CLde"], start={"comp_aero.CLde": 2.0})
+    fit = sysid.fit_from_starts(rec, P, ["comp_aero.CLde"], [{"comp_aero.CLde": 1.3}, {"comp_aero.CLde": 2.0}])
+    assert "best of 2 starts" in fit.message and fit.initial["comp_aero.CLde"] == 2.0
+    low = sysid.fit(rec, P, ["comp_aero.CLde"], start={"comp_aero.CLde": 1.3})  # the local minimum below the truth
+    assert low.values["comp_aero.CLde"] < 1.5 and low.cost_history[-1] > fit.cost_history[-1]
     z = (fit.values["comp_aero.CLde"] - P.comp_aero.CLde) / fit.std["comp_aero.CLde"]
     print(f"CLde {fit.values['comp_aero.CLde']:.4f} +- {fit.std['comp_aero.CLde']:.4f} (truth {P.comp_aero.CLde}), z = {z:.2f}")
     # 0.01 % (z = 3.9) measured on the default rig (0.06 %, z = -2.4, on the paper's model): the frames the loop missed on a loaded machine (resampled over) and the
@@ -319,3 +322,15 @@ def test_the_unsteady_models_parameters_are_identified_from_a_stall_record():
         sysid.fit(rec, P, ["hawk_aero.sep_cp_travel"], method="equation_error", aero_model="unsteady")
     with pytest.raises(ValueError, match=r"aero_model = 'quasi': allowed values"):
         sysid.fit(rec, P, ["hawk_aero.sep_cp_travel"], aero_model="quasi")
+
+
+def test_fit_from_starts_refuses_bad_starts_by_name(pitch_run):
+    """sysid.fit_from_starts: the starts must be a non-empty list of mappings of the estimated names, and the
+    start values are given there, not as start=; each refused before any fit runs."""
+    rec = record_of(pitch_run, 0.1, 0)
+    for starts, words in (([], "non-empty list"), ({"hawk_aero.CMq": -4.0}, "non-empty list"), ([1.0], "mapping"),
+                          ([{"hawk_aero.CMalpha": -0.5}], "not among the estimated parameters")):
+        with pytest.raises(ValueError, match=words):
+            sysid.fit_from_starts(rec, P, ["hawk_aero.CMq"], starts)
+    with pytest.raises(ValueError, match="give the start values in starts"):
+        sysid.fit_from_starts(rec, P, ["hawk_aero.CMq"], [{"hawk_aero.CMq": -4.0}], start={"hawk_aero.CMq": -3.0})

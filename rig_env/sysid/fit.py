@@ -147,3 +147,39 @@ def _result(method: str, records: Sequence[FlightRecord], outputs: Sequence[tupl
         message=sol.message,
         times=times,
     )
+
+
+def fit_from_starts(
+    records: FlightRecord | Sequence[FlightRecord],
+    params: RigParams,
+    estimate: Sequence[str],
+    starts: Sequence[Mapping[str, float]],
+    **options: object,
+) -> Fit:
+    """:func:`fit` from each of several start values; the fit of lowest final cost (``cost_history[-1]``, output
+    and filter error's negative log-likelihood of the same records) among those that converged, else among all.
+
+    For a cost with more than one minimum: a record in which the rig rolls over the top only with enough control
+    power (the default rig's measured roll imbalance) has a local minimum below the truth, where the simulated
+    roll falls back (docs: README, Identification).  ``starts``: one ``{name: value}`` per run (a name missing
+    from one keeps ``params``' value there, as :func:`fit`'s ``start``); ``options``: :func:`fit`'s other keywords.
+    The returned fit's ``message`` lists every start's estimates and cost.
+    """
+    import dataclasses
+
+    if isinstance(starts, Mapping) or not isinstance(starts, Sequence) or len(starts) == 0:
+        raise ValueError("starts: give a non-empty list of {name: start value} mappings, one per run")
+    unknown = sorted({n for s in starts if isinstance(s, Mapping) for n in s} - set(estimate))
+    if not all(isinstance(s, Mapping) for s in starts):
+        raise ValueError("starts: every entry must be a {name: start value} mapping")
+    if unknown:
+        raise ValueError(f"starts: {unknown} not among the estimated parameters {list(estimate)}")
+    if "start" in options:
+        raise ValueError("start: give the start values in starts")
+    fits = [fit(records, params, estimate, start=dict(s), **options) for s in starts]  # type: ignore[arg-type]
+    pool = [f for f in fits if f.converged and f.cost_history] or [f for f in fits if f.cost_history] or fits
+    best = min(pool, key=lambda f: f.cost_history[-1] if f.cost_history else np.inf)
+    lines = [f"start {i + 1}: " + ", ".join(f"{n} {f.values[n]:.6g}" for n in f.estimate)
+             + (f", cost {f.cost_history[-1]:.6g}" if f.cost_history else "") + ("" if f.converged else " (not converged)")
+             for i, f in enumerate(fits)]
+    return dataclasses.replace(best, message=f"{best.message}; best of {len(fits)} starts (" + "; ".join(lines) + ")")
