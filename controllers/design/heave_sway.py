@@ -2,8 +2,8 @@
 
 The roll laws (:mod:`controllers.design.model`) trim with rig_pitch and rig_yaw held at 0 deg.  The heave
 and sway tasks fly around the rig's zero-input equilibrium instead (rig pitch about 4 deg at 20 m/s, 7 deg on the paper's model:
-the model's lift balances the arm's weight; rig yaw at 0), where holding 0 deg would cost
-of elevator (16-17 deg on the default rig, 27 on the paper's model).  So these designs trim there:
+the model's lift balances the arm's weight; rig yaw at 0), where holding 0 deg would cost 16-17 deg
+of elevator (27 on the paper's model).  So these designs trim there:
 
 1. :func:`axis_point`: ``rig_env.trim`` with the compensator surfaces at zero (all the task's free
    joints settle), then ``rig_env.linearize`` (viscous friction kept) with the compensator elevator

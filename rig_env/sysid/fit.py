@@ -13,6 +13,7 @@ only), :mod:`rig_env.sysid.filter_error` (process noise too: turbulence; the pap
 
 from __future__ import annotations
 
+import dataclasses
 from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
 import numpy as np
@@ -165,13 +166,11 @@ def fit_from_starts(
     from one keeps ``params``' value there, as :func:`fit`'s ``start``); ``options``: :func:`fit`'s other keywords.
     The returned fit's ``message`` lists every start's estimates and cost.
     """
-    import dataclasses
-
     if isinstance(starts, Mapping) or not isinstance(starts, Sequence) or len(starts) == 0:
         raise ValueError("starts: give a non-empty list of {name: start value} mappings, one per run")
-    unknown = sorted({n for s in starts if isinstance(s, Mapping) for n in s} - set(estimate))
     if not all(isinstance(s, Mapping) for s in starts):
         raise ValueError("starts: every entry must be a {name: start value} mapping")
+    unknown = sorted({n for s in starts for n in s} - set(estimate))
     if unknown:
         raise ValueError(f"starts: {unknown} not among the estimated parameters {list(estimate)}")
     if "start" in options:
