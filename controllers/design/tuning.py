@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -114,43 +115,40 @@ def tune_axis(params: RigParams, free_dofs: tuple[str, ...], joint: str, airspee
 
 
 def shape_loops(P: control.TransferFunction, el: dict, joint: str, airspeed: float, *, pm_inner: float, gm_inner: float,
-                pm_outer: float, gm_outer: float) -> AxisTuning:
+                pm_outer: float, gm_outer: float, accept: Callable[[float, float, float], bool] | None = None) -> AxisTuning:
     """Loop shaping of the cascade on the rate plant P with the loop elements el (servo, delay, rate sensor).
 
     Inner PI rate loop: the largest crossover in 0.5-60 rad/s (integral corner at a quarter of it) that
-    meets (pm_inner, gm_inner); outer P angle loop: the largest gain that meets (pm_outer, gm_outer).  Each
-    grid is scanned from its top down and the scan stops at the first point that meets the margins: that is
-    the largest feasible point whatever the feasible set's shape, and only the points above it are evaluated.
+    meets (pm_inner, gm_inner) and for which an outer gain exists; outer P angle loop: the largest gain that
+    meets (pm_outer, gm_outer) and, if given, ``accept(kp, ki, k_angle)`` (the signed gains of the result: a
+    further test of the whole law, such as its margins with a decoupling path the cascade does not see).
+    Each grid is scanned from its top down and the scan stops at the first point that meets the margins: that
+    is the largest feasible point whatever the feasible set's shape, and only the points above it are evaluated.
     """
     s = control.tf("s")
     b = float(np.real(control.evalfr(P * s, 1j * 1e4)))  # high-frequency gain: rad/s^2 per unit command
     sign = 1.0 if b > 0 else -1.0  # rig_yaw accelerates negatively for positive sway
     G = el["servo"] * el["delay"] * (sign * P)
-    best = None
+    inner_found = False
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for wc in np.geomspace(0.5, 60.0, 80)[::-1]:  # from the top: the first feasible is the largest
             C0 = 1 + (wc / 4) / s
             kp = 1.0 / abs(control.evalfr(C0 * G * el["rate_sensor"], 1j * wc))
-            gm, pm, wx = margins(kp * C0 * G * el["rate_sensor"])
-            if pm >= pm_inner and gm >= gm_inner and np.isfinite(wx):
-                best = (wc, kp, gm, pm, wx)
-                break
-        if best is None:
-            raise ValueError(f"{joint}: no rate-loop crossover in 0.5-60 rad/s meets PM {pm_inner} deg, GM {gm_inner} dB")
-        wc, kp, gm_i, pm_i, wx_i = best
-        T_r = control.feedback(kp * (1 + (wc / 4) / s) * G, el["rate_sensor"])
-        outer = None
-        for k in np.geomspace(0.1, 50.0, 120)[::-1]:
-            gm, pm, wx = margins(k * T_r / s)
-            if pm >= pm_outer and gm >= gm_outer:
-                outer = (k, gm, pm, wx)
-                break
-    if outer is None:
-        raise ValueError(f"{joint}: no angle-loop gain meets PM {pm_outer} deg, GM {gm_outer} dB")
-    k, gm_o, pm_o, wx_o = outer
-    return AxisTuning(joint, float(airspeed), sign * float(kp), sign * float(kp * wc / 4), float(k), float(wx_i), pm_i, gm_i,
-                      float(wx_o), pm_o, gm_o, b)
+            gm_i, pm_i, wx_i = margins(kp * C0 * G * el["rate_sensor"])
+            if not (pm_i >= pm_inner and gm_i >= gm_inner and np.isfinite(wx_i)):
+                continue
+            inner_found = True
+            T_r = control.feedback(kp * C0 * G, el["rate_sensor"])
+            for k in np.geomspace(0.1, 50.0, 120)[::-1]:
+                gm_o, pm_o, wx_o = margins(k * T_r / s)
+                if pm_o >= pm_outer and gm_o >= gm_outer and (accept is None or accept(sign * kp, sign * kp * wc / 4, k)):
+                    return AxisTuning(joint, float(airspeed), sign * float(kp), sign * float(kp * wc / 4), float(k), float(wx_i), pm_i,
+                                      gm_i, float(wx_o), pm_o, gm_o, b)
+    if not inner_found:
+        raise ValueError(f"{joint}: no rate-loop crossover in 0.5-60 rad/s meets PM {pm_inner} deg, GM {gm_inner} dB")
+    further = " and the law's own test (accept)" if accept is not None else ""
+    raise ValueError(f"{joint}: no angle-loop gain meets PM {pm_outer} deg, GM {gm_outer} dB{further} at any feasible rate-loop crossover")
 
 
 def plain(x: Any) -> Any:
