@@ -179,15 +179,18 @@ def test_wake_factor_zero_is_no_wake(params):
     assert np.all(r_on.wake[:, 1] > 0.1) and not np.allclose(r_on.q, r.q)  # the downwash moves the rig
 
 
-def test_the_wake_does_not_bring_fig9s_limit_cycle(params):
+@pytest.mark.parametrize("rig, spread", [("paper", 1e-3), ("default", 0.035)])
+def test_the_wake_does_not_bring_fig9s_limit_cycle(rig, spread):
     """Fig. 9's 4-DOF case (rig roll, sway, model pitch and yaw at 15 m/s): continuation over wake_factor from
-    0 to twice the derived wake finds every equilibrium stable and no Hopf point, the leading eigenvalue the
-    same (the slowest mode, 0.97 Hz with damping 0.098, is the Hawk's; the wake reaches the arm): the wake is
-    not the missing mechanism (docs/MODEL.md 7)."""
+    0 to twice the derived wake finds every equilibrium stable and no Hopf point: the wake is not the missing
+    mechanism (docs/MODEL.md 7).  On the paper's model the leading eigenvalue stays the same (the slowest mode,
+    0.97 Hz with damping 0.098, is the Hawk's; the wake reaches the arm); on the default rig, whose
+    compensator sits on the arm's axis, twice the wake moves it by 0.03 1/s only, from -0.54 to -0.51."""
+    params = getattr(RigParams, rig)()
     free = ("rig_roll", "rig_yaw", "model_pitch", "model_yaw")
     br = rig_env.continuation(params, free_dofs=free, parameter="hawk_aero.wake_factor", values=np.linspace(0.0, 2.0, 11), airspeed=15.0,
                               aero_model="unsteady", periodic=False, q_guess=[0, 0, 0, 0.1, 0])
     lead = np.array([max(e.real) for e in br.eigenvalues])
     assert br.hopf.size == 0 and br.stable.all()
-    assert np.ptp(lead) < 1e-3 and lead.max() < -0.5
+    assert np.ptp(lead) < spread and lead.max() < -0.5
     assert br.states.shape[1] == 2 * len(free) + L.N_AERO
