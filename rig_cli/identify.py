@@ -37,6 +37,7 @@ import math
 import shutil
 import sys
 import tomllib
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, TextIO
@@ -312,7 +313,9 @@ def run(config: str | Path, out_dir: str | Path, *, overwrite: bool = False, str
     out.write(f"fitting {len(cfg.estimate)} parameters by {cfg.method} to {len(records)} record(s)\n")
     out.flush()
     try:
-        result = fit(records, params, progress=report_progress, **fit_kwargs(cfg))
+        with warnings.catch_warnings():  # a misfit is told below, once, with the report's name
+            warnings.simplefilter("ignore", sysid.FitWarning)
+            result = fit(records, params, progress=report_progress, **fit_kwargs(cfg))
     except (ValueError, RuntimeError, ArithmeticError) as exc:
         raise RuntimeError(f"the fit failed: {exc}") from exc
     dest.mkdir(parents=True, exist_ok=True)
@@ -320,6 +323,8 @@ def run(config: str | Path, out_dir: str | Path, *, overwrite: bool = False, str
     shutil.copyfile(cfg.source, targets["config"])
     written["config"] = targets["config"]
     out.write(f"wrote {written['report']} and its figures\n")
+    for w in result.warnings:
+        out.write(f"warning: {w}\n")
     if not result.converged:
         raise RuntimeError(f"the fit did not converge ({result.message or 'no message'}) after {result.iterations} iterations; "
                            f"see {written['report']}; no parameter file written")

@@ -10,6 +10,7 @@ about the truth as their Cramer-Rao standard errors say.
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -147,11 +148,15 @@ def test_filter_error_beats_output_error_in_turbulence():
     recs = [make(s) for s in range(24)]
     true = truth(EST_1DOF)
     start = {n: v * 1.1 for n, v in zip(EST_1DOF, true)}
-    out = {}
+    out, flagged = {}, {}
     for method in ("output_error", "filter_error"):
         est, std = [], []
+        flagged[method] = 0
         for rec in recs:
-            fit = sysid.fit(rec, P, EST_1DOF, method, start=start)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", sysid.FitWarning)
+                fit = sysid.fit(rec, P, EST_1DOF, method, start=start)
+            flagged[method] += bool(fit.warnings)
             est.append([fit.values[n] for n in EST_1DOF])
             std.append([fit.std[n] for n in EST_1DOF])
         est, std = np.array(est), np.array(std)
@@ -163,6 +168,9 @@ def test_filter_error_beats_output_error_in_turbulence():
     assert out["filter_error"][0] < out["output_error"][0]
     assert out["filter_error"][1] >= 0.85 and out["filter_error"][1] > out["output_error"][1]
     assert np.all((out["filter_error"][2] > 0.7) & (out["filter_error"][2] < 1.5))
+    # the output error's coloured residuals are flagged (sysid.misfit_warnings) where its misfit is large, the filter error's never
+    print(f"flagged: {flagged}")
+    assert flagged["filter_error"] == 0 and flagged["output_error"] >= 1
 
 
 def test_joint_fit_of_two_records_at_two_airspeeds():
@@ -256,10 +264,14 @@ def test_a_frame_log_of_the_loop_flying_the_simulated_rig_is_read_and_fitted(tmp
     log, rig, spec = fly_sim_rig(tmp_path, 4.0)
     rec = FlightRecord.read(log, allow_gaps=True)
     rec = rec.resample(80.0, allow_gaps=True) if np.ptp(np.diff(rec.t)) > 1e-6 else rec
-    fit = sysid.fit_from_starts(rec, P, ["comp_aero.CLde"], [{"comp_aero.CLde": 1.3}, {"comp_aero.CLde": 2.0}])
-    assert "best of 2 starts" in fit.message and fit.initial["comp_aero.CLde"] == 2.0
-    low = sysid.fit(rec, P, ["comp_aero.CLde"], start={"comp_aero.CLde": 1.3})  # the local minimum below the truth
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", sysid.FitWarning)  # the local minimum of the first start is not told: the best fit has none
+        fit = sysid.fit_from_starts(rec, P, ["comp_aero.CLde"], [{"comp_aero.CLde": 1.3}, {"comp_aero.CLde": 2.0}])
+    assert "best of 2 starts" in fit.message and fit.initial["comp_aero.CLde"] == 2.0 and fit.warnings == ()
+    with pytest.warns(sysid.FitWarning, match=r"rig_roll is not followed \(R\^2 -?\d+\.\d\d < 0\.9.*fit_from_starts"):
+        low = sysid.fit(rec, P, ["comp_aero.CLde"], start={"comp_aero.CLde": 1.3})  # the local minimum below the truth
     assert low.values["comp_aero.CLde"] < 1.5 and low.cost_history[-1] > fit.cost_history[-1]
+    assert len(low.warnings) == 1 and low.warnings[0].startswith(f"{rec.name}: rig_roll is not followed")
     z = (fit.values["comp_aero.CLde"] - P.comp_aero.CLde) / fit.std["comp_aero.CLde"]
     print(f"CLde {fit.values['comp_aero.CLde']:.4f} +- {fit.std['comp_aero.CLde']:.4f} (truth {P.comp_aero.CLde}), z = {z:.2f}")
     # 0.01 % (z = 3.9) measured on the default rig (0.06 %, z = -2.4, on the paper's model): the frames the loop missed on a loaded machine (resampled over) and the
@@ -322,6 +334,37 @@ def test_the_unsteady_models_parameters_are_identified_from_a_stall_record():
         sysid.fit(rec, P, ["hawk_aero.sep_cp_travel"], method="equation_error", aero_model="unsteady")
     with pytest.raises(ValueError, match=r"aero_model = 'quasi': allowed values"):
         sysid.fit(rec, P, ["hawk_aero.sep_cp_travel"], aero_model="quasi")
+
+
+def test_misfit_warnings_need_a_low_r2_and_coloured_residuals(pitch_run, tmp_path):
+    """sysid.misfit_warnings flags an output only when all hold: R^2 below 0.9, residuals far from white, and an
+    output that moves beyond its noise.  On a good fit's own shape: an output whose residuals are white noise as
+    large as its motion (R^2 about 0) is not flagged; a slow structured misfit of the motion's size is; a small
+    structured misfit (R^2 0.99) is not; nor an output that hardly moves, whose residuals (noise ten times its motion
+    and a slow part as large as the noise) are coloured.  Equation error is never flagged."""
+    from dataclasses import replace as dc_replace
+
+    rec = record_of(pitch_run, 0.1, 0)
+    good = sysid.fit(rec, P, ["hawk_aero.CMq"], start={"hawk_aero.CMq": truth(["hawk_aero.CMq"])[0]})
+    assert good.warnings == () and sysid.misfit_warnings(good) == ()
+    n, m = good.residuals[0].shape
+    rng = np.random.default_rng(0)
+    t = np.arange(n) / 80.0
+    motion = np.outer(np.sin(2 * np.pi * 0.5 * t), np.ones(m)) * 1e-3
+    noise = rng.standard_normal((n, m)) * 1e-3
+    drift = np.outer(np.sin(2 * np.pi * 0.2 * t + 1.0), np.ones(m)) * 1e-3
+    assert sysid.misfit_warnings(dc_replace(good, predicted=(motion * 0.0,), residuals=(noise,))) == ()
+    flagged = sysid.misfit_warnings(dc_replace(good, predicted=(motion,), residuals=(drift,)))
+    assert len(flagged) == m and all(f"{rec.name}: {name} is not followed" in w for name, w in zip(good.outputs[0], flagged))
+    assert sysid.misfit_warnings(dc_replace(good, predicted=(motion,), residuals=(0.1 * drift,))) == ()
+    still = dc_replace(good, predicted=(0.1 * motion,), residuals=(noise + drift,))
+    from rig_env.sysid.diagnostics import whiteness
+
+    assert all(w.p_value < 1e-6 for w in whiteness(still.residuals[0])) and sysid.misfit_warnings(still) == ()
+    assert sysid.misfit_warnings(dc_replace(good, method="equation_error", predicted=(motion,), residuals=(drift,))) == ()
+    report = sysid.write_report(dc_replace(good, warnings=flagged), tmp_path / "flagged").read_text()  # the report tells them
+    assert "**Warnings**" in report and flagged[0] in report
+    assert "**Warnings**" not in sysid.write_report(good, tmp_path / "good").read_text()
 
 
 def test_fit_from_starts_refuses_bad_starts_by_name(pitch_run):

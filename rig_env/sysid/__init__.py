@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from rig_env.importhook import lazy_attributes
-from rig_env.sysid.fit import METHODS, fit, fit_from_starts
+from rig_env.sysid.fit import METHODS, FitWarning, fit, fit_from_starts, misfit_warnings
 from rig_env.sysid.inputs import doublet, multisine, peak_factors, three_two_one_one  # scipy only inside multisine()
 from rig_env.sysid.readers import ColumnMap
 from rig_env.sysid.records import (
@@ -47,7 +47,7 @@ _LAZY = {  # imported at first use (matplotlib, scipy, the model's kernels)
 __getattr__, __dir__ = lazy_attributes("rig_env.sysid", _LAZY, globals())
 
 __all__ = [
-    "GAP_FACTOR", "MAX_UPSAMPLE", "METHODS", "ColumnMap", "Fit", "FlightRecord", "MonteCarlo", "RecordError", "check_sampling", "doublet",
-    "fig4_setup", "fit", "fit_from_starts", "monte_carlo", "free_decay_estimates", "friction_first_estimates", "lowess", "simulate_friction_test", "multisine", "peak_factors", "read_frame_log", "save_fit_params", "three_two_one_one", "write_params",
+    "GAP_FACTOR", "MAX_UPSAMPLE", "METHODS", "ColumnMap", "Fit", "FitWarning", "FlightRecord", "MonteCarlo", "RecordError", "check_sampling", "doublet",
+    "fig4_setup", "fit", "fit_from_starts", "misfit_warnings", "monte_carlo", "free_decay_estimates", "friction_first_estimates", "lowess", "simulate_friction_test", "multisine", "peak_factors", "read_frame_log", "save_fit_params", "three_two_one_one", "write_params",
     "write_report",
 ]

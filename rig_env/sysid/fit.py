@@ -14,6 +14,7 @@ only), :mod:`rig_env.sysid.filter_error` (process noise too: turbulence; the pap
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
 import numpy as np
@@ -28,6 +29,19 @@ if TYPE_CHECKING:
     from rig_env.sysid.output_error import Solution
 
 METHODS = ("output_error", "filter_error", "equation_error")
+
+MISFIT_R2 = 0.9
+"""An output whose simulated response explains less than this fraction of the measured one's variance (R^2) ..."""
+MISFIT_P = 1e-6
+"""... with residuals far from white (Ljung-Box p-value below this) is flagged (:func:`misfit_warnings`).  Over a
+record's hundreds of samples a slight colour (quantisation, a sensor filter) gives p-values of 1e-3 or 1e-4 on a
+good fit; a misfit that matters gives Ljung-Box statistics in the thousands, p 1e-100 and below."""
+MISFIT_SNR = 10.0
+"""... on an output whose variance is at least this many times its residuals' white part (:func:`misfit_warnings`)."""
+
+
+class FitWarning(UserWarning):
+    """A fit that converged to something its own residuals call into doubt (:func:`misfit_warnings`)."""
 
 
 def fit(
@@ -67,6 +81,10 @@ def fit(
     error, which regresses measured states and has no aerodynamic states to take), ``nonlinear_aero=True`` the
     older name of "tables"; max_iter, tol: the optimiser's limits;
     progress: called with a one-line message per iteration.
+
+    A converged fit whose residuals say the model does not follow an output (:func:`misfit_warnings`: a local
+    minimum or a missing term) is returned with the messages in ``Fit.warnings``, each also issued as a
+    :class:`FitWarning`.
     """
     if method not in METHODS:
         raise ValueError(f"method = {method!r}; allowed: {', '.join(METHODS)}")
@@ -112,7 +130,43 @@ def fit(
         problem = Problem(recs, params, pset, initial_state="measured", biases=False, aero=aero, friction=friction, stops=stops,
                           aero_model=model)
         sol = filter_error(problem, problem.p0, process_noise=process_noise, max_iter=max_iter, tol=tol, progress=progress)
-    return _result(method, problem.records, problem.outputs, problem.names[pset.k :], pset, params, sol)
+    result = _result(method, problem.records, problem.outputs, problem.names[pset.k :], pset, params, sol)
+    found = misfit_warnings(result)
+    for w in found:
+        warnings.warn(w, FitWarning, stacklevel=2)
+    return dataclasses.replace(result, warnings=found) if found else result
+
+
+def misfit_warnings(result: Fit) -> tuple[str, ...]:
+    """One message per record and output the model does not follow, for output and filter error (equation
+    error's residuals are regressed accelerations: none).  All three of:
+
+    1. R^2 below :data:`MISFIT_R2`: the residuals hold more than a tenth of the measured output's variance;
+    2. residuals far from white: Ljung-Box p-value below :data:`MISFIT_P`;
+    3. an output that moves: its variance at least :data:`MISFIT_SNR` times the residuals' white part, their
+       variance times (1 - r_1), r_1 their lag-1 autocorrelation (a slow misfit is correlated from sample to
+       sample, the sensors' noise is not).
+
+    An output that hardly moves has a low R^2 from the sensor noise alone, and a small slow misfit of the other
+    outputs' making colours its residuals (the third test keeps it out); a good fit of an imperfect model has
+    coloured residuals but a high R^2.  A converged fit that leaves a large, structured misfit on an output that
+    moves is at a local minimum (the simulated rig took another path, as a roll that falls back where the record
+    rolls over the top: :func:`fit_from_starts`) or lacks a term or a parameter (turbulence, to output error)."""
+    if result.method == "equation_error":
+        return ()
+    from rig_env.sysid.diagnostics import fit_measures, whiteness  # scipy's statistics: when a fit has run
+
+    found = []
+    for rec, names, yh, e in zip(result.records, result.outputs, result.predicted, result.residuals):
+        y = np.asarray(yh) + np.asarray(e)
+        for k, (m, w) in enumerate(zip(fit_measures(yh, e, names), whiteness(e, names))):
+            white = m.rms**2 * (1.0 - min(max(float(w.acf[1]), 0.0), 1.0)) if w.acf.size > 1 else m.rms**2
+            moves = float(np.var(y[:, k])) >= MISFIT_SNR * white
+            if m.r2 < MISFIT_R2 and w.p_value < MISFIT_P and moves:
+                found.append(f"{rec.name}: {m.output} is not followed (R^2 {m.r2:.2f} < {MISFIT_R2}, residuals far from white, Ljung-Box "
+                             f"p {w.p_value:.1g}): a local minimum, where the simulated rig takes another path (try other start values: "
+                             f"sysid.fit_from_starts), or a term or parameter the model lacks (turbulence, to output error: method='filter_error')")
+    return tuple(found)
 
 
 def _result(method: str, records: Sequence[FlightRecord], outputs: Sequence[tuple[str, ...]], nuisance: Sequence[str],
@@ -175,9 +229,13 @@ def fit_from_starts(
         raise ValueError(f"starts: {unknown} not among the estimated parameters {list(estimate)}")
     if "start" in options:
         raise ValueError("start: give the start values in starts")
-    fits = [fit(records, params, estimate, start=dict(s), **options) for s in starts]  # type: ignore[arg-type]
+    with warnings.catch_warnings():  # a start that ends in a local minimum is expected here: only the best fit's are told
+        warnings.simplefilter("ignore", FitWarning)
+        fits = [fit(records, params, estimate, start=dict(s), **options) for s in starts]  # type: ignore[arg-type]
     pool = [f for f in fits if f.converged and f.cost_history] or [f for f in fits if f.cost_history] or fits
     best = min(pool, key=lambda f: f.cost_history[-1] if f.cost_history else np.inf)
+    for w in best.warnings:
+        warnings.warn(w, FitWarning, stacklevel=2)
     lines = [f"start {i + 1}: " + ", ".join(f"{n} {f.values[n]:.6g}" for n in f.estimate)
              + (f", cost {f.cost_history[-1]:.6g}" if f.cost_history else "") + ("" if f.converged else " (not converged)")
              for i, f in enumerate(fits)]

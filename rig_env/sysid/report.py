@@ -131,6 +131,8 @@ def _fit_section(fit: Fit, k: int, prefix: str, out: Path, reference: Mapping[st
     cost = fit.cost_history
     lines += [f"Method `{fit.method}`; {fit.iterations} iterations, {status}" + (f" ({fit.message})" if fit.message else "") + "; "
               + (f"cost {fmt(cost[0])} at the start, {fmt(cost[-1])} at the end." if cost else "no cost history."), ""]
+    if fit.warnings:
+        lines += ["**Warnings** (the residuals, `rig_env.sysid.misfit_warnings`):", ""] + [f"- {w}" for w in fit.warnings] + [""]
     lines += ["### Estimates", "",
               "Cramer-Rao standard errors sigma: \"coloured\" is corrected for the residuals' autocorrelation, \"white\" assumes "
               "white residuals (the uncorrected bound, smaller when the residuals are coloured).  The interval is estimate +- 1.96 sigma "

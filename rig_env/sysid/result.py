@@ -38,6 +38,7 @@ class Fit:
     | process_noise | {name: value}: filter error's process-noise standard deviations (empty otherwise) |
     | cost_history | the cost per iteration |
     | iterations, converged, message | how the optimisation ended |
+    | warnings | what the fit's own residuals flag (:func:`rig_env.sysid.fit.misfit_warnings`): an output the model does not follow, a sign of a local minimum or a model error; empty when none |
     """
 
     method: str
@@ -61,3 +62,4 @@ class Fit:
     iterations: int = 0
     converged: bool = True
     message: str = ""
+    warnings: tuple[str, ...] = ()
