@@ -567,6 +567,26 @@ def test_fig8_ramp_shows_both_bands_with_a_lift_break_and_travel(rig):
     assert amp[(mean > 12.0) & (mean < 14.0)].max() > 2.0
 
 
+def test_fig8_lower_band_on_the_default_rig_sits_at_the_same_angles_further_down_the_elevator():
+    """scripts/fig8_lower_band.py --rig default: the elevator window moved to the same model pitch (3 to 7 deg) is 1.4-1.5
+    deg lower than the paper's model's (the default's lower trim), and there the lift break (0.05 at 6 deg) with k = 0.2 c
+    gives the band of unstable equilibria at the paper's model's angles, 4.45 to 6.0 deg: the band belongs to the
+    tables in angle of attack."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    import fig8_lower_band as script
+
+    default = RigParams.default()
+    elev = script.elevator_grid(default)
+    shift = float(elev[0] - script.ELEVATOR[0])
+    assert -1.6 < shift < -1.3 and np.allclose(elev - script.ELEVATOR, shift)
+    assert np.array_equal(script.elevator_grid(RigParams.paper()), script.ELEVATOR)
+    _, pitch, hopf = script.unstable_band(script.rig(default, 0.2, 0.05), elev)
+    assert pitch.min() == pytest.approx(4.45, abs=0.05) and pitch.max() == pytest.approx(6.0, abs=0.05) and len(hopf) == 2
+
+
 def test_fig8_lower_band_script_finds_the_band_and_keeps_existing_output(params, tmp_path, capsys):
     """scripts/fig8_lower_band.py: its band finder gives the test's band, and it refuses to overwrite an
     existing output or to take a bad grid step, by name, before any computation."""
