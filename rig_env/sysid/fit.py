@@ -82,7 +82,7 @@ def fit(
     older name of "tables"; max_iter, tol: the optimiser's limits;
     progress: called with a one-line message per iteration.
 
-    A converged fit whose residuals say the model does not follow an output (:func:`misfit_warnings`: a local
+    A fit whose residuals say the model does not follow an output (:func:`misfit_warnings`: a local
     minimum or a missing term) is returned with the messages in ``Fit.warnings``, each also issued as a
     :class:`FitWarning`.
     """
@@ -144,7 +144,7 @@ def misfit_warnings(result: Fit) -> tuple[str, ...]:
     1. R^2 below :data:`MISFIT_R2`: the residuals hold more than a tenth of the measured output's variance;
     2. residuals far from white: Ljung-Box p-value below :data:`MISFIT_P`;
     3. an output that moves: its variance at least :data:`MISFIT_SNR` times the residuals' white part, their
-       variance times (1 - r_1), r_1 their lag-1 autocorrelation (a slow misfit is correlated from sample to
+       mean square times (1 - r_1), r_1 their lag-1 autocorrelation (a slow misfit is correlated from sample to
        sample, the sensors' noise is not).
 
     An output that hardly moves has a low R^2 from the sensor noise alone, and a small slow misfit of the other
