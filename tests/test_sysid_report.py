@@ -364,8 +364,8 @@ def config(tmp_path: Path) -> Path:
     return path
 
 
-def _stub(monkeypatch: pytest.MonkeyPatch, params: RigParams, converged: bool = True) -> dict:
-    """FlightRecord.read and sysid.fit stand-ins: what they were called with, and a hand-built Fit."""
+def _stub(monkeypatch: pytest.MonkeyPatch, params: RigParams, converged: bool = True, warnings: tuple[str, ...] = ()) -> dict:
+    """FlightRecord.read and sysid.fit stand-ins: what they were called with, and a hand-built Fit (with ``warnings``)."""
     calls: dict = {}
     rec = make_fit(params).records[0]
 
@@ -377,7 +377,7 @@ def _stub(monkeypatch: pytest.MonkeyPatch, params: RigParams, converged: bool = 
         calls["fit"] = (records, base, kw)
         kw["progress"]("iteration 1: cost 4.1e-3")
         f = make_fit(params)
-        return dataclasses.replace(f, converged=converged)
+        return dataclasses.replace(f, converged=converged, warnings=warnings)
 
     monkeypatch.setattr(FlightRecord, "read", classmethod(read), raising=False)
     monkeypatch.setattr(FlightRecord, "segment", lambda self, t0, t1: calls.setdefault("segment", (t0, t1)) and self, raising=False)
@@ -406,6 +406,20 @@ def test_rig_identify_writes_report_and_params(config: Path, tmp_path: Path, par
     assert main(["identify", str(config), "--out", str(out)]) == 2
     assert "--overwrite" in capsys.readouterr().err
     assert main(["identify", str(config), "--out", str(out), "--overwrite"]) == 0
+
+
+def test_rig_identify_tells_the_fits_warnings_on_its_output_and_in_the_report(config: Path, tmp_path: Path, params: RigParams,
+                                                                              monkeypatch, capsys):
+    """A fit that carries warnings (sysid.misfit_warnings: an output the model does not follow) still writes its files,
+    and rig identify prints each warning on a line of its own beside them, and the report lists them."""
+    from rig_cli.main import main
+
+    said = ("pitch: model_pitch is not followed (R^2 0.42 < 0.9, residuals far from white, Ljung-Box p 1e-300): a local minimum",)
+    _stub(monkeypatch, params, warnings=said)
+    out = tmp_path / "out"
+    assert main(["identify", str(config), "--out", str(out)]) == 0
+    assert f"warning: {said[0]}\n" in capsys.readouterr().out
+    assert said[0] in (out / "report.md").read_text() and (out / "identified.toml").exists()
 
 
 def test_rig_identify_unconverged_fit_writes_no_params(config: Path, tmp_path: Path, params: RigParams, monkeypatch, capsys):
