@@ -75,6 +75,8 @@ def test_ray_monte_carlo_equals_local(ray_cluster: Any, clean: sysid.FlightRecor
         np.testing.assert_array_equal(ray_mc.estimates[n], local.estimates[n])
         np.testing.assert_array_equal(ray_mc.std[n], local.std[n])
     assert ray_mc.backend["chunks"] == 3 and ray_mc.backend["retries"] == 0
+    assert local.flagged.shape == (5,) and not local.flagged.any()  # no draw of a good record is flagged (sysid.misfit_warnings)
+    np.testing.assert_array_equal(ray_mc.flagged, local.flagged)
     assert local.estimates["hawk_aero.CMq"].std() > 0  # the draws differ (the noise is the seed's)
     s = local.summary({n: float(p.to_vector()[PARAM_INDEX[n]]) for n in NAMES})
     assert set(s["hawk_aero.CMq"]) == {"mean", "scatter", "mean_std", "ratio", "bias", "within_2std"}

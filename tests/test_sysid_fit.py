@@ -367,6 +367,20 @@ def test_misfit_warnings_need_a_low_r2_and_coloured_residuals(pitch_run, tmp_pat
     assert "**Warnings**" not in sysid.write_report(good, tmp_path / "good").read_text()
 
 
+def test_monte_carlo_counts_flagged_fits_without_warning_each(pitch_run):
+    """sysid.monte_carlo keeps each draw's misfit flag in ``flagged`` and issues no FitWarning draw by draw: none on the
+    right model, every draw when the fitted rig's CMalpha is held at 30 % of the truth (only CMq estimated)."""
+    from rig_env.sysid import monte_carlo
+
+    clean = record_of(pitch_run, 0.0, 0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", sysid.FitWarning)
+        good = monte_carlo(clean, P, ["hawk_aero.CMq"], noise_std_rad=0.1 * D, seeds=[0, 1], fit_kwargs={"max_iter": 8})
+        wrong = monte_carlo(clean, P.replace(**{"hawk_aero.CMalpha": 0.3 * P.hawk_aero.CMalpha}), ["hawk_aero.CMq"],
+                            noise_std_rad=0.1 * D, seeds=[0, 1], fit_kwargs={"max_iter": 8})
+    assert good.flagged.tolist() == [False, False] and wrong.flagged.tolist() == [True, True]
+
+
 def test_fit_from_starts_refuses_bad_starts_by_name(pitch_run):
     """sysid.fit_from_starts: the starts must be a non-empty list of mappings of the estimated names, and the
     start values are given there, not as start=; each refused before any fit runs."""

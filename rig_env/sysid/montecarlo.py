@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence, TextIO
 
@@ -23,14 +24,16 @@ import numpy as np
 
 from rig_env import distributed
 from rig_env.params import RigParams
-from rig_env.sysid.fit import fit
+from rig_env.sysid.fit import FitWarning, fit
 from rig_env.sysid.records import FlightRecord
 
 
 @dataclass(frozen=True)
 class MonteCarlo:
     """The fits of every noise draw: ``estimates[name]`` and ``std[name]`` (n,) in ``seeds`` order, each fit's
-    iterations and convergence, and how it ran (``backend``; with Ray: chunks, nodes, ``retries``)."""
+    iterations and convergence, ``flagged`` (n,) whether its residuals flagged an output the model does not follow
+    (:func:`rig_env.sysid.misfit_warnings`; not issued as warnings draw by draw), and how it ran (``backend``; with
+    Ray: chunks, nodes, ``retries``)."""
 
     names: tuple[str, ...]
     seeds: tuple[int, ...]
@@ -40,6 +43,7 @@ class MonteCarlo:
     iterations: np.ndarray
     seconds: float
     backend: dict[str, Any] = field(default_factory=dict)
+    flagged: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
     def summary(self, truth: Mapping[str, float] | None = None) -> dict[str, dict[str, float]]:
         """Per parameter: ``mean``, ``scatter`` (sample std of the estimates over the draws), ``mean_std`` (the mean
@@ -63,10 +67,19 @@ def _fits(record: FlightRecord, params: RigParams, estimate: Sequence[str], nois
           seeds: Sequence[int], method: str, fit_kwargs: Mapping[str, Any]) -> list[dict[str, Any]]:
     out = []
     for s in seeds:
-        f = fit(record.with_noise(noise_std_rad, seed=int(s)), params, list(estimate), method, **dict(fit_kwargs))
+        with warnings.catch_warnings():  # counted in MonteCarlo.flagged rather than told draw by draw
+            warnings.simplefilter("ignore", FitWarning)
+            f = fit(record.with_noise(noise_std_rad, seed=int(s)), params, list(estimate), method, **dict(fit_kwargs))
         out.append({"seed": int(s), "values": dict(f.values), "std": dict(f.std), "converged": bool(f.converged),
-                    "iterations": int(f.iterations)})
+                    "iterations": int(f.iterations), "flagged": bool(f.warnings)})
     return out
+
+
+def _warm_fit(record: FlightRecord, params: RigParams, estimate: Sequence[str], method: str, warm_kw: Mapping[str, Any]) -> None:
+    """One iteration of the fit, to compile the kernels on a node (its result, flagged or not, is not used)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FitWarning)
+        fit(record, params, list(estimate), method, **dict(warm_kw))
 
 
 def run_chunk(ledger: Any, key: str, record: FlightRecord, params: RigParams, estimate: Sequence[str],
@@ -79,7 +92,7 @@ def run_chunk(ledger: Any, key: str, record: FlightRecord, params: RigParams, es
     attempt = int(ray.get(ledger.start.remote(key, where)))
     warm_kw = {**dict(fit_kwargs), "max_iter": 1}
     distributed.warm_once(f"sysid|{record.free_dofs}|{method}",
-                          lambda: fit(record, params, list(estimate), method, **warm_kw))  # the kernels, once per node
+                          lambda: _warm_fit(record, params, estimate, method, warm_kw))  # the kernels, once per node
     fits = _fits(record, params, estimate, noise_std_rad, seeds, method, fit_kwargs)
     ray.get(ledger.finish.remote(key, len(seeds)))
     return {"fits": fits, "attempt": attempt, **where}
@@ -123,7 +136,7 @@ def monte_carlo(
     return MonteCarlo(names, tuple(seeds), {n: np.array([f["values"][n] for f in fits]) for n in names},
                       {n: np.array([f["std"][n] for f in fits]) for n in names},
                       np.array([f["converged"] for f in fits]), np.array([f["iterations"] for f in fits]),
-                      time.perf_counter() - t0, info)
+                      time.perf_counter() - t0, info, np.array([f["flagged"] for f in fits], dtype=bool))
 
 
 _remote: list[Any] = []  # the remote function, made at first use (Ray imported only then)
