@@ -100,12 +100,12 @@ def test_pid_loops_meet_the_stated_margins_with_servo_and_delay(rig, fd, joint):
     L_in = C * P * el["rate_sensor"]
     gm, pm = control.stability_margins(L_in)[:2]
     assert np.all(np.real(control.feedback(L_in, 1).poles()) < 1e-8)  # (the rate plant's zero cancels the PI's pole)
-    assert 20 * math.log10(gm) >= 8.0 - 1e-3 and pm >= 50.0 - 1e-3
+    assert 20 * math.log10(gm) >= 8.0 - 1e-6 and pm >= 50.0 - 1e-6
     T_r = control.feedback(C * P, el["rate_sensor"])
     L_out = t.k_angle * T_r / s
     gm_o, pm_o = control.stability_margins(L_out)[:2]
     assert np.all(np.real(control.feedback(L_out, 1).poles()) < 1e-8)
-    assert 20 * math.log10(gm_o) >= 10.0 - 1e-3 and pm_o >= 60.0 - 1e-3
+    assert 20 * math.log10(gm_o) >= 10.0 - 1e-6 and pm_o >= 60.0 - 1e-6
 
 
 @pytest.mark.parametrize("rig, fd, joint", [("default", PITCH, "rig_pitch"), ("default", YAW, "rig_yaw"), ("paper", PITCH, "rig_pitch"),
@@ -113,9 +113,11 @@ def test_pid_loops_meet_the_stated_margins_with_servo_and_delay(rig, fd, joint):
 def test_pid_law_broken_at_the_surface_command_keeps_margins(rig, fd, joint):
     """The whole PID law (cascade and decoupling) broken at the actuator, built here by state-space
     interconnection: the closed loop is stable and PM >= 30 deg, GM >= 6 dB (servo and delay in), the design's
-    own report (pid_margins_as_flown) the same.  On the default rig, where heave drives the Hawk's pitch across the
-    lightly damped heave mode, the cascade shaped without the decoupling in its plant (the design before) kept less
-    than 6 dB."""
+    own report (pid_margins_as_flown) the same.  The decoupling is part of what keeps them: the same gains without it
+    keep less gain margin on every axis (pitch 9.2 against 5.7 dB on the default rig); on the yaw axes it adds phase
+    too, on the pitch axes the design spends some (30.3 against 31.9 deg).  On the default rig, where heave drives
+    the Hawk's pitch across the lightly damped heave mode, the cascade shaped without the decoupling in its plant (the
+    design before) kept less than 6 dB."""
     params = getattr(RigParams, rig)()
     _, sys = axis_point(params, fd, 20.0)
     t = tune_driven(params, sys, joint, 20.0, DT)
@@ -125,6 +127,10 @@ def test_pid_law_broken_at_the_surface_command_keeps_margins(rig, fd, joint):
     gm, pm, wc = margins(L)
     assert gm >= 6.0 and pm >= 30.0 and np.isfinite(wc)
     assert (gm, pm, wc) == pytest.approx(pid_margins_as_flown(params, sys, joint, t, DT), rel=1e-6)
+    gm0, pm0, _ = pid_margins_as_flown(params, sys, joint, t, DT, decouple=None)
+    assert gm > gm0
+    if joint == "rig_yaw":
+        assert pm >= pm0
     if rig == "default" and joint == "rig_pitch":
         before = tune_driven(params, sys, joint, 20.0, DT, decouple=None)
         L0 = _law_row(sys, joint, el, before.kp, before.ki, before.k_angle) * _plant_states(sys, joint) * SD
