@@ -49,17 +49,25 @@ def test_continuation_command_writes_the_branch_of_rig_env_continuation(tmp_path
     assert main([*argv, "--overwrite"]) == 0
 
 
-def test_continuation_command_reports_hopf_points_and_orbits_of_the_lower_band(tmp_path, capsys):
+@pytest.mark.parametrize(("rig", "values", "elevators"), [
+    ("paper", ["1.5", "0.3"], [1.12, 0.70]),
+    # the default rig (README: both examples): the same band 1.46 deg lower in elevator.  Its shooting once threw
+    # the period to 1e18 s from the second Hopf point and crashed allocating for it (periodic.Shooting's guard)
+    ("default", ["0.0", "-1.2"], [-0.33, -0.76]),
+])
+def test_continuation_command_reports_hopf_points_and_orbits_of_the_lower_band(tmp_path, capsys, rig, values, elevators):
     """The lower band of Fig. 8 (docs/MODEL.md 7): a lift break and centre-of-pressure travel given on the command line."""
     out = tmp_path / "band"
-    assert main(["continuation", "--free", "model_pitch", "--parameter", "hawk_elevator", "--values", "1.5", "0.3", "25",
+    rig_file = ["--params", str(rig_env.params.PAPER_FILE)] if rig == "paper" else []
+    assert main(["continuation", "--free", "model_pitch", "--parameter", "hawk_elevator", "--values", *values, "25",
                  "--aero-model", "unsteady", "--set", "hawk_aero.sep_cp_travel=0.2", "--lift-break", "6", "0.05",
-                 "--params", str(rig_env.params.PAPER_FILE), "--out", str(out)]) == 0
+                 *rig_file, "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "orbit family 0 from the supercritical Hopf point" in text and "all stable" in text
     sp = read(out / "special_points.csv")[1:]
     assert [r[0] for r in sp] == ["hopf", "hopf"]
     assert sorted(float(r[2]) for r in sp) == pytest.approx([4.45, 6.0], abs=0.05)
+    assert [float(r[1]) for r in sp] == pytest.approx(elevators, abs=0.01)
     orbits = read(out / "orbits.csv")
     assert orbits[0][-3:] == ["stable", "kind", "multiplier error"]
     amp = max(float(r[3]) for r in orbits[1:])

@@ -221,6 +221,31 @@ def test_an_orbit_family_between_two_hopf_points_ends_where_it_shrinks_back():
     assert calls[0] < 10 * ob.values.size  # the Newton steps of the orbits kept (and the one shrunk), not 300 orbits'
 
 
+@pytest.mark.parametrize("period", [-0.5, 0.0, 1e18, math.inf, math.nan])
+def test_shooting_never_integrates_a_period_outside_its_range(period):
+    """A Newton step that throws the period to 1e18 s (it did, for the default rig's lower band, and the rig's flow
+    then asked for 1e18 elements) or below zero gets a NaN residual, which the correctors take as a failed step;
+    the flow is not called.  Inside the range the residual is the flow's."""
+    from rig_env.bifurcation.periodic import Shooting, _solve_square
+    from rig_env.bifurcation.core import Settings
+
+    def field(X, P):
+        return np.stack([-2.0 * X[:, 1], 2.0 * X[:, 0]], axis=1)
+
+    calls = []
+
+    def flow(X, T, P, samples):
+        calls.append(T)
+        return rk4_flow(field, 400)(X, T, P, samples)
+
+    sh = Shooting(field, flow, np.ones(4), max_period=20.0)
+    F, J = sh(np.array([0.3, 0.0, period, 0.0]))
+    assert np.all(np.isnan(F[:2])) and np.all(np.isnan(J[:2])) and calls == []  # the closing rows; the phase row needs no flow
+    assert _solve_square(sh, np.array([0.3, 0.0, period, 0.0]), Settings()) is None and calls == []
+    F, J = sh(np.array([0.3, 0.0, math.pi, 0.0]))  # the harmonic oscillator's orbit through (0.3, 0) closes after pi
+    assert calls == [math.pi] and np.abs(F[:2]).max() < 1e-8 and np.all(np.isfinite(J))
+
+
 # ---------------------------------------------------------------------------- the rig
 PITCH_HEAVE = ("rig_pitch", "model_pitch")
 

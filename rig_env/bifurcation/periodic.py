@@ -37,6 +37,7 @@ side where the crossing pair is unstable (supercritical: the orbits are born att
 
 from __future__ import annotations
 
+import math
 from typing import Callable
 
 import numpy as np
@@ -75,10 +76,13 @@ def rk4_flow(f: BatchField, steps_per_period: int = 400) -> Flow:
 
 
 class Shooting:
-    """The shooting residual and Jacobian in scaled unknowns z = (x0, T, p) / scale (the curve solver's ``fj``)."""
+    """The shooting residual and Jacobian in scaled unknowns z = (x0, T, p) / scale (the curve solver's ``fj``).
 
-    def __init__(self, f: BatchField, flow: Flow, scale: np.ndarray, eps: float = 1e-6) -> None:
-        self.f, self.flow, self.scale, self.eps = f, flow, scale, eps
+    A period outside (0, max_period] (where a Newton step has thrown it) is not integrated: the residual is NaN,
+    which the correctors take as a failed step (a flow over T = 1e18 s would otherwise be asked for)."""
+
+    def __init__(self, f: BatchField, flow: Flow, scale: np.ndarray, eps: float = 1e-6, max_period: float = math.inf) -> None:
+        self.f, self.flow, self.scale, self.eps, self.max_period = f, flow, scale, eps, max_period
         self.n = scale.size - 2
         self.x_ref = np.zeros(self.n)
         self.g_ref = np.zeros(self.n)
@@ -96,6 +100,8 @@ class Shooting:
         """phi(x0, T, p), dphi/dx0, dphi/dT, dphi/dp at z (one batched flow of 2n + 3 rows)."""
         x, T, p = self.unpack(z)
         n = self.n
+        if not (0.0 < T <= self.max_period and math.isfinite(p) and np.all(np.isfinite(x))):
+            return np.full(n, np.nan), np.full((n, n), np.nan), np.full(n, np.nan), np.full(n, np.nan)
         hx = self.eps * (1.0 + np.abs(x))
         hp = self.eps * (1.0 + abs(p))
         X = np.repeat(x[None, :], 2 * n + 3, axis=0)
@@ -220,7 +226,7 @@ def orbits(
     T0 = hopf.period
     max_period = 20.0 * T0 if max_period is None else max_period
     scale = np.concatenate([np.broadcast_to(np.asarray(x_scale, dtype=np.float64), (n,)), [T0, hi - lo]])
-    sh = Shooting(f, flow, scale)
+    sh = Shooting(f, flow, scale, max_period=max_period)
     re, im = hopf.eigenvector.real, hopf.eigenvector.imag
     re_n = re / (re @ re)
     sh.x_ref, sh.g_ref = hopf.state.copy(), -im  # phase: (x0 - x_H) . Im(v) = 0 (the flow's direction at t = 0)
