@@ -1,6 +1,7 @@
 """Env-step throughput of the three aerodynamic models, measured in one run (ratios are the figures to quote).
 
     python benchmarks/bench_aero_models.py [--envs 64 1024] [--seconds 2] [--rounds 3] [--serial] [--kinds lanes joint] [--json]
+    python benchmarks/bench_aero_models.py --envs 1024 --sandwich 60 [--window 0.25]
 
 The harness of ``bench_step.py`` (``rate``: wall and CPU env-steps/s over a window, after a warm-up call
 that compiles or loads the kernel, so compile time is never in the rate), the cases taking turns window by
@@ -16,6 +17,12 @@ joints free, states near trim.  Kernels (``rig_env.physics.pipeline.choose_kerne
 
 ``--kinds lanes``: the lane kernels only (each round then also prints its own unsteady / linear ratio: on a
 shared machine the per-round ratios and their median say more than the ratio of the best rates).
+``--sandwich N``: instead of the rounds, N short windows (``--window``, 0.25 s) of linear, unsteady, linear on
+the one-thread lane kernels, each unsteady rate divided by the mean of the two linear windows around it; the
+median and the interquartile range of those N ratios.  A window of a quarter second sees much the same
+machine as its neighbours, so on a VM whose speed drifts by tens of per cent from second to second (steal
+time shows as CPU time too) this ratio moves by about 0.005 from run to run where the rounds' median moves
+by 0.03.
 ``--serial``: every kernel's one-thread version whatever the batch size (on a machine other jobs share, the
 parallel kernels' rendezvous waits for a busy core and the rates of a parallel run move by tens of per
 cent from window to window; one thread's rate per CPU-second does not).
@@ -30,6 +37,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -65,10 +73,21 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--rounds", type=int, default=3, help="rounds of the cases taking turns")
     ap.add_argument("--serial", action="store_true", help="one-thread kernels at every batch size")
     ap.add_argument("--kinds", nargs="+", choices=("lanes", "joint"), default=["lanes", "joint"])
+    ap.add_argument("--sandwich", type=int, default=0, metavar="N",
+                    help="N linear-unsteady-linear window triples on the lane kernels instead of the rounds")
+    ap.add_argument("--window", type=float, default=0.25, help="seconds of CPU time per window of --sandwich")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    for name in ("sandwich", "rounds"):
+        if getattr(args, name) < 0:
+            ap.error(f"--{name} = {getattr(args, name)}: expected a count >= 0")
+    for name in ("seconds", "window"):
+        if not getattr(args, name) > 0.0:
+            ap.error(f"--{name} = {getattr(args, name)}: expected seconds > 0")
     params = RigParams.default()
     out: dict = {"machine": machine_line(), "serial": args.serial, "rates": {}}
+    if args.sandwich:
+        return sandwich(params, args.envs, args.sandwich, args.window, args.json, out)
     for n in args.envs:
         steps = {f"{model}/{kind}/{n}": stepper(params, n, model, kind, parallel=False if args.serial else None)
                  for model, kind in CASES if kind in args.kinds}
@@ -110,6 +129,44 @@ def main(argv: list[str] | None = None) -> dict:
         for k, v in out.items():
             if "_over_" in k and not isinstance(v, list):
                 print(f"{k}: {v:.3f}")
+    return out
+
+
+def cpu_window(step, n: int, seconds: float) -> float:
+    """Env-steps per CPU-second of ``step`` (n envs per call) over about ``seconds`` of this process's CPU time."""
+    c0 = time.process_time()
+    calls = 0
+    while True:
+        step()
+        calls += 1
+        used = time.process_time() - c0
+        if used >= seconds:
+            return calls * n / used
+
+
+def sandwich(params: RigParams, envs: list[int], triples: int, seconds: float, as_json: bool, out: dict) -> dict:
+    """``--sandwich``: per batch size, ``triples`` ratios unsteady / mean(linear before, linear after) on the
+    one-thread lane kernels, their median and quartiles in ``out``."""
+    for n in envs:
+        lin, _ = stepper(params, n, "linear", "lanes", parallel=False)
+        uns, _ = stepper(params, n, "unsteady", "lanes", parallel=False)
+        lin(), uns()  # compile or load both before the first window
+        ratios = []
+        before = cpu_window(lin, n, seconds)
+        for _ in range(triples):
+            middle = cpu_window(uns, n, seconds)
+            after = cpu_window(lin, n, seconds)
+            ratios.append(middle / (0.5 * (before + after)))
+            before = after
+        q25, q50, q75 = (float(v) for v in np.percentile(ratios, [25, 50, 75]))
+        out[f"unsteady_over_linear_lanes_sandwich/{n}"] = {"median": q50, "q25": q25, "q75": q75, "ratios": ratios}
+        if not as_json:
+            print(f"{n} envs, {triples} windows of {seconds} s: unsteady / linear (lanes, one thread) median {q50:.3f}, "
+                  f"interquartile {q25:.3f}-{q75:.3f}", flush=True)
+    if as_json:
+        print(json.dumps(out, indent=1))
+    else:
+        print(out["machine"])
     return out
 
 

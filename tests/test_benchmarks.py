@@ -65,6 +65,35 @@ def test_aero_models_bench_reports_each_rounds_ratio(capsys):
     assert "linear_lanes_over_joint/8" not in out
 
 
+def test_aero_models_sandwich_divides_each_unsteady_window_by_its_two_linear_neighbours(monkeypatch):
+    """--sandwich: ratio k is unsteady window k over the mean of the linear windows k and k + 1 (the linear
+    rates drift here, the unsteady ones do not: a drift the neighbours' mean takes out exactly)."""
+    from benchmarks import bench_aero_models
+
+    linear = iter([100.0, 120.0, 140.0, 160.0])
+    unsteady = iter([88.0, 104.0, 120.0])
+    steps = {"linear": lambda: None, "unsteady": lambda: None}
+    monkeypatch.setattr(bench_aero_models, "stepper", lambda params, n, model, kind, parallel=None: (steps[model], kind))
+    monkeypatch.setattr(bench_aero_models, "cpu_window", lambda step, n, seconds: next(linear if step is steps["linear"] else unsteady))
+    out = bench_aero_models.sandwich(None, [8], 3, 0.01, True, {})
+    r = out["unsteady_over_linear_lanes_sandwich/8"]
+    assert r["ratios"] == pytest.approx([88 / 110, 104 / 130, 120 / 150], rel=1e-12)
+    assert r["median"] == pytest.approx(0.8, rel=1e-12) and r["q25"] <= r["median"] <= r["q75"]
+
+
+def test_aero_models_sandwich_runs_on_the_lane_kernels_and_refuses_a_bad_count(capsys):
+    """--sandwich on a tiny batch: one positive ratio per triple; a negative count or window is refused naming it."""
+    from benchmarks import bench_aero_models
+
+    out = bench_aero_models.main(["--envs", "8", "--sandwich", "3", "--window", "0.02", "--json"])
+    assert len(out["unsteady_over_linear_lanes_sandwich/8"]["ratios"]) == 3
+    assert all(r > 0 for r in out["unsteady_over_linear_lanes_sandwich/8"]["ratios"])
+    for bad in (["--sandwich", "-1"], ["--window", "0"]):
+        with pytest.raises(SystemExit):
+            bench_aero_models.main(["--envs", "8", *bad])
+        assert bad[0] in capsys.readouterr().err
+
+
 def test_continuation_bench_times_both_orbit_kernels_and_finds_the_same_orbits():
     """benchmarks/bench_continuation.py with two orbits per family: a time per kernel and round, and the lane and
     per-environment kernels' orbits the same (they integrate the same model, to 1e-10 per step)."""
