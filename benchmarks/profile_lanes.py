@@ -58,8 +58,14 @@ def child(n: int, seconds: float, aero_model: str) -> None:
     ((_, cres),) = kernel.overloads.items()
     print(f"ENTRY {cres.fndesc.llvm_func_name} {cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)}")
     name = kernel.py_func.__name__
-    cached = sorted(Path(kernel._cache._cache_path).glob(f"lanes.{name}-*.nbc"), key=lambda f: f.stat().st_mtime)
-    print(f"OBJECT {cached[-1]}")
+    # the cache holds one object per compiled signature (other batches' table sizes are other literal arguments):
+    # the one that defines this run's entry point
+    entry = cres.fndesc.llvm_func_name.encode()
+    cached = [f for f in sorted(Path(kernel._cache._cache_path).glob(f"lanes.{name}-*.nbc"), key=lambda f: -f.stat().st_mtime)
+              if entry in f.read_bytes()]
+    if not cached:
+        sys.exit(f"no cached object of {name} defines {cres.fndesc.llvm_func_name[:80]}...")
+    print(f"OBJECT {cached[0]}")
 
 
 def disassemble(nbc: Path, work: Path) -> tuple[dict[int, str], dict[str, int]]:
