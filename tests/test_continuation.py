@@ -246,6 +246,25 @@ def test_shooting_never_integrates_a_period_outside_its_range(period):
     assert calls == [math.pi] and np.abs(F[:2]).max() < 1e-8 and np.all(np.isfinite(J))
 
 
+
+def test_an_orbit_family_whose_period_grows_ends_at_the_largest_period():
+    """r' = mu r - r^3, theta' = omega - r^2: orbits of radius sqrt(mu) and period 2 pi / (omega - mu), which grows
+    with mu.  With max_period 1.2 times the Hopf period the family ends where T reaches it (mu = omega / 6), for that
+    reason, every orbit kept below it; the shooting's guard against thrown periods does not end it earlier."""
+    w = 2.0
+
+    def field(X, P):
+        r2 = (X**2).sum(axis=1)
+        return np.stack([P * X[:, 0] - (w - r2) * X[:, 1] - X[:, 0] * r2, (w - r2) * X[:, 0] + P * X[:, 1] - X[:, 1] * r2], axis=1)
+
+    br = equilibria(lambda x, p: field(x[None, :], np.array([p]))[0], [0.0, 0.0], np.linspace(-0.5, 0.5, 11))
+    T0 = 2 * np.pi / w
+    ob = orbits(field, rk4_flow(field, 200), br.hopf_points()[0], (-0.5, 0.5), amplitude=0.01, max_period=1.2 * T0, max_orbits=200)
+    assert ob.end == "left the parameter range or reached the largest period"
+    assert ob.periods.max() < 1.2 * T0 and ob.values.max() > w / 6 - 0.05
+    assert ob.periods == pytest.approx(2 * np.pi / (w - ob.values), rel=1e-6)
+
+
 # ---------------------------------------------------------------------------- the rig
 PITCH_HEAVE = ("rig_pitch", "model_pitch")
 

@@ -226,7 +226,9 @@ def orbits(
     T0 = hopf.period
     max_period = 20.0 * T0 if max_period is None else max_period
     scale = np.concatenate([np.broadcast_to(np.asarray(x_scale, dtype=np.float64), (n,)), [T0, hi - lo]])
-    sh = Shooting(f, flow, scale, max_period=max_period)
+    # the flow is refused beyond twice the largest period (a Newton step thrown far off), not at it: the curve must
+    # still step past the largest period to end there with that reason
+    sh = Shooting(f, flow, scale, max_period=2.0 * max_period)
     re, im = hopf.eigenvector.real, hopf.eigenvector.imag
     re_n = re / (re @ re)
     sh.x_ref, sh.g_ref = hopf.state.copy(), -im  # phase: (x0 - x_H) . Im(v) = 0 (the flow's direction at t = 0)
