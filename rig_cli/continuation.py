@@ -29,7 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
+from rig_cli.paths import check_out_folder
 from rig_env.bifurcation.result import Branch, OrbitBranch, SpecialPoint
+from rig_env.bifurcation.rig import ORBIT_DT_RANGE
 from rig_env.bifurcation.sweep import Sweep
 from rig_env.compile_watch import compile_watch
 from rig_env.params import PARAM_NAMES, SURFACES, ParameterError, RigParams
@@ -79,7 +81,7 @@ def _grid(option: str, values: Sequence[float]) -> tuple[float, float, int]:
     first, last, n = (float(v) for v in values)
     if not (math.isfinite(first) and math.isfinite(last)) or first == last:
         raise ValueError(f"{option} {first} {last}: two different finite ends are needed")
-    if n != int(n) or not 2 <= int(n) <= MAX_POINTS:
+    if not math.isfinite(n) or n != int(n) or not 2 <= int(n) <= MAX_POINTS:
         raise ValueError(f"{option}: the number of points must be an integer from 2 to {MAX_POINTS}, not {n}")
     return first, last, int(n)
 
@@ -148,9 +150,9 @@ def run(
     from rig_env.bifurcation.plot import display_unit, plot_branch, plot_sweep
 
     first, last, n = _grid("--values", values)
-    if not (math.isfinite(physics_dt) and physics_dt > 0.0):
-        raise ValueError(f"--physics-dt {physics_dt}: the orbits' RK4 step must be a positive number of seconds")
-    folder = Path(out)
+    if not (math.isfinite(physics_dt) and ORBIT_DT_RANGE[0] <= physics_dt <= ORBIT_DT_RANGE[1]):
+        raise ValueError(f"--physics-dt {physics_dt}: the orbits' RK4 step must lie in [{ORBIT_DT_RANGE[0]:g}, {ORBIT_DT_RANGE[1]:g}] s")
+    folder = check_out_folder("--out", out)
     if sweep is not None:
         s_first, s_last, s_n = _grid("--sweep", sweep[1:])
         outputs = SWEEP_OUTPUTS

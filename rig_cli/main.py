@@ -50,8 +50,9 @@ from typing import Sequence, TextIO
 
 import numpy as np
 
+from rig_cli.paths import check_out_folder
 from rig_env.params import RigParams
-from rig_env.simulate import SimResult, simulate
+from rig_env.simulate import SimResult, check_static_controls, simulate
 
 DEMO_FREE = ("rig_roll", "model_pitch")
 SETTLE_S = 5.0
@@ -155,6 +156,7 @@ def run_roll(
         raise ValueError(f"t_final = {t_final} s must exceed the {SETTLE_S} s spin-up window")
     if not (math.isfinite(ramp_s) and ramp_s > 0.0):
         raise ValueError(f"ramp_s = {ramp_s} s must be positive")
+    check_static_controls({"comp_aileron": aileron_deg}, p, "aileron_deg")  # held: within the flaps' travel
     bar = _Progress(t_final, progress)
 
     def aileron(t: float) -> float:
@@ -211,6 +213,8 @@ def demo_roll(
 ) -> RollSummary:
     """``rig demo``: run the velocity-vector roll, print the summary table, write the plot."""
     out = stream if stream is not None else sys.stdout
+    if plot:
+        check_out_folder("--out", out_dir)
     res, summary = run_roll(t_final=t_final, airspeed=airspeed, aileron_deg=aileron_deg, progress=None if quiet else sys.stderr)
     out.write(summary.table() + "\n")
     if plot:
@@ -228,9 +232,19 @@ def demo_roll(
 
 
 def draw(out_dir: str | Path = "out", q_deg: Sequence[float] | None = None, flaps_deg: Sequence[float] | None = None) -> Path:
-    """``rig draw``: the rig picture (zero position and a posed example, or the given pose)."""
+    """``rig draw``: the rig picture (zero position and a posed example, or the given pose).  ValueError naming
+    the option for angles that are not finite or beyond +-360 deg, flaps beyond +-40 deg or given without
+    ``--q``, and an ``--out`` that is a file."""
     from rig_env.plotting import rig_figure
 
+    if q_deg is not None and not all(math.isfinite(a) and abs(a) <= 360.0 for a in q_deg):
+        raise ValueError(f"--q {' '.join(f'{a:g}' for a in q_deg)}: joint angles must be finite and within +-360 deg")
+    if flaps_deg is not None:
+        if q_deg is None:
+            raise ValueError("--flaps: give the pose with --q too (the flaps are drawn on that pose only)")
+        if not all(math.isfinite(a) and abs(a) <= 40.0 for a in flaps_deg):
+            raise ValueError(f"--flaps {' '.join(f'{a:g}' for a in flaps_deg)}: flap deflections must be finite and within +-40 deg")
+    check_out_folder("--out", out_dir)
     path = Path(out_dir) / "rig_frames.png"
     q = None if q_deg is None else np.radians(np.asarray(q_deg, dtype=np.float64))
     rig_figure(RigParams.default(), q=q, path=path, flaps_deg=flaps_deg)
@@ -415,7 +429,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                             airspeed=args.airspeed, controls=args.control, sets=args.set, lift_break=args.lift_break,
                             params_file=args.params, orbits=not args.no_orbits, physics_dt=args.physics_dt, state=args.state, sweep=_sweep_arg(args.sweep),
                             overwrite=args.overwrite)
-    except ValueError as exc:  # bad argument values: one line, no traceback
+    except (ValueError, OSError) as exc:  # bad argument values, an unwritable --out: one line, no traceback
         print(f"rig {args.command}: error: {exc}", file=sys.stderr)
         return 2
     return 0

@@ -28,7 +28,7 @@ from rig_env.physics import servo as sv
 from rig_env.physics.integrator import limited_demands
 from rig_env.physics.joint_space import ATTACHED, accelerations, separation_rates, separation_steady
 from rig_env.physics.pipeline import AERO_MODELS, check_aero_model
-from rig_env.simulate import check_controls, check_free_dofs
+from rig_env.simulate import check_free_dofs, check_static_controls
 
 COMP_INPUTS = ("comp_aileron", "comp_elevator", "comp_rudder")
 GUST_INPUTS: dict[str, tuple[int, ...]] = {
@@ -187,7 +187,7 @@ def trim(
     """
     free = check_free_dofs(free_dofs)
     aero_model = check_aero_model(aero_model)
-    controls = {k: float(v) for k, v in check_controls(controls).items()}
+    controls = check_static_controls(controls or {}, params)
     q0 = np.zeros(5) if q_guess is None else np.array(q_guess, dtype=np.float64)
     if q0.shape != (5,) or not np.all(np.isfinite(q0)):
         raise ValueError("q_guess: expected 5 finite joint angles (rad, JOINTS order)")
@@ -270,6 +270,8 @@ def linearize(
     States are named ``<joint>`` and ``<joint>_rate``; inputs are the named surfaces in rad and the named gusts
     of :data:`GUST_INPUTS` in m/s; the outputs are the states.  The aerodynamic model is the operating point's (:func:`trim`'s ``aero_model``).
     """
+    if not isinstance(op, OperatingPoint):
+        raise ValueError(f"op: expected the OperatingPoint rig_env.trim returns, not {type(op).__name__}")
     unknown = [n for n in inputs if n not in SURFACES and n not in GUST_INPUTS]
     if unknown:
         raise ValueError(f"inputs: unknown input(s) {unknown}; valid names: the surfaces {list(SURFACES)} and the gusts {list(GUST_INPUTS)}")

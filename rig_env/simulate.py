@@ -120,6 +120,8 @@ def initial_state(q0, qd0, free: tuple[str, ...]) -> tuple[np.ndarray, bool]:
     return X, batched
 
 
+MAX_RESULT_BYTES = 4 * 2**30
+"""simulate() refuses a run whose sampled states would take more than this (4 GiB) rather than ask numpy for it."""
 STOP_MARGIN_DEG = 10.0
 """How far past a gimbal stop an initial angle may lie, deg: the stops are stiff spring-dampers, so a small
 penetration is a physical state; 10 deg past one is not (the default stops' springs would push back with
@@ -181,6 +183,32 @@ def check_controls(controls: Mapping[str, Schedule] | None) -> dict[str, Schedul
     if unknown:
         raise ValueError(f"controls: unknown surface(s) {unknown}; valid names: {list(SURFACES)}")
     return controls
+
+
+def check_static_controls(controls: Mapping[str, float], params: RigParams, field: str = "controls") -> dict[str, float]:
+    """Constant surface deflections (deg) as floats, each finite and within its servos' travel: the Hawk's surfaces
+    within ``servos.hawk.limit_deg``, the compensator's aileron, elevator and rudder such that every flap after
+    mixing (flap i = aileron + e_i elevator + r_i rudder, signs +-1, :func:`rig_env.physics.aero.mix`) stays within
+    ``servos.compensator.limit_deg``.  ValueError naming ``field`` otherwise: a deflection beyond the travel would
+    be held at the stop by the servo model, so a trim or a branch at it would be one at the stop's angle."""
+    from rig_env.physics.aero import MIX_ELEVATOR, MIX_RUDDER
+
+    out = {k: float(v) for k, v in check_controls(controls).items()}
+    bad = [k for k, v in out.items() if not math.isfinite(v)]
+    if bad:
+        raise ValueError(f"{field}: {', '.join(f'{k} = {out[k]}' for k in bad)}: deflections must be finite (deg)")
+    hawk = params.servos.hawk.limit_deg
+    for k, v in out.items():
+        if k.startswith("hawk_") and abs(v) > hawk:
+            raise ValueError(f"{field}: {k} = {v:g} deg is beyond the servo's travel [-{hawk:g}, {hawk:g}] deg (servos.hawk.limit_deg)")
+    comp = params.servos.compensator.limit_deg
+    da, de, dr = (out.get(f"comp_{s}", 0.0) for s in ("aileron", "elevator", "rudder"))
+    for i in range(4):
+        flap = da + MIX_ELEVATOR[i] * de + MIX_RUDDER[i] * dr
+        if abs(flap) > comp:
+            raise ValueError(f"{field}: comp_aileron {da:g}, comp_elevator {de:g}, comp_rudder {dr:g} deg put flap {i + 1} at "
+                             f"{flap:g} deg, beyond the servos' travel [-{comp:g}, {comp:g}] deg (servos.compensator.limit_deg)")
+    return out
 
 
 def fill_inputs(U: np.ndarray, t: float, controls: Mapping[str, Schedule], airspeed: Schedule, gust: Schedule | None,
@@ -289,6 +317,11 @@ def simulate(
     flags = flags_of(aero, friction, stops, servo, model)
     free_idx = np.array([JOINTS.index(j) for j in free], dtype=np.int64)
     n_t = int(round(t_final / control_dt)) + 1
+    size = n_t * n * (L.N_STATE + 3) * 8  # the states, energies and residuals sampled, before the result's views
+    if size > MAX_RESULT_BYTES:
+        raise ValueError(f"t_final = {t_final:g} s: {n} environment(s) sampled at {1.0 / control_dt:g} Hz would need "
+                         f"{size / 2**30:.1f} GiB for the result, more than {MAX_RESULT_BYTES / 2**30:g} GiB; shorten t_final, "
+                         "run the environments in smaller batches or lower control_rate")
     batch = PhysicsBatch(P, tabs, free_idx, flags, h, n_sub, kind=formulation)
     U = batch.U
     distance = convection_distance(P) if gust_convection else None

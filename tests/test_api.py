@@ -42,6 +42,8 @@ def test_controls_as_functions_and_arrays(params):
         (dict(controls={"comp_aileron": np.ones(3)}), "does not broadcast"),
         (dict(airspeed=-5.0), r"airspeed = -5.*m/s is outside the allowed range \[0, 60\]"),
         (dict(t_final=-1.0), "t_final"),
+        # inside t_final's range, but 64 environments over 1e5 s at 80 Hz would be 149 GiB: refused before numpy is asked
+        (dict(q0=np.zeros((64, 2)), qd0=np.zeros((64, 2)), t_final=1e5), r"t_final = 100000 s: 64 environment\(s\) sampled at 80 Hz would need 148.8 GiB for the result, more than 4 GiB"),
         (dict(formulation="ode"), "formulation"),
         (dict(physics_dt=0.003), "integer multiple"),
         (dict(control_rate=0.0), "control_rate"),

@@ -89,8 +89,13 @@ def test_continuation_command_reports_hopf_points_and_orbits_of_the_lower_band(t
     ({"--state": ["rig_roll"]}, "--state 'rig_roll': must be one of the free joints ['model_pitch']"),
     ({"--aero-model": ["stall"]}, "aero_model"),
     ({"--parameter": ["hawk_aero.nothing"]}, "hawk_aero.nothing"),
-    ({"--physics-dt": ["0"]}, "--physics-dt 0.0: the orbits' RK4 step must be a positive number of seconds"),
-    ({"--physics-dt": ["nan"]}, "--physics-dt nan: the orbits' RK4 step must be a positive number of seconds"),
+    ({"--physics-dt": ["0"]}, "--physics-dt 0.0: the orbits' RK4 step must lie in [0.0001, 0.005] s"),
+    ({"--physics-dt": ["nan"]}, "--physics-dt nan: the orbits' RK4 step must lie in [0.0001, 0.005] s"),
+    ({"--physics-dt": ["1e-8"]}, "--physics-dt 1e-08: the orbits' RK4 step must lie in [0.0001, 0.005] s"),  # 79 GiB asked
+    ({"--physics-dt": ["0.02"]}, "--physics-dt 0.02: the orbits' RK4 step must lie in [0.0001, 0.005] s"),
+    ({"--values": ["1", "0", "inf"]}, "--values: the number of points must be an integer from 2 to 2001, not inf"),
+    ({"--values": ["1", "0", "nan"]}, "--values: the number of points must be an integer from 2 to 2001, not nan"),
+    ({"--sweep": ["airspeed", "10", "20", "inf"]}, "--sweep: the number of points must be an integer from 2 to 2001, not inf"),
 ])
 def test_continuation_command_refuses_bad_input_by_name(tmp_path, capsys, option, message):
     opts = {"--free": ["model_pitch"], "--parameter": ["hawk_elevator"], "--values": ["2", "-2", "5"], **option}
@@ -99,6 +104,43 @@ def test_continuation_command_refuses_bad_input_by_name(tmp_path, capsys, option
     err = capsys.readouterr().err
     assert err.startswith("rig continuation: error: ") and message in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.parametrize("where", ["afile", "afile/sub"])
+def test_continuation_command_refuses_an_out_that_is_a_file_before_computing(tmp_path, capsys, monkeypatch, where):
+    """--out naming a file (or a folder under one) is refused in one line before any computation (it used to fail
+    in mkdir with a traceback after the whole run); the file is left as it was."""
+    (tmp_path / "afile").write_text("mine")
+    monkeypatch.setattr(rig_env, "continuation", lambda *a, **k: pytest.fail("computed before checking --out"))
+    argv = ["continuation", "--free", "model_pitch", "--parameter", "hawk_elevator", "--values", "1", "2", "5", "--out", str(tmp_path / where)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("rig continuation: error: --out ") and "not a folder" in err and len(err.strip().splitlines()) == 1
+    assert (tmp_path / "afile").read_text() == "mine"
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--q", "nan", "0", "0", "0", "0"], "--q nan 0 0 0 0: joint angles must be finite and within +-360 deg"),
+    (["--q", "1e308", "0", "0", "0", "0"], "--q 1e+308 0 0 0 0: joint angles must be finite and within +-360 deg"),
+    (["--q", "0", "0", "0", "0", "0", "--flaps", "50", "0", "0", "0"], "--flaps 50 0 0 0: flap deflections must be finite and within +-40 deg"),
+    (["--q", "0", "0", "0", "0", "0", "--flaps", "nan", "0", "0", "0"], "--flaps nan 0 0 0: flap deflections must be finite"),
+    (["--flaps", "1", "2", "3", "4"], "--flaps: give the pose with --q too"),
+    (["--out", "AFILE"], "--out AFILE: is a file, not a folder"),
+])
+def test_draw_and_demo_refuse_bad_poses_and_an_out_that_is_a_file(tmp_path, capsys, monkeypatch, argv, message):
+    """rig draw: angles and flaps checked against the ranges its help gives (a NaN or 1e308 angle used to end in a
+    matplotlib traceback; flaps of 50 deg or without --q were drawn or ignored silently); rig demo: --out a file."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "AFILE").write_text("mine")
+    assert main(["draw", *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("rig draw: error: ") and message in err and len(err.strip().splitlines()) == 1
+    assert main(["demo", "--t-final", "0.5", "--quiet", "--out", "AFILE"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("rig demo: error: --out AFILE: is a file, not a folder") and (tmp_path / "AFILE").read_text() == "mine"
+    # an aileron past the flaps' travel was reported as held at 90 deg while the flaps flew at 40
+    assert main(["demo", "--t-final", "6", "--quiet", "--no-plot", "--aileron", "90"]) == 2
+    assert "aileron_deg: comp_aileron 90, comp_elevator 0, comp_rudder 0 deg put flap 1 at 90 deg, beyond" in capsys.readouterr().err
 
 
 def test_continuation_command_sweeps_a_second_parameter(tmp_path, capsys):

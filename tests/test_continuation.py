@@ -388,6 +388,22 @@ def test_continuation_refuses_bad_input_by_name(params):
         rig_env.continuation(params, **{**kw, "values": [1.0]})
     with pytest.raises(ValueError, match=r"orbit_kernel = 'dae': allowed values: 'lanes', 'joint'"):
         rig_env.continuation(params, **{**kw, "orbit_kernel": "dae"})
+    # the orbits' options: a 1e-8 s step asked numpy for 79 GiB; an amplitude of 0 or NaN read as "no orbit found"
+    for dt in (1e-8, 0.02, math.nan):
+        with pytest.raises(ValueError, match=r"physics_dt = .*: the orbits' RK4 step must lie in \[0.0001, 0.005\] s"):
+            rig_env.continuation(params, **{**kw, "physics_dt": dt})
+    for a in (0.0, -1.0, math.nan, 2.0):
+        with pytest.raises(ValueError, match=r"orbit_amplitude = .*: must lie in \(0, 0.5\]"):
+            rig_env.continuation(params, **{**kw, "orbit_amplitude": a})
+    for m in (0, -3, 2.5, True, 1001):
+        with pytest.raises(ValueError, match=r"max_orbits = .*: must be an integer from 1 to 1000"):
+            rig_env.continuation(params, **{**kw, "max_orbits": m})
+    with pytest.raises(ValueError, match=r"values: hawk_elevator = -1000 deg is beyond the servo's travel \[-40, 40\] deg"):
+        rig_env.continuation(params, **{**kw, "values": [-1000.0, 1000.0]})  # 500 and 1000 deg gave the same equilibrium
+    with pytest.raises(ValueError, match=r"controls: comp_elevator = nan: deflections must be finite"):
+        rig_env.continuation(params, **{**kw, "controls": {"comp_elevator": math.nan}})
+    with pytest.raises(ValueError, match=r"settings: expected a rig_env.bifurcation.core.Settings or None, not dict"):
+        rig_env.continuation(params, **{**kw, "settings": {"bogus": 1}})
 
 
 def test_continuation_is_public_with_a_real_signature_and_plots(params, tmp_path):

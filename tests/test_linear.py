@@ -13,6 +13,27 @@ def test_trim_is_an_equilibrium(params):
     assert np.abs(r.q - r.q[0]).max() < 1e-6
 
 
+@pytest.mark.parametrize(("controls", "match"), [
+    ({"comp_elevator": float("nan")}, r"controls: comp_elevator = nan: deflections must be finite"),
+    ({"hawk_elevator": 1e6}, r"controls: hawk_elevator = 1e\+06 deg is beyond the servo's travel \[-40, 40\] deg \(servos.hawk.limit_deg\)"),
+    # each within +-40 deg, but flap 1 = aileron + elevator - rudder = 45 deg
+    ({"comp_aileron": 30.0, "comp_elevator": 15.0}, r"put flap 1 at 45 deg, beyond the servos' travel \[-40, 40\] deg"),
+])
+def test_trim_refuses_surfaces_that_are_not_finite_or_beyond_the_servos_travel(params, controls, match):
+    """A NaN deflection used to give a trim with NaN controls and a residual of 1e-16, and 1e6 deg the trim at
+    the stop (40 deg) under another name; both are refused by name, and so is a mix that puts a flap past its travel."""
+    with pytest.raises(ValueError, match=match):
+        rig_env.trim(params, free_dofs=["rig_pitch", "model_pitch"], controls=controls, q_guess=[0, 0, 0, 0.1, 0])
+    ok = rig_env.trim(params, free_dofs=["rig_pitch", "model_pitch"], controls={"comp_aileron": 25.0, "comp_elevator": 15.0},
+                      q_guess=[0, 0, 0, 0.1, 0])
+    assert ok.controls_deg["comp_elevator"] == 15.0  # flaps at 40, 10, -10, -40 deg: at the travel, not beyond
+
+
+def test_linearize_refuses_what_is_not_an_operating_point(params):
+    with pytest.raises(ValueError, match=r"op: expected the OperatingPoint rig_env.trim returns, not NoneType"):
+        rig_env.linearize(params, None)
+
+
 def test_linear_model_matches_nonlinear_small_response(params):
     free = ["rig_pitch", "model_pitch"]
     op = rig_env.trim(params, free_dofs=free, q_guess=[0, 0, 0, 0.1, 0])

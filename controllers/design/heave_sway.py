@@ -225,6 +225,8 @@ def static_table(params: RigParams, free_dofs: tuple[str, ...], joint: str, airs
     for branch in (U_TABLE[U_TABLE >= 0], U_TABLE[U_TABLE < 0][::-1]):  # outward from 0, each trim from the last
         guess = q0.copy()
         for u in branch:
+            if abs(u) * scale_deg > params.servos.compensator.limit_deg:  # beyond the flaps' travel: no such trim
+                break
             try:
                 op = trim(params, free_dofs=free_dofs, airspeed=float(airspeed), controls={surface: float(u) * scale_deg}, q_guess=guess,
                           aero_model=design_aero_model(aero_model))

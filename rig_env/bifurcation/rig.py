@@ -40,7 +40,7 @@ from rig_env.physics.friction import FRICTION_BASE
 from rig_env.physics.joint_space import separation_rates, separation_steady
 from rig_env.physics.pipeline import AERO_MODELS as FLAGS
 from rig_env.physics.pipeline import PhysicsBatch, check_aero_model
-from rig_env.simulate import check_controls, check_free_dofs
+from rig_env.simulate import check_free_dofs, check_static_controls
 
 
 @dataclass(frozen=True)
@@ -97,6 +97,14 @@ def resolve_parameter(params: RigParams, name: str) -> RigParameter:
 MAX_ANGLE_DEG = 170.0
 """The trace ends where a free joint's angle passes +-170 deg: the aerodynamic angles wrap at 180 deg
 (the linear model's coefficients jump there) and past one half turn the configurations repeat."""
+ORBIT_DT_RANGE = (1e-4, 5e-3)
+"""The orbits' RK4 step ``physics_dt`` (s): below 0.1 ms a shooting flow over a few seconds needs a work row of
+hundreds of megabytes per block and minutes; above 5 ms (twice the environments' step) RK4 no longer resolves the
+rig's 1-2 Hz orbits and their Floquet multipliers."""
+MAX_ORBIT_AMPLITUDE = 0.5
+"""The first orbit's amplitude along the critical eigenvector (rad or rad/s) at most: the linear orbit is its guess."""
+MAX_ORBITS = 1000
+"""Orbits per Hopf point at most (``max_orbits``)."""
 
 _STOPS = {j: (getattr(L, f"P_STOPS_{j.upper()}_LOWER_DEG"), getattr(L, f"P_STOPS_{j.upper()}_UPPER_DEG"))
           for j in ("rig_pitch", "rig_yaw", "model_pitch")}  # fmt: skip
@@ -247,8 +255,9 @@ def continuation(
     q_guess: five joint angles (rad, JOINTS order): the locked joints' angles and the first equilibrium's
     guess (default zeros); friction: ``"off"`` or ``"viscous"``; stops: model the joint stops (see the
     module docstring); periodic: continue the orbits of every Hopf point (single shooting on the kernels,
-    RK4 steps of at most ``physics_dt`` s), from an orbit of ``orbit_amplitude`` along the critical
-    eigenvector (whose largest entry is 1: rad or rad/s), ``max_orbits`` orbits at most per Hopf point;
+    RK4 steps of at most ``physics_dt`` s, 1e-4 to 5e-3: :data:`ORBIT_DT_RANGE`), from an orbit of
+    ``orbit_amplitude`` (0 to 0.5) along the critical eigenvector (whose largest entry is 1: rad or rad/s),
+    ``max_orbits`` (1 to 1000) orbits at most per Hopf point;
     orbit_kernel: the shooting's kernel, ``"lanes"`` (the environments' lane kernel, eight perturbed states per
     register: faster, ``benchmarks/bench_continuation.py``) or ``"joint"`` (the per-environment kernel
     :func:`rig_env.simulate` runs: less to compile on a fresh installation);
@@ -264,9 +273,12 @@ def continuation(
     free = check_free_dofs(free_dofs)
     par = resolve_parameter(params, parameter)
     v = check_values(values)
-    controls = {k: float(x) for k, x in check_controls(controls).items()}
+    controls = check_static_controls(controls or {}, params)
     if par.kind == "surface" and parameter in controls:
         raise ValueError(f"controls: {parameter!r} is the continuation parameter; leave it out of controls")
+    if par.kind == "surface":
+        for end in (float(v.min()), float(v.max())):
+            check_static_controls({**controls, parameter: end}, params, "values")
     if par.kind == "airspeed":
         if airspeed is not None:
             raise ValueError("airspeed: the airspeed is the continuation parameter (values); leave airspeed=None")
@@ -281,8 +293,14 @@ def continuation(
     q0 = np.zeros(5) if q_guess is None else np.asarray(q_guess, dtype=np.float64)
     if q0.shape != (5,) or not np.all(np.isfinite(q0)):
         raise ValueError("q_guess: expected 5 finite joint angles (rad, JOINTS order)")
-    if not (physics_dt > 0 and math.isfinite(physics_dt)):
-        raise ValueError(f"physics_dt = {physics_dt}: must be > 0 s")
+    if not (math.isfinite(physics_dt) and ORBIT_DT_RANGE[0] <= physics_dt <= ORBIT_DT_RANGE[1]):
+        raise ValueError(f"physics_dt = {physics_dt}: the orbits' RK4 step must lie in [{ORBIT_DT_RANGE[0]:g}, {ORBIT_DT_RANGE[1]:g}] s")
+    if not (math.isfinite(orbit_amplitude) and 0.0 < orbit_amplitude <= MAX_ORBIT_AMPLITUDE):
+        raise ValueError(f"orbit_amplitude = {orbit_amplitude}: must lie in (0, {MAX_ORBIT_AMPLITUDE:g}] (rad or rad/s)")
+    if isinstance(max_orbits, bool) or not isinstance(max_orbits, (int, np.integer)) or not 1 <= max_orbits <= MAX_ORBITS:
+        raise ValueError(f"max_orbits = {max_orbits!r}: must be an integer from 1 to {MAX_ORBITS}")
+    if settings is not None and not isinstance(settings, Settings):
+        raise ValueError(f"settings: expected a rig_env.bifurcation.core.Settings or None, not {type(settings).__name__}")
     if orbit_kernel not in ("lanes", "joint"):
         raise ValueError(f"orbit_kernel = {orbit_kernel!r}: allowed values: 'lanes', 'joint'")
     rig = RigField(params, free, par, q0, controls, airspeed, aero, friction, bool(stops), orbit_kernel)
