@@ -153,6 +153,20 @@ def test_bad_settings_are_refused_by_name(tmp_path, extra, message):
     assert message in str(e.value) and str(f) in str(e.value)
 
 
+@pytest.mark.parametrize(("write", "message"), [
+    (lambda f: f.write_bytes(bytes(range(256))), "not a text file (TOML is UTF-8 text)"),  # was a UnicodeDecodeError traceback
+    (lambda f: f.mkdir(), "a folder, not a settings file"),
+])
+def test_a_settings_file_that_is_no_text_file_is_refused_by_name(tmp_path, write, message):
+    from controllers.design.rl_hyperparams import HyperparamError, settings
+
+    f = tmp_path / "bad.toml"
+    write(f)
+    with pytest.raises(HyperparamError) as e:
+        settings("ppo", "bank_to_bank", f)
+    assert str(e.value) == f"{f}: {message}"
+
+
 def test_rig_train_refuses_a_bad_settings_file_naming_the_field(tmp_path):
     f = tmp_path / "bad.toml"
     f.write_text(_GOOD + "[bank_to_bank.algo]\nlearning_rate = -1\n")

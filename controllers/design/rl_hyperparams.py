@@ -199,6 +199,10 @@ def load_file(path: Path) -> dict[str, Any]:
         raise HyperparamError(f"{path}: no such settings file") from None
     except tomllib.TOMLDecodeError as exc:
         raise HyperparamError(f"{path}: not valid TOML: {exc}") from None
+    except UnicodeDecodeError:
+        raise HyperparamError(f"{path}: not a text file (TOML is UTF-8 text)") from None
+    except IsADirectoryError:
+        raise HyperparamError(f"{path}: a folder, not a settings file") from None
 
 
 def nested(overrides: Mapping[str, Any]) -> dict[str, Any]:
