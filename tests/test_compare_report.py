@@ -315,3 +315,112 @@ def test_the_steps_caveat_only_where_the_reference_steps():
     assert any("counts the reference's steps" in c and "1.2 deg" in c for c in steps["caveats"])
     single, _ = _rec({"pid": {**common, "segments": np.full(12, 1.0)}})
     assert not any("steps" in c for c in single["caveats"])
+
+
+# ---------------------------------------------------------------------- bad options, refused before anything runs
+@pytest.fixture
+def nothing_runs(monkeypatch):
+    """The comparison fails the test if it gets as far as compiling or building anything."""
+    import controllers.evaluation.compare as cmp_mod
+
+    def boom(*a, **k):
+        raise AssertionError("the comparison started; the option should have been refused first")
+
+    monkeypatch.setattr(cmp_mod, "precompile", boom)
+    monkeypatch.setattr(cmp_mod, "_build", boom)
+
+
+@pytest.mark.parametrize("option, value, allowed", [
+    ("--episodes", "1000000000", "[1, 100000]"),
+    ("--episodes", "0", "[1, 100000]"),
+    ("--seed", "18446744073709551615", "[0, 4294967295]"),
+    ("--seed", "9223372036854775807", "[0, 4294967295]"),
+    ("--seed", "-1", "[0, 4294967295]"),
+])
+def test_episodes_and_seed_out_of_range_are_refused_naming_the_option(tmp_path, capsys, nothing_runs, option, value, allowed):
+    rc, out = _run(["--quick", "--tasks", "velocity_vector_roll", "--controllers", "pid", "--modes", "nominal", option, value,
+                    "--out", str(tmp_path / "o")], capsys)
+    assert rc == 2 and len(out.err.strip().splitlines()) == 1, out.err
+    assert out.err.startswith("rig compare: error: ") and option in out.err and value in out.err and allowed in out.err
+    assert "env_seeds" not in out.err and not (tmp_path / "o").exists()
+
+
+def test_evaluate_refuses_a_seed_whose_episodes_would_overflow():
+    from controllers.evaluation.evaluate import NOMINAL, evaluate
+
+    with pytest.raises(ValueError, match=r"seed = 9223372036854775807: must be an integer in \[0, 4294967295\]"):
+        evaluate({"pid": "pid"}, "velocity_vector_roll", n_episodes=2, seed=2**63 - 1, conditions=NOMINAL)
+
+
+def test_linear_kind_is_refused_saying_where_its_gains_come_from(tmp_path, capsys, nothing_runs):
+    rc, out = _run(["--quick", "--controllers", "linear", "--tasks", "velocity_vector_roll", "--modes", "nominal",
+                    "--out", str(tmp_path / "o")], capsys)
+    assert rc == 2 and len(out.err.strip().splitlines()) == 1, out.err
+    for word in ("--controllers linear", "gains", "rig-deploy export --controller linear", "--policy"):
+        assert word in out.err, word
+
+
+def test_a_linear_law_file_flies_as_the_refusal_says(tmp_path, capsys):
+    """What the refusal of --controllers linear advises: export the gains to a file, pass it with --policy."""
+    from controllers.deploy.cli import main as deploy
+
+    law = tmp_path / "roll_linear.json"
+    assert deploy(["export", "--controller", "linear", "--task", "velocity_vector_roll", "--gains", "2", "1", "1", "--out", str(law)]) == 0
+    rc, out = _run(["--tasks", "velocity_vector_roll", "--controllers", "pid", "--policy", str(law), "--episodes", "2",
+                    "--modes", "nominal", "--out", str(tmp_path / "o")], capsys)
+    assert rc == 0, out.err
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert s["settings"]["policies"]["roll_linear"]["kind"] == "linear"
+
+
+# ---------------------------------------------------------------------- --out: an earlier comparison's files, and nobody else's
+def test_a_second_comparison_replaces_only_the_earlier_one_s_own_files(tmp_path, capsys):
+    out_dir = tmp_path / "cp"
+    args = ["--tasks", "velocity_vector_roll", "--controllers", "pid", "--episodes", "2", "--modes", "nominal", "--out", str(out_dir)]
+    rc, out = _run(args, capsys)
+    assert rc == 0, out.err
+    s = json.loads((out_dir / "summary.json").read_text())
+    assert s["settings"]["files"] == sorted(p.name for p in out_dir.iterdir())  # every file it wrote, and only those
+    mine = {"history_my_own_notes.png": b"mine 1", "distributions_mine.png": b"mine 2", "notes.txt": b"mine 3"}
+    for name, data in mine.items():
+        (out_dir / name).write_bytes(data)
+    # an earlier run's figure of a task not flown now: its own, listed in its summary, so removed
+    s["settings"]["files"] = sorted([*s["settings"]["files"], "history_bank_to_bank.png"])
+    (out_dir / "summary.json").write_text(json.dumps(s))
+    (out_dir / "history_bank_to_bank.png").write_bytes(b"earlier")
+    rc, out = _run(args, capsys)
+    assert rc == 0, out.err
+    for name, data in mine.items():
+        assert (out_dir / name).read_bytes() == data, name
+    assert not (out_dir / "history_bank_to_bank.png").exists()
+    note = next(line for line in out.out.splitlines() if "replacing the earlier comparison" in line)
+    for name in ("report.md", "summary.json", "history_velocity_vector_roll.png", "history_bank_to_bank.png"):
+        assert name in note, name
+    assert "my_own_notes" not in note and "mine" not in note
+
+
+def test_an_older_summary_without_its_file_list_removes_only_what_it_wrote(tmp_path):
+    """A summary.json from before ``settings.files``: the earlier run's files are the names this code writes for its
+    tasks; a user's file of a similar name is neither removed nor a reason to refuse."""
+    import io
+
+    from controllers.evaluation.compare import check_out_dir
+
+    (tmp_path / "summary.json").write_text(json.dumps({"settings": {"command": "rig compare --episodes 2"},
+                                                       "results": {"bank_to_bank": {}}}))
+    for name in ("report.md", "history_bank_to_bank.png", "distributions_bank_to_bank.png", "history_my_own_notes.png"):
+        (tmp_path / name).write_text("x")
+    note = io.StringIO()
+    ours = check_out_dir(tmp_path, False, note, ["velocity_vector_roll"])
+    assert ours == ["distributions_bank_to_bank.png", "history_bank_to_bank.png", "report.md", "summary.json"]
+    assert "history_bank_to_bank.png" in note.getvalue() and "my_own_notes" not in note.getvalue()
+
+
+def test_a_users_figure_of_a_compared_task_is_not_overwritten(tmp_path, capsys, nothing_runs):
+    (tmp_path / "history_velocity_vector_roll.png").write_bytes(b"mine")
+    (tmp_path / "history_my_own_notes.png").write_bytes(b"mine too")
+    rc, out = _run(["--tasks", "velocity_vector_roll", "--controllers", "pid", "--episodes", "1", "--modes", "nominal",
+                    "--out", str(tmp_path)], capsys)
+    assert rc == 2 and "history_velocity_vector_roll.png" in out.err and "--overwrite" in out.err
+    assert "my_own_notes" not in out.err
+    assert (tmp_path / "history_velocity_vector_roll.png").read_bytes() == b"mine"

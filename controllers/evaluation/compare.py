@@ -32,11 +32,12 @@ from typing import Any, Mapping, Sequence, TextIO
 
 from controllers import CONTROLLERS, Controller, LoopSpec, UnsupportedTask, make_controller
 from controllers.evaluation import figures, report, schema
+from controllers.evaluation.config import MAX_EPISODES
 from controllers.evaluation.contenders import load_contenders
 from controllers.evaluation.reach import reach
 from controllers.evaluation.score import DEFAULT_RULE, ScoreRule, recommend, shared_failures
 from controllers.evaluation.summary import Comparison, format_table, rows_of
-from controllers.evaluation.evaluate import MODES, evaluate
+from controllers.evaluation.evaluate import MAX_SEED, MODES, evaluate
 from controllers.design import DESIGNS
 from controllers.design.conditions import modes_for
 from controllers.design.tuning import plain
@@ -45,8 +46,10 @@ from rig_env.compile_watch import compile_watch
 from rig_env.envs import TASKS, RigVectorEnv
 from rig_env.precompile import precompile
 from rig_env.params import RigParams
+from rig_env.paths import check_out_folder
 
 QUICK_EPISODES, FULL_EPISODES = 12, 64
+"""Episodes per law, task and mode: ``--quick``, default; ``--episodes`` allows 1..:data:`MAX_EPISODES`."""
 PREFERRED_ORDER = ("pid", "lqr", "ppo", "sac")
 
 
@@ -54,6 +57,43 @@ def default_kinds() -> list[str]:
     """Registered kinds that build from a loop spec alone (not "linear": it takes its gains), the preferred ones first."""
     kinds = sorted((k for k, classes in CONTROLLERS.items() if any(c.built_from_spec for c in classes)), key=lambda k: (PREFERRED_ORDER.index(k) if k in PREFERRED_ORDER else len(PREFERRED_ORDER), k))
     return kinds
+
+
+def _check_kinds(kinds: Sequence[str]) -> None:
+    """ValueError for a kind no class of which builds from the task alone ("linear": its gains are arguments), saying
+    how such a law joins a comparison: as a law file (``rig-deploy export``) passed with ``--policy``."""
+    for k in kinds:
+        if not any(c.built_from_spec for c in CONTROLLERS[k]):
+            raise ValueError(f"--controllers {k}: this law takes its gains, which rig compare cannot design; write it to a law "
+                             f"file (rig-deploy export --controller {k} --task TASK --gains KP KD KFF --out FILE.json) and pass "
+                             "that with --policy FILE.json")
+
+
+def check_options(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes: int | None, seed: int, quick: bool,
+                  modes: Sequence[str], policies: Sequence[str | Path]) -> tuple[list[str], list[str], int]:
+    """The tasks, kinds and episodes per law after the defaults, or a one-line ValueError naming the option: unknown
+    names, a kind that needs its gains (:func:`_check_kinds`), ``--episodes`` outside [1, :data:`MAX_EPISODES`] and
+    ``--seed`` outside [0, :data:`MAX_SEED`] (episode ``i`` is seeded ``seed + i``).  Nothing is built before."""
+    tasks = list(tasks) if tasks else list(TASKS)
+    kinds = list(kinds) if kinds is not None else default_kinds()
+    bad_t = [t for t in tasks if t not in TASKS]
+    if bad_t:
+        raise ValueError(f"tasks: unknown {bad_t}; valid names: {sorted(TASKS)}")
+    bad_k = [k for k in kinds if k not in CONTROLLERS]
+    if bad_k:
+        raise ValueError(f"controllers: unknown {bad_k}; valid kinds: {sorted(CONTROLLERS)}")
+    _check_kinds(kinds)
+    bad_m = [m for m in modes if m not in MODES]
+    if bad_m:
+        raise ValueError(f"modes: unknown {bad_m}; valid: {sorted(MODES)}")
+    if not kinds and not policies:
+        raise ValueError("controllers: give at least one law kind or one --policy file")
+    n = episodes if episodes is not None else (QUICK_EPISODES if quick else FULL_EPISODES)
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_EPISODES:
+        raise ValueError(f"--episodes = {n!r}: must be an integer in [1, {MAX_EPISODES}]")
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
+        raise ValueError(f"--seed = {seed!r}: must be an integer in [0, {MAX_SEED}]")
+    return tasks, kinds, n
 
 
 def _build(kinds: Sequence[str], task: str, n: int, fields: dict[str, Any], out: TextIO,
@@ -107,6 +147,7 @@ def compare(
     """
     from rig_env import distributed
 
+    check_options(tasks, kinds, episodes, seed, quick, modes, policies)  # before a Ray session or anything else starts
     distributed.check_backend(backend, address)
     distributed.check_chunk_size(chunk_size)
     if chunk_size == 1:
@@ -127,26 +168,10 @@ def _compare(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes:
              rule: ScoreRule, overwrite: bool, command: str | None, backend: str, chunk_size: int | None) -> Comparison:
     stream = stream if stream is not None else sys.stdout
     prog: TextIO | None = sys.stderr if progress is True else (None if progress is False else progress)
-    tasks = list(tasks) if tasks else list(TASKS)
-    kinds = list(kinds) if kinds is not None else default_kinds()
-    bad_t = [t for t in tasks if t not in TASKS]
-    if bad_t:
-        raise ValueError(f"tasks: unknown {bad_t}; valid names: {sorted(TASKS)}")
-    bad_k = [k for k in kinds if k not in CONTROLLERS]
-    if bad_k:
-        raise ValueError(f"controllers: unknown {bad_k}; valid kinds: {sorted(CONTROLLERS)}")
-    bad_m = [m for m in modes if m not in MODES]
-    if bad_m:
-        raise ValueError(f"modes: unknown {bad_m}; valid: {sorted(MODES)}")
-    if not kinds and not policies:
-        raise ValueError("controllers: give at least one law kind or one --policy file")
-    n = episodes if episodes is not None else (QUICK_EPISODES if quick else FULL_EPISODES)
-    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-        raise ValueError(f"episodes = {n!r}: must be a positive integer")
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ValueError(f"seed = {seed!r}: must be a non-negative integer")
+    tasks, kinds, n = check_options(tasks, kinds, episodes, seed, quick, modes, policies)
+    earlier: list[str] = []
     if out_dir is not None:
-        check_out_dir(Path(out_dir), overwrite, stream)
+        earlier = check_out_dir(Path(out_dir), overwrite, stream, tasks)
     contenders = load_contenders(policies, kinds)
     for c in contenders:
         if c.task not in tasks:
@@ -225,7 +250,7 @@ def _compare(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes:
         stream.write(f"ray backend: {chunks} chunks on {len(nodes)} node(s), {cmp.backend['retries']} retried "
                      "(a lost worker or node; every episode accounted for)\n")
     if out_dir is not None:
-        write_files(cmp, Path(out_dir), stream)
+        write_files(cmp, Path(out_dir), stream, earlier)
     stream.flush()
     return cmp
 
@@ -259,26 +284,52 @@ OUR_FILES = ("summary.json", "summary.csv", "report.md", "metrics.png")
 OUR_PATTERNS = ("history_*.png", "distributions_*.png")
 
 
-def check_out_dir(out: Path, overwrite: bool, stream: TextIO) -> None:
-    """Refuse (ValueError) to write into ``out`` when it holds files of the comparison's names that an earlier
-    comparison did not write (its ``summary.json`` says so), unless ``overwrite``: nothing a user wrote is
-    replaced silently.  An earlier comparison's files are replaced, with a note."""
+def _task_files(tasks: Sequence[str]) -> list[str]:
+    """The figures a comparison of ``tasks`` draws (:func:`controllers.evaluation.report.write`): a task's history and
+    distributions (only for a task some law flew)."""
+    return [f"{kind}_{t}.png" for t in tasks for kind in ("history", "distributions")]
+
+
+def _earlier_files(earlier: Any) -> list[str] | None:
+    """The files an earlier comparison wrote, from its ``summary.json`` document: its ``settings.files`` (recorded since
+    that key exists), else exactly the names this code writes for the tasks in its ``results``; only plain names of
+    the comparison's kinds (never a path).  None when the document is not a rig compare summary."""
+    settings = earlier.get("settings") if isinstance(earlier, dict) else None
+    if not isinstance(settings, dict) or not str(settings.get("command", "")).startswith("rig compare"):
+        return None
+    files = settings.get("files")
+    if isinstance(files, list) and all(isinstance(f, str) for f in files):
+        names = files
+    else:  # an older summary: what this code would have written for it
+        results = earlier.get("results")
+        names = [*OUR_FILES, *_task_files([t for t in results if isinstance(t, str)] if isinstance(results, dict) else [])]
+    return sorted({f for f in names if f == Path(f).name and f not in ("", ".", "..")
+                   and (f in OUR_FILES or any(Path(f).match(pat) for pat in OUR_PATTERNS))})
+
+
+def check_out_dir(out: Path, overwrite: bool, stream: TextIO, tasks: Sequence[str] = ()) -> list[str]:
+    """The files of an earlier comparison in ``out`` (its ``summary.json`` lists them, :func:`_earlier_files`), which
+    this one replaces or removes with a note naming them; a ValueError (before anything runs) when ``out`` holds a
+    file this comparison of ``tasks`` would write that the earlier one did not, unless ``overwrite``: nothing a user
+    wrote is replaced silently, and a file of no comparison's name (or of a task not compared now) is left alone."""
+    check_out_folder("--out", out)  # a file, or a folder under one: refused before anything runs
     if not out.exists():
-        return
-    if not out.is_dir():
-        raise ValueError(f"--out {out}: exists and is not a folder")
-    found = [out / f for f in OUR_FILES if (out / f).exists()] + [p for pat in OUR_PATTERNS for p in sorted(out.glob(pat))]
-    if not found or overwrite:
-        return
+        return []
     try:
-        earlier = json.loads((out / "summary.json").read_text())
-        ours = isinstance(earlier, dict) and str(earlier.get("settings", {}).get("command", "")).startswith("rig compare")
-    except (OSError, ValueError, AttributeError):
-        ours = False
-    if not ours:
-        raise ValueError(f"--out {out}: holds {', '.join(p.name for p in found[:4])}{' ...' if len(found) > 4 else ''}, "
+        earlier = _earlier_files(json.loads((out / "summary.json").read_text()))
+    except (OSError, ValueError):
+        earlier = None
+    ours = [f for f in earlier or [] if (out / f).is_file()]
+    clash = [f for f in dict.fromkeys([*OUR_FILES, *_task_files(tasks)]) if (out / f).exists() and f not in ours]
+    if clash and not overwrite:
+        raise ValueError(f"--out {out}: holds {', '.join(clash[:4])}{' ...' if len(clash) > 4 else ''}, "
                          "not written by an earlier rig compare; choose another --out or pass --overwrite")
-    stream.write(f"  note: replacing the earlier comparison in {out}\n")
+    if clash:
+        stream.write(f"  note: --overwrite: replacing {', '.join(clash)} in {out}, not written by an earlier rig compare\n")
+    if ours:
+        stream.write(f"  note: replacing the earlier comparison in {out}: its files {', '.join(ours)} are rewritten or removed "
+                     "(nothing else there is touched)\n")
+    return ours
 
 
 def _mode_note(mode: str) -> str:
@@ -287,11 +338,15 @@ def _mode_note(mode: str) -> str:
             "gusty": "as nominal with 5 % gusts (atmospheric, a stress case)"}.get(mode, mode)
 
 
-def write_files(cmp: Comparison, out: Path, stream: TextIO) -> None:
-    """summary.json, summary.csv (:mod:`controllers.evaluation.schema`), plots and report.md into ``out``."""
+def write_files(cmp: Comparison, out: Path, stream: TextIO, earlier: Sequence[str] = ()) -> None:
+    """Plots, report.md, summary.json and summary.csv (:mod:`controllers.evaluation.schema`) into ``out``; the names of
+    the files written are in summary.json (``settings.files``).  ``earlier``: the files an earlier comparison wrote
+    there (:func:`check_out_dir`); those this one does not rewrite (figures of tasks not flown now) are removed, and
+    no other file."""
     out.mkdir(parents=True, exist_ok=True)
-    for stale in (p for pat in OUR_PATTERNS for p in out.glob(pat)):  # an earlier run's figures of tasks not flown now
-        stale.unlink()
-    schema.write(cmp, out)
     files = report.write(cmp, out, progress=stream)
+    cmp.settings["files"] = sorted({*OUR_FILES, *(p.name for p in files)})
+    schema.write(cmp, out)
+    for stale in sorted(set(earlier) - set(cmp.settings["files"])):  # an earlier run's figures of tasks not flown now
+        (out / stale).unlink(missing_ok=True)
     stream.write(f"wrote {out}/summary.json, summary.csv, report.md and {len(files)} plots\n")

@@ -8,7 +8,7 @@ tasks = ["bank_to_bank", "velocity_vector_roll"]   # rig_env.envs.TASKS (default
 laws = ["pid", "lqr"]                              # registered kinds (default: pid, lqr, ppo, ...)
 policies = ["runs/bank_to_bank_ppo_s1/policy.json"] # law artefacts, each a contender named after its file
 episodes = 24                                      # per law, task and mode, 1..100000 (default 64, quick 12)
-seed = 0                                           # >= 0
+seed = 0                                           # 0 .. 4294967295
 quick = false
 modes = ["nominal", "robust", "gusty"]             # default nominal and robust
 params = "identified.toml"                         # a rig parameter file (rig compare --params)
@@ -86,7 +86,8 @@ def _number(where: str, v: Any, lo: float, hi: float, unit: str, integer: bool =
     ok = isinstance(v, int) if integer else isinstance(v, (int, float))
     if isinstance(v, bool) or not ok or not math.isfinite(v) or not lo <= v <= hi:
         kind = "an integer" if integer else "a number"
-        raise ValueError(f"{where} = {v!r}: must be {kind} in [{lo:g}, {hi:g}] {unit}".rstrip())
+        bounds = f"[{lo}, {hi}]" if integer else f"[{lo:g}, {hi:g}]"  # an integer's bounds in full (4294967295, not 4.29e+09)
+        raise ValueError(f"{where} = {v!r}: must be {kind} in {bounds} {unit}".rstrip())
     return v
 
 

@@ -40,6 +40,10 @@ from rig_env.compile_watch import compile_watch
 from rig_env.envs import RigVectorEnv
 from rig_env.params import JOINTS
 
+MAX_SEED = 2**32 - 1
+"""The largest seed (``rig compare --seed``, a ``--config`` file's ``seed``): episode ``i`` of a run seeded ``s`` is the stream
+of seed ``s + i``, which then fits the int64 seeds the environments take for any number of episodes."""
+
 
 
 @dataclass
@@ -126,8 +130,8 @@ def _evaluate(
         raise ValueError("laws: give at least one law")
     if not isinstance(n_episodes, int) or n_episodes < 1:
         raise ValueError(f"n_episodes = {n_episodes!r}: must be a positive integer")
-    if not isinstance(seed, int) or seed < 0:
-        raise ValueError(f"seed = {seed!r}: must be a non-negative integer")
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
+        raise ValueError(f"seed = {seed!r}: must be an integer in [0, {MAX_SEED}]")
     if isinstance(first_episode, bool) or not isinstance(first_episode, int) or first_episode < 0:
         raise ValueError(f"first_episode = {first_episode!r}: must be a non-negative integer")
     names = list(laws)
