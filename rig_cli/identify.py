@@ -27,7 +27,7 @@ The configuration (TOML; paths relative to the configuration file's folder)::
 Unknown keys are errors naming the key and the allowed ones.  :func:`run` writes ``DIR/report.md``
 with its figures, ``DIR/identified.toml`` (the base file with the estimates tagged ``identified``) and
 ``DIR/identify.toml`` (a copy of the configuration); a fit that does not converge writes the report
-but no parameter file.
+but no parameter file.  None of these files is replaced without ``--overwrite``.
 """
 
 from __future__ import annotations
@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, TextIO
 
+from rig_env.paths import check_out_folder
 from rig_env.params import DEFAULT_FILE, JOINTS, PARAM_INDEX, RigParams
 from rig_env.sysid.records import SURFACE_KINDS, FlightRecord
 
@@ -278,33 +279,54 @@ def fit_kwargs(cfg: IdentifyConfig) -> dict[str, Any]:
     return kw
 
 
+STALE_SUFFIX = ".stale"
+"""What an earlier run's ``identified.toml`` is renamed with when an ``--overwrite`` run's fit does not converge."""
+
+
+def _refuse_existing(paths: list[Path], when: str = "") -> None:
+    there = [str(p) for p in dict.fromkeys(paths) if p.exists()]
+    if there:
+        raise FileExistsError(f"{', '.join(there)} exist(s){when}; pass --overwrite to replace")
+
+
 def run(config: str | Path, out_dir: str | Path, *, overwrite: bool = False, stream: TextIO | None = None,
         progress: TextIO | None = None) -> dict[str, Path]:
     """``rig identify``: read the records, fit, write the report and the identified parameter file.
 
     stream: where the summary goes (default stdout); progress: where the fit's per-iteration lines go
     (default stderr).  Returns the written files by kind.  Raises ConfigError (a ValueError) for a bad
-    configuration or record, FileExistsError for outputs already there, RuntimeError for a fit that
-    failed or did not converge.
+    configuration or record or an ``--out`` that is (or lies under) a file, FileExistsError for outputs
+    already there, RuntimeError for a fit that failed or did not converge.
+
+    Without ``overwrite`` no file is replaced: ``report.md``, every figure the report will write
+    (``cost.png``, ``correlation.png``, ``history_<record>.png``, ``acf_<record>.png``), ``identified.toml``
+    and ``identify.toml`` are checked before the fit (the figures' names from the configuration and the
+    records read) and again after it, before anything is written (the fit's records name the figures).
+
+    With ``overwrite``, a fit that does not converge writes the report and ``identify.toml`` but no
+    parameter file; an ``identified.toml`` already in the folder (an earlier run's, of another fit) is then
+    renamed ``identified.toml.stale`` (replacing an earlier ``.stale``), so the folder never pairs this
+    report with another fit's parameters and the earlier file is kept; the error line says so.
     """
     import rig_env.sysid as sysid
     from rig_env.sysid.paramfile import save_fit_params
-    from rig_env.sysid.report import write_report
+    from rig_env.sysid.report import figure_names, report_files, write_report
 
     out = stream if stream is not None else sys.stdout
     prog = progress if progress is not None else sys.stderr
     cfg = load_config(config)
-    dest = Path(out_dir)
+    dest = check_out_folder("--out", out_dir)
     targets = {"report": dest / "report.md", "params": dest / "identified.toml", "config": dest / "identify.toml"}
-    if not overwrite:
-        there = [str(p) for p in targets.values() if p.exists()]
-        if there:
-            raise FileExistsError(f"{', '.join(there)} exist(s); pass --overwrite to replace")
+    known = [dest / n for n in figure_names(len(cfg.estimate), [s.name for s in cfg.records if s.name is not None])]
+    if not overwrite:  # what the configuration names: refused before reading the records
+        _refuse_existing([*targets.values(), *known])
     params = RigParams.from_toml(cfg.params_file)
     records = []
     for spec in cfg.records:
         out.write(f"reading {spec.path}\n")
         records.append(read_record(spec))
+    if not overwrite:  # every figure's name, the records' names now known
+        _refuse_existing([*targets.values(), *(dest / n for n in figure_names(len(cfg.estimate), [r.name for r in records]))])
     fit = sysid.fit
     def report_progress(line: str) -> None:
         prog.write(f"  {line}\n")
@@ -318,16 +340,25 @@ def run(config: str | Path, out_dir: str | Path, *, overwrite: bool = False, str
             result = fit(records, params, progress=report_progress, **fit_kwargs(cfg))
     except (ValueError, RuntimeError, ArithmeticError) as exc:
         raise RuntimeError(f"the fit failed: {exc}") from exc
+    if not overwrite:  # the fit's own records name the figures: checked again before writing anything
+        _refuse_existing([*targets.values(), *report_files(result, dest)], " (the fit ran; nothing was written)")
+    dest = check_out_folder("--out", dest)  # still a folder
     dest.mkdir(parents=True, exist_ok=True)
+    stale = None
+    if not result.converged and targets["params"].exists():  # only with overwrite: an earlier run's parameters, kept aside
+        stale = targets["params"].replace(targets["params"].with_name(targets["params"].name + STALE_SUFFIX))
+        out.write(f"moved the earlier {targets['params']} (another fit's) to {stale}\n")
     written = {"report": write_report(result, dest, title=f"System identification: {cfg.source.name}", overwrite=overwrite)}
-    shutil.copyfile(cfg.source, targets["config"])
+    if not (targets["config"].exists() and targets["config"].samefile(cfg.source)):
+        shutil.copyfile(cfg.source, targets["config"])
     written["config"] = targets["config"]
     out.write(f"wrote {written['report']} and its figures\n")
     for w in result.warnings:
         out.write(f"warning: {w}\n")
     if not result.converged:
+        moved = f" (the earlier {targets['params'].name}, of another fit, is now {stale})" if stale is not None else ""
         raise RuntimeError(f"the fit did not converge ({result.message or 'no message'}) after {result.iterations} iterations; "
-                           f"see {written['report']}; no parameter file written")
+                           f"see {written['report']}; no parameter file written{moved}")
     written["params"] = save_fit_params(result, targets["params"], base_file=cfg.params_file, overwrite=overwrite)
     out.write(f"wrote {written['params']} (fly it: rig compare --params {written['params']})\n")
     out.flush()

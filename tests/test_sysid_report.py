@@ -432,6 +432,83 @@ def test_rig_identify_unconverged_fit_writes_no_params(config: Path, tmp_path: P
     assert (out / "report.md").exists() and not (out / "identified.toml").exists()
 
 
+def test_rig_identify_refuses_to_replace_a_figure_before_the_fit(config: Path, tmp_path: Path, params: RigParams, monkeypatch, capsys):
+    """The report's figures are outputs too: a file of a figure's name (known from the configuration and the records)
+    is refused in one line, before the fit, naming it; --overwrite replaces it."""
+    from rig_cli.main import main
+
+    calls = _stub(monkeypatch, params)
+    out = tmp_path / "out"
+    out.mkdir()
+    for name in ("cost.png", "acf_pitch_3211.png"):
+        (out / name).write_text("mine\n")
+    assert main(["identify", str(config), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("rig identify: error:") and err.count("\n") == 1 and "--overwrite" in err, err
+    assert str(out / "cost.png") in err and str(out / "acf_pitch_3211.png") in err
+    assert "fit" not in calls and sorted(p.name for p in out.iterdir()) == ["acf_pitch_3211.png", "cost.png"]
+    assert (out / "cost.png").read_text() == "mine\n"
+    assert main(["identify", str(config), "--out", str(out), "--overwrite"]) == 0
+    assert (out / "cost.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_rig_identify_refuses_a_figure_named_by_the_fit_before_writing_anything(config: Path, tmp_path: Path, params: RigParams,
+                                                                                monkeypatch, capsys):
+    """A figure only the fit names (its records: the stub's fit also holds pitch_doublet) is checked again after the
+    fit, before any file is written; write_report itself refuses its figures too."""
+    from rig_cli.main import main
+
+    calls = _stub(monkeypatch, params)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "acf_pitch_doublet.png").write_text("mine\n")
+    assert main(["identify", str(config), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.split("iteration 1: cost 4.1e-3\n")[-1]  # the fit's progress line, then the error
+    assert err.startswith("rig identify: error:") and err.count("\n") == 1 and str(out / "acf_pitch_doublet.png") in err, err
+    assert "fit" in calls and [p.name for p in out.iterdir()] == ["acf_pitch_doublet.png"]
+    assert (out / "acf_pitch_doublet.png").read_text() == "mine\n"
+    with pytest.raises(FileExistsError, match="acf_pitch_doublet.png"):
+        write_report(make_fit(params), out)
+    assert [p.name for p in out.iterdir()] == ["acf_pitch_doublet.png"]
+
+
+def test_rig_identify_unconverged_overwrite_sets_the_earlier_params_aside(config: Path, tmp_path: Path, params: RigParams,
+                                                                         monkeypatch, capsys):
+    """--overwrite over an earlier successful run, with a fit that does not converge: the earlier identified.toml (another
+    fit's) does not stay beside the new report; it is renamed identified.toml.stale, and the error line says so."""
+    from rig_cli.main import main
+
+    _stub(monkeypatch, params)
+    out = tmp_path / "out"
+    assert main(["identify", str(config), "--out", str(out)]) == 0
+    earlier = (out / "identified.toml").read_text()
+    capsys.readouterr()
+    _stub(monkeypatch, params, converged=False)
+    assert main(["identify", str(config), "--out", str(out), "--overwrite"]) == 2
+    io = capsys.readouterr()
+    err = io.err.split("iteration 1: cost 4.1e-3\n")[-1]  # the fit's progress line, then the error
+    assert err.startswith("rig identify: error:") and err.count("\n") == 1 and "no parameter file written" in io.err and str(out / "identified.toml.stale") in err, err
+    assert f"to {out / 'identified.toml.stale'}" in io.out
+    assert not (out / "identified.toml").exists() and (out / "identified.toml.stale").read_text() == earlier
+    assert "NOT converged" in (out / "report.md").read_text()
+
+
+@pytest.mark.parametrize("sub", ["", "sub", "sub/deeper"])
+def test_rig_identify_refuses_an_out_that_is_or_lies_under_a_file(config: Path, tmp_path: Path, params: RigParams, monkeypatch,
+                                                                  capsys, sub):
+    from rig_cli.main import main
+
+    calls = _stub(monkeypatch, params)
+    afile = tmp_path / "afile"
+    afile.write_text("hi\n")
+    dest = afile / sub if sub else afile
+    assert main(["identify", str(config), "--out", str(dest)]) == 2
+    err = capsys.readouterr().err
+    what = "is a file" if not sub else f"lies under {afile}, a file"
+    assert err == f"rig identify: error: --out {dest}: {what}, not a folder; give a folder\n", err
+    assert "read" not in calls and "fit" not in calls and afile.read_text() == "hi\n"
+
+
 @pytest.mark.parametrize("edit, match", [
     (("method = \"output_error\"", "method = \"least_squares\""), "method = 'least_squares': allowed: output_error, filter_error, equation_error"),
     (("\"hawk_aero.CM0\"", "\"hawk_aero.CMzz\""), r"estimate\[0\]: unknown parameter 'hawk_aero.CMzz'"),

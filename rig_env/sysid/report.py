@@ -138,7 +138,7 @@ def _fit_section(fit: Fit, k: int, prefix: str, out: Path, reference: Mapping[st
               "white residuals (the uncorrected bound, smaller when the residuals are coloured).  The interval is estimate +- 1.96 sigma "
               "(coloured).", "", estimates_table(fit, reference)]
     if len(fit.estimate) > 1:
-        fig = figures.correlation(out / f"{prefix}correlation.png", list(fit.estimate), np.asarray(fit.correlation), f"Fit {k}: correlation of the estimates")
+        fig = figures.correlation(out / figure_name("correlation", prefix), list(fit.estimate), np.asarray(fit.correlation), f"Fit {k}: correlation of the estimates")
         lines += ["### Correlation of the estimates", "", f"![correlation]({fig.name})", ""]
         pairs = high_correlations(fit)
         if pairs:
@@ -147,7 +147,7 @@ def _fit_section(fit: Fit, k: int, prefix: str, out: Path, reference: Mapping[st
         else:
             lines += [f"No pair with |r| > {HIGH_CORRELATION}.", ""]
     if cost:
-        fig = figures.cost_history(out / f"{prefix}cost.png", cost, f"Fit {k}: cost per iteration")
+        fig = figures.cost_history(out / figure_name("cost", prefix), cost, f"Fit {k}: cost per iteration")
         lines += ["### Convergence", "", f"![cost history]({fig.name})", ""]
     lines += ["### Measurement noise estimate", "", "Standard deviations (square roots of the noise covariance's diagonal), "
               "of the first record's outputs.", "", *_noise_table(fit), ""]
@@ -173,9 +173,8 @@ def _fit_section(fit: Fit, k: int, prefix: str, out: Path, reference: Mapping[st
             lo, hi = w.outside_range
             lines.append(f"| {rec.name} | {w.output} | {w.n} | {w.max_lag} | {100 * w.fraction_outside:.1f} [{100 * lo:.0f}, {100 * hi:.0f}] | "
                          f"{fmt(w.q)} | {fmt(w.p_value, 3)} | {fmt(m.r2)} | {fmt(m.theil_u, 3)} | {fmt(s * m.rms)} | {unit} |")
-        slug = _slug(rec.name)
-        th = figures.time_history(out / f"{prefix}history_{slug}.png", t, names, yh, e, f"Fit {k}, {rec.name}: outputs and residuals")
-        ac = figures.autocorrelation(out / f"{prefix}acf_{slug}.png", rec.dt, white, f"Fit {k}, {rec.name}: residual autocorrelation")
+        th = figures.time_history(out / figure_name("history", prefix, rec.name), t, names, yh, e, f"Fit {k}, {rec.name}: outputs and residuals")
+        ac = figures.autocorrelation(out / figure_name("acf", prefix, rec.name), rec.dt, white, f"Fit {k}, {rec.name}: residual autocorrelation")
         plots += [f"#### {rec.name}", "", f"![time history]({th.name})", "", f"![residual autocorrelation]({ac.name})", ""]
     return lines + ["", "### Time histories and residual autocorrelation", "", *plots]
 
@@ -190,20 +189,53 @@ def _side_by_side(fits: Sequence[Fit]) -> list[str]:
     return rows + [""]
 
 
+def figure_name(kind: str, prefix: str = "", record: str | None = None) -> str:
+    """A figure's file name (the one place it is spelled): ``<prefix><kind>.png``, or with a record
+    ``<prefix><kind>_<record's slug>.png`` (kinds: correlation, cost; history, acf per record)."""
+    return f"{prefix}{kind}.png" if record is None else f"{prefix}{kind}_{_slug(record)}.png"
+
+
+def figure_names(n_estimates: int, record_names: Sequence[str], *, cost: bool = True, prefix: str = "") -> list[str]:
+    """The file names of one fit's figures as :func:`write_report` names them (``prefix``: ``fitK_`` with several fits).
+
+    n_estimates: the number of estimated parameters (a correlation figure with more than one); record_names:
+    the records' names (a time history and an autocorrelation figure each); cost: whether the fit has a cost
+    history (a cost figure).  Known before the fit from the configuration and the records read.
+    """
+    names = [figure_name("correlation", prefix)] if n_estimates > 1 else []
+    names += [figure_name("cost", prefix)] if cost else []
+    for r in record_names:
+        names += [figure_name("history", prefix, r), figure_name("acf", prefix, r)]
+    return list(dict.fromkeys(names))
+
+
+def report_files(fit: Fit | Sequence[Fit], out_dir: str | Path) -> list[Path]:
+    """Every file :func:`write_report` writes for ``fit`` into ``out_dir``: ``report.md`` and its figures."""
+    fits = [fit] if isinstance(fit, Fit) else list(fit)
+    out = Path(out_dir)
+    names = ["report.md"]
+    for k, f in enumerate(fits, start=1):
+        names += figure_names(len(f.estimate), [r.name for r in f.records], cost=bool(f.cost_history),
+                              prefix=f"fit{k}_" if len(fits) > 1 else "")
+    return [out / n for n in dict.fromkeys(names)]
+
+
 def write_report(fit: Fit | Sequence[Fit], out_dir: str | Path, *, reference: Mapping[str, float] | None = None,
                  title: str = "System identification", overwrite: bool = False) -> Path:
     """Write ``out_dir/report.md`` and its PNG figures for one fit or several; returns the report's path.
 
     reference: ``{dotted name: value}`` in the parameter file's units (a simulation's truth, a table of
-    the paper), shown beside the estimates.  FileExistsError if ``report.md`` exists and not ``overwrite``.
+    the paper), shown beside the estimates.  FileExistsError, before anything is written, if ``report.md``
+    or any of its figures (:func:`report_files`) exists and not ``overwrite``.
     """
     fits = [fit] if isinstance(fit, Fit) else list(fit)
     if not fits or not all(isinstance(f, Fit) for f in fits):
         raise ValueError("fit: give a Fit or a non-empty sequence of Fits")
     out = Path(out_dir)
     path = out / "report.md"
-    if path.exists() and not overwrite:
-        raise FileExistsError(f"{path} exists; pass overwrite=True (rig identify: --overwrite) to replace it")
+    there = [str(p) for p in report_files(fits, out) if p.exists()] if not overwrite else []
+    if there:
+        raise FileExistsError(f"{', '.join(there)} exist(s); pass overwrite=True (rig identify: --overwrite) to replace")
     out.mkdir(parents=True, exist_ok=True)
     lines = [f"# {title}", ""]
     for k, f in enumerate(fits, start=1):
