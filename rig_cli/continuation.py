@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rig_cli.paths import check_out_folder
+from rig_env.paths import check_out_folder
 from rig_env.bifurcation.result import Branch, OrbitBranch, SpecialPoint
 from rig_env.bifurcation.rig import ORBIT_DT_RANGE
 from rig_env.bifurcation.sweep import Sweep

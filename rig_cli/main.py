@@ -50,7 +50,7 @@ from typing import Sequence, TextIO
 
 import numpy as np
 
-from rig_cli.paths import check_out_folder
+from rig_env.paths import check_out_folder
 from rig_env.params import RigParams
 from rig_env.simulate import SimResult, check_static_controls, simulate
 
@@ -210,11 +210,13 @@ def demo_roll(
     plot: bool = True,
     quiet: bool = False,
     stream: TextIO | None = None,
+    overwrite: bool = False,
 ) -> RollSummary:
-    """``rig demo``: run the velocity-vector roll, print the summary table, write the plot."""
+    """``rig demo``: run the velocity-vector roll, print the summary table, write the plot (an earlier
+    ``demo_roll.png`` there is refused before the run unless ``overwrite``)."""
     out = stream if stream is not None else sys.stdout
     if plot:
-        check_out_folder("--out", out_dir)
+        _refuse_existing(check_out_folder("--out", out_dir) / "demo_roll.png", overwrite)
     res, summary = run_roll(t_final=t_final, airspeed=airspeed, aileron_deg=aileron_deg, progress=None if quiet else sys.stderr)
     out.write(summary.table() + "\n")
     if plot:
@@ -231,10 +233,16 @@ def demo_roll(
     return summary
 
 
-def draw(out_dir: str | Path = "out", q_deg: Sequence[float] | None = None, flaps_deg: Sequence[float] | None = None) -> Path:
+def _refuse_existing(path: Path, overwrite: bool) -> None:
+    if path.exists() and not overwrite:
+        raise ValueError(f"--out: {path} is already there; give --overwrite to replace it, or another --out")
+
+
+def draw(out_dir: str | Path = "out", q_deg: Sequence[float] | None = None, flaps_deg: Sequence[float] | None = None,
+         overwrite: bool = False) -> Path:
     """``rig draw``: the rig picture (zero position and a posed example, or the given pose).  ValueError naming
     the option for angles that are not finite or beyond +-360 deg, flaps beyond +-40 deg or given without
-    ``--q``, and an ``--out`` that is a file."""
+    ``--q``, an ``--out`` that is a file, and an earlier ``rig_frames.png`` there unless ``overwrite``."""
     from rig_env.plotting import rig_figure
 
     if q_deg is not None and not all(math.isfinite(a) and abs(a) <= 360.0 for a in q_deg):
@@ -244,8 +252,8 @@ def draw(out_dir: str | Path = "out", q_deg: Sequence[float] | None = None, flap
             raise ValueError("--flaps: give the pose with --q too (the flaps are drawn on that pose only)")
         if not all(math.isfinite(a) and abs(a) <= 40.0 for a in flaps_deg):
             raise ValueError(f"--flaps {' '.join(f'{a:g}' for a in flaps_deg)}: flap deflections must be finite and within +-40 deg")
-    check_out_folder("--out", out_dir)
-    path = Path(out_dir) / "rig_frames.png"
+    path = check_out_folder("--out", out_dir) / "rig_frames.png"
+    _refuse_existing(path, overwrite)
     q = None if q_deg is None else np.radians(np.asarray(q_deg, dtype=np.float64))
     rig_figure(RigParams.default(), q=q, path=path, flaps_deg=flaps_deg)
     return path
@@ -280,8 +288,8 @@ def _parser() -> argparse.ArgumentParser:
                                    "plots and report.md.")
     c.add_argument("--quick", action="store_true", default=None, help="12 episodes per law, task and mode (default 64)")
     c.add_argument("--out", default="out/compare", metavar="DIR", help="output folder (default: out/compare)")
-    c.add_argument("--episodes", type=int, default=None, metavar="N", help="episodes per law, task and mode (default 64, --quick 12)")
-    c.add_argument("--seed", type=int, default=None, metavar="S", help="seed of the episodes (default 0)")
+    c.add_argument("--episodes", type=int, default=None, metavar="N", help="episodes per law, task and mode, 1..100000 (default 64, --quick 12)")
+    c.add_argument("--seed", type=int, default=None, metavar="S", help="seed of the episodes, 0..4294967295 (default 0)")
     # tasks and kinds are listed, not argparse choices: compare checks them (one-line error) and knows kinds registered later
     c.add_argument("--tasks", nargs="+", default=None, metavar="T", help=f"task names: {', '.join(tasks)} (default: all)")
     c.add_argument("--controllers", nargs="+", default=None, metavar="K",
@@ -312,11 +320,13 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--aileron", type=float, default=20.0, metavar="DEG", help="held compensator aileron, deg (default 20)")
     d.add_argument("--no-plot", action="store_true", help="do not write the plot (only the summary table: deg, deg/s, J, s)")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
+    d.add_argument("--overwrite", action="store_true", help="replace an earlier demo_roll.png in DIR")
     r = sub.add_parser("draw", help="picture of the rig with its frames and joints")
     r.add_argument("--out", default="out", metavar="DIR", help="directory for rig_frames.png (default: out)")
     r.add_argument("--q", type=float, nargs=5, metavar="DEG",
                    help="joint angles, deg: rig_roll rig_pitch rig_yaw model_pitch model_yaw (default: zero and an example pose)")
     r.add_argument("--flaps", type=float, nargs=4, metavar="DEG", help="compensator flaps 1-4 deflections, deg, within +-40 (with --q)")
+    r.add_argument("--overwrite", action="store_true", help="replace an earlier rig_frames.png in DIR")
     i = sub.add_parser("identify", help="fit the rig's parameters to recorded runs; report and identified parameter file")
     i.add_argument("config", metavar="CONFIG.toml", help="records, base parameters, parameters to estimate, method (README: Identification)")
     i.add_argument("--out", required=True, metavar="DIR", help="folder for report.md, its figures and identified.toml")
@@ -419,9 +429,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                 raise ValueError(str(exc)) from exc
         elif args.command == "demo":
             demo_roll(args.out, t_final=args.t_final, airspeed=args.airspeed, aileron_deg=args.aileron,
-                      plot=not args.no_plot, quiet=args.quiet)
+                      plot=not args.no_plot, quiet=args.quiet, overwrite=args.overwrite)
         elif args.command == "draw":
-            print(f"wrote {draw(args.out, args.q, args.flaps)}")
+            print(f"wrote {draw(args.out, args.q, args.flaps, overwrite=args.overwrite)}")
         elif args.command == "continuation":
             from rig_cli.continuation import run as continue_branch
 

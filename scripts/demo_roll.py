@@ -1,6 +1,6 @@
 """Velocity-vector roll demo: the same as ``rig demo`` (see rig_cli.main.demo_roll).
 
-Usage: python scripts/demo_roll.py [--out DIR] [--t-final S] [--airspeed M/S] [--aileron DEG] [--no-plot] [--quiet]
+Usage: python scripts/demo_roll.py [--out DIR] [--t-final S] [--airspeed M/S] [--aileron DEG] [--no-plot] [--quiet] [--overwrite]
 """
 
 from __future__ import annotations

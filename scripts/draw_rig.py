@@ -1,6 +1,7 @@
 """Draw the default rig (zero position and a posed example) to docs/rig_frames.png.
 
-The same as ``rig draw --out docs``; extra arguments are passed on (``--q``, ``--flaps``, ``--out``).
+The same as ``rig draw --out docs --overwrite`` (it redraws the documentation's picture); extra arguments are
+passed on (``--q``, ``--flaps``, ``--out``).
 """
 
 from __future__ import annotations
@@ -13,4 +14,4 @@ from rig_cli.main import main
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
 if __name__ == "__main__":
-    raise SystemExit(main(["draw", "--out", str(DOCS), *sys.argv[1:]]))
+    raise SystemExit(main(["draw", "--out", str(DOCS), "--overwrite", *sys.argv[1:]]))

@@ -143,6 +143,21 @@ def test_draw_and_demo_refuse_bad_poses_and_an_out_that_is_a_file(tmp_path, caps
     assert "aileron_deg: comp_aileron 90, comp_elevator 0, comp_rudder 0 deg put flap 1 at 90 deg, beyond" in capsys.readouterr().err
 
 
+def test_draw_and_demo_keep_an_earlier_picture_unless_overwrite(tmp_path, capsys):
+    """rig draw and rig demo replaced their PNG on every run; now, as the other commands, only with --overwrite
+    (refused before the run: demo's 6 s flight is not flown for nothing)."""
+    mine = tmp_path / "rig_frames.png"
+    mine.write_bytes(b"mine")
+    (tmp_path / "demo_roll.png").write_bytes(b"mine too")
+    assert main(["draw", "--out", str(tmp_path)]) == 2
+    assert "--out: " in capsys.readouterr().err and mine.read_bytes() == b"mine"
+    assert main(["demo", "--t-final", "6", "--quiet", "--out", str(tmp_path)]) == 2
+    assert "demo_roll.png is already there; give --overwrite" in capsys.readouterr().err
+    assert (tmp_path / "demo_roll.png").read_bytes() == b"mine too"
+    assert main(["draw", "--out", str(tmp_path), "--overwrite"]) == 0
+    assert mine.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_continuation_command_sweeps_a_second_parameter(tmp_path, capsys):
     """--sweep: a line per swept value, loci.csv with the sweep's special points and unstable samples (those of
     rig_env.continuation_sweep), sweep.png; a bad --sweep refused by name."""
