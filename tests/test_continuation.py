@@ -402,6 +402,11 @@ def test_continuation_refuses_bad_input_by_name(params):
         rig_env.continuation(params, **{**kw, "values": [-1000.0, 1000.0]})  # 500 and 1000 deg gave the same equilibrium
     with pytest.raises(ValueError, match=r"controls: comp_elevator = nan: deflections must be finite"):
         rig_env.continuation(params, **{**kw, "controls": {"comp_elevator": math.nan}})
+    # below 0.5 m/s the unsteady model's states are held: the trace from 60 m/s turned back at a spurious fold
+    with pytest.raises(ValueError, match=r"values: airspeed 0 m/s: with aero_model = 'unsteady' the airspeed must be at least 0.5 m/s"):
+        rig_env.continuation(params, **{**kw, "parameter": "airspeed", "values": [60.0, 0.0], "aero_model": "unsteady"})
+    with pytest.raises(ValueError, match=r"airspeed = 0.2 m/s: with aero_model = 'unsteady' the airspeed must be at least 0.5 m/s"):
+        rig_env.continuation(params, **{**kw, "airspeed": 0.2, "aero_model": "unsteady"})
     with pytest.raises(ValueError, match=r"settings: expected a rig_env.bifurcation.core.Settings or None, not dict"):
         rig_env.continuation(params, **{**kw, "settings": {"bogus": 1}})
 

@@ -34,6 +34,7 @@ from rig_env.bifurcation.equilibria import check_values, equilibria
 from rig_env.bifurcation.periodic import orbits as orbit_branch
 from rig_env.bifurcation.result import Branch
 from rig_env.linear import SEPARATION_STATES, hawk_surfaces, joint_accelerations
+from rig_env.physics.aero import MIN_AIRSPEED
 from rig_env.params import JOINTS, PARAM_INDEX, PARAM_NAMES, SURFACES, ParameterError, RigParams, _iter_leaves
 from rig_env.physics import layout as L
 from rig_env.physics.friction import FRICTION_BASE
@@ -287,6 +288,12 @@ def continuation(
     airspeed = 20.0 if airspeed is None else float(airspeed)
     if not 0.0 <= airspeed <= 60.0:
         raise ValueError(f"airspeed = {airspeed} m/s is outside the allowed range [0, 60] m/s")
+    if aero.internal:  # the separation and wake states relax at a rate in proportion to V and are held below MIN_AIRSPEED
+        low = float(v.min()) if par.kind == "airspeed" else airspeed
+        if low < MIN_AIRSPEED:
+            what = f"values: airspeed {low:g} m/s" if par.kind == "airspeed" else f"airspeed = {low:g} m/s"
+            raise ValueError(f"{what}: with aero_model = {aero_model!r} the airspeed must be at least {MIN_AIRSPEED:g} m/s (below it "
+                             "the aerodynamic states are held, so no equilibrium is isolated; the 'tables' model continues to 0)")
     if par.kind == "param":
         for end in (v.min(), v.max()):
             params.replace(**{parameter: float(end)})  # ParameterError naming the field and its range
