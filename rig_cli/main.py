@@ -247,15 +247,17 @@ def draw(out_dir: str | Path = "out", q_deg: Sequence[float] | None = None, flap
 
     if q_deg is not None and not all(math.isfinite(a) and abs(a) <= 360.0 for a in q_deg):
         raise ValueError(f"--q {' '.join(f'{a:g}' for a in q_deg)}: joint angles must be finite and within +-360 deg")
+    params = RigParams.default()
     if flaps_deg is not None:
         if q_deg is None:
             raise ValueError("--flaps: give the pose with --q too (the flaps are drawn on that pose only)")
-        if not all(math.isfinite(a) and abs(a) <= 40.0 for a in flaps_deg):
-            raise ValueError(f"--flaps {' '.join(f'{a:g}' for a in flaps_deg)}: flap deflections must be finite and within +-40 deg")
+        travel = params.servos.compensator.limit_deg
+        if not all(math.isfinite(a) and abs(a) <= travel for a in flaps_deg):
+            raise ValueError(f"--flaps {' '.join(f'{a:g}' for a in flaps_deg)}: flap deflections must be finite and within +-{travel:g} deg")
     path = check_out_folder("--out", out_dir) / "rig_frames.png"
     _refuse_existing(path, overwrite)
     q = None if q_deg is None else np.radians(np.asarray(q_deg, dtype=np.float64))
-    rig_figure(RigParams.default(), q=q, path=path, flaps_deg=flaps_deg)
+    rig_figure(params, q=q, path=path, flaps_deg=flaps_deg)
     return path
 
 

@@ -191,7 +191,7 @@ def check_static_controls(controls: Mapping[str, float], params: RigParams, fiel
     mixing (flap i = aileron + e_i elevator + r_i rudder, signs +-1, :func:`rig_env.physics.aero.mix`) stays within
     ``servos.compensator.limit_deg``.  ValueError naming ``field`` otherwise: a deflection beyond the travel would
     be held at the stop by the servo model, so a trim or a branch at it would be one at the stop's angle."""
-    from rig_env.physics.aero import MIX_ELEVATOR, MIX_RUDDER
+    from rig_env.physics.aero import mix
 
     out = {k: float(v) for k, v in check_controls(controls).items()}
     bad = [k for k, v in out.items() if not math.isfinite(v)]
@@ -204,7 +204,7 @@ def check_static_controls(controls: Mapping[str, float], params: RigParams, fiel
     comp = params.servos.compensator.limit_deg
     da, de, dr = (out.get(f"comp_{s}", 0.0) for s in ("aileron", "elevator", "rudder"))
     for i in range(4):
-        flap = da + MIX_ELEVATOR[i] * de + MIX_RUDDER[i] * dr
+        flap = mix.py_func(da, de, dr, i)  # the kernels' mixing, run as Python (nothing compiled for a check)
         if abs(flap) > comp:
             raise ValueError(f"{field}: comp_aileron {da:g}, comp_elevator {de:g}, comp_rudder {dr:g} deg put flap {i + 1} at "
                              f"{flap:g} deg, beyond the servos' travel [-{comp:g}, {comp:g}] deg (servos.compensator.limit_deg)")
