@@ -2,7 +2,7 @@
 
     rig continuation --free model_pitch --parameter hawk_elevator --values 2 -3 101 --aero-model unsteady
                      --set hawk_aero.sep_cp_travel=0.1 [--lift-break 6 0.05] [--params FILE.toml]
-                     [--airspeed 20] [--control hawk_rudder=2] [--no-orbits] [--state model_pitch]
+                     [--airspeed 20] [--control hawk_rudder=2] [--q-guess DEG x5] [--no-orbits] [--state model_pitch]
                      [--sweep NAME FIRST LAST POINTS] [--out DIR] [--overwrite]
 
 Runs :func:`rig_env.continuation` and prints the special points (kind, parameter, the free joints in deg, the
@@ -21,20 +21,24 @@ An existing output is kept unless ``--overwrite``.  Bad values raise ValueError 
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
 
 from rig_env.paths import check_out_folder
 from rig_env.bifurcation.result import Branch, OrbitBranch, SpecialPoint
-from rig_env.bifurcation.rig import ORBIT_DT_RANGE
+from rig_env.bifurcation.rig import ORBIT_DT_RANGE, resolve_parameter
 from rig_env.bifurcation.sweep import Sweep
 from rig_env.compile_watch import compile_watch
 from rig_env.params import PARAM_NAMES, SURFACES, ParameterError, RigParams
+from rig_env.params_io import did_you_mean
+from rig_env.physics.pipeline import check_aero_model
+from rig_env.simulate import check_free_dofs
 
 OUTPUTS = ("branch.csv", "special_points.csv", "orbits.csv", "bifurcation.png")
 SWEEP_OUTPUTS = ("loci.csv", "sweep.png")
@@ -49,7 +53,8 @@ def _assignments(items: Sequence[str] | None, option: str, names: Sequence[str])
         if not sep or not name:
             raise ValueError(f"{option} {item!r}: expected NAME=VALUE")
         if name not in names:
-            raise ValueError(f"{option} {item!r}: unknown name {name!r}; valid names: {', '.join(names) if len(names) < 20 else 'see rig_env.PARAM_NAMES'}")
+            raise ValueError(f"{option} {item!r}: unknown name {name!r}{did_you_mean(name, names)}; "
+                             f"valid names: {', '.join(names) if len(names) < 20 else 'see rig_env.PARAM_NAMES'}")
         try:
             value = float(text)
         except ValueError:
@@ -58,6 +63,18 @@ def _assignments(items: Sequence[str] | None, option: str, names: Sequence[str])
             raise ValueError(f"{option} {item!r}: the value must be finite")
         out[name] = value
     return out
+
+
+@contextlib.contextmanager
+def _q_guess_named() -> Iterator[None]:
+    """rig_env.continuation's "no equilibrium near q_guess" errors in the command's words: its option is --q-guess (deg)."""
+    try:
+        yield
+    except ValueError as exc:
+        text = str(exc)
+        if text.startswith("q_guess: "):
+            raise ValueError("--q-guess" + text.removeprefix("q_guess").replace("a better q_guess", "a better --q-guess (deg)")) from None
+        raise
 
 
 def rig_of(params_file: str | None, sets: Sequence[str] | None, lift_break: Sequence[float] | None) -> RigParams:
@@ -140,12 +157,13 @@ def run(
     physics_dt: float = 1e-3,
     state: str | None = None,
     sweep: tuple[str, float, float, float] | None = None,
+    q_guess_deg: Sequence[float] | None = None,
     overwrite: bool = False,
     echo: bool = True,
 ) -> Branch | Sweep:
     """``rig continuation``: see the module docstring.  values: (first, last, points); sweep: (name, first, last,
-    points) of a second parameter; physics_dt: the orbits' RK4 step (s, :func:`rig_env.continuation`); returns the
-    Branch, or with ``sweep`` the Sweep."""
+    points) of a second parameter; physics_dt: the orbits' RK4 step (s, :func:`rig_env.continuation`); q_guess_deg:
+    the five joint angles (deg) of ``q_guess``; returns the Branch, or with ``sweep`` the Sweep."""
     import rig_env
     from rig_env.bifurcation.plot import display_unit, plot_branch, plot_sweep
 
@@ -162,14 +180,29 @@ def run(
     if existing and not overwrite:
         raise ValueError(f"--out {folder}: {', '.join(existing)} already there; give --overwrite to replace, or another --out")
     p = rig_of(params_file, sets, lift_break)
+    check_aero_model(aero_model, "--aero-model")
+    try:
+        check_free_dofs(free)
+    except ValueError as exc:
+        raise ValueError(f"--free: {str(exc).removeprefix('free_dofs: ')}") from None
+    for option, name in (("--parameter", parameter), *((("--sweep", sweep[0]),) if sweep is not None else ())):
+        try:  # a misspelt name is refused before anything runs, by the option's name
+            resolve_parameter(p, name)
+        except ValueError as exc:
+            raise ValueError(f"{option} {str(exc).removeprefix('parameter = ')}") from None
     ctrl = _assignments(controls, "--control", SURFACES)
+    q_guess = None
+    if q_guess_deg is not None:
+        if len(q_guess_deg) != 5 or not all(math.isfinite(a) and abs(a) <= 360.0 for a in q_guess_deg):
+            raise ValueError(f"--q-guess {' '.join(f'{a:g}' for a in q_guess_deg)}: five joint angles, finite and within +-360 deg")
+        q_guess = [math.radians(a) for a in q_guess_deg]
     if state is not None and state not in free:
         raise ValueError(f"--state {state!r}: must be one of the free joints {list(free)}")
     if sweep is not None:
-        with compile_watch(sys.stdout if echo else None):
+        with compile_watch(sys.stdout if echo else None), _q_guess_named():
             sw = rig_env.continuation_sweep(p, sweep=sweep[0], sweep_values=np.linspace(s_first, s_last, s_n), free_dofs=tuple(free),
                                             parameter=parameter, values=np.linspace(first, last, n), airspeed=airspeed, controls=ctrl or None,
-                                            aero_model=aero_model, periodic=False, progress=echo)
+                                            aero_model=aero_model, periodic=False, progress=echo, q_guess=q_guess)
         folder.mkdir(parents=True, exist_ok=True)
         write_loci(sw, free, folder / "loci.csv")
         plot_sweep(sw, folder / "sweep.png", title=f"{', '.join(free)} free, {aero_model}")
@@ -179,9 +212,9 @@ def run(
     if echo:
         print(f"continuing {', '.join(free)} over {parameter} ({n} values, {aero_model} model"
               f"{'; then the orbits of each Hopf point by shooting, up to a minute' if orbits else ''}) ...", flush=True)
-    with compile_watch(sys.stdout if echo else None):  # a fresh installation compiles the kernels first (a minute or two): say so
+    with compile_watch(sys.stdout if echo else None), _q_guess_named():  # a fresh installation compiles the kernels first: say so
         br = rig_env.continuation(p, free_dofs=tuple(free), parameter=parameter, values=np.linspace(first, last, n), airspeed=airspeed,
-                                  controls=ctrl or None, aero_model=aero_model, periodic=orbits, physics_dt=physics_dt)
+                                  controls=ctrl or None, aero_model=aero_model, periodic=orbits, physics_dt=physics_dt, q_guess=q_guess)
     folder.mkdir(parents=True, exist_ok=True)
     factors = [display_unit(u) for u in br.state_units]
     with open(folder / "branch.csv", "w", newline="") as fh:

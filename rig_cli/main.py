@@ -351,6 +351,9 @@ def _parser() -> argparse.ArgumentParser:
     k.add_argument("--no-orbits", action="store_true", help="equilibria only: no periodic orbits from the Hopf points")
     k.add_argument("--physics-dt", type=float, default=1e-3, metavar="S",
                    help="the orbits' RK4 step, s (default 0.001; smaller: more accurate multipliers of orbits through the tables' kinks, slower)")
+    k.add_argument("--q-guess", type=float, nargs=5, default=None, metavar="DEG",
+                   help="joint angles, deg (rig_roll rig_pitch rig_yaw model_pitch model_yaw): the locked joints' angles and where "
+                        "the first equilibrium is looked for (default: all zero)")
     k.add_argument("--state", default=None, metavar="JOINT", help="the free joint the diagram shows (default: the first)")
     k.add_argument("--sweep", nargs=4, default=None, metavar=("NAME", "FIRST", "LAST", "POINTS"),
                    help="a second parameter swept (a surface, airspeed or a rig parameter): the loci of the folds and Hopf points "
@@ -440,7 +443,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             continue_branch(args.out, free=args.free, parameter=args.parameter, values=args.values, aero_model=args.aero_model,
                             airspeed=args.airspeed, controls=args.control, sets=args.set, lift_break=args.lift_break,
                             params_file=args.params, orbits=not args.no_orbits, physics_dt=args.physics_dt, state=args.state, sweep=_sweep_arg(args.sweep),
-                            overwrite=args.overwrite)
+                            q_guess_deg=args.q_guess, overwrite=args.overwrite)
     except (ValueError, OSError) as exc:  # bad argument values, an unwritable --out: one line, no traceback
         print(f"rig {args.command}: error: {exc}", file=sys.stderr)
         return 2

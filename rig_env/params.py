@@ -26,7 +26,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from rig_env.params_io import IDENTIFIED_KEYS, ParameterError, params_text, write_checked
+from rig_env.params_io import IDENTIFIED_KEYS, ParameterError, did_you_mean, params_text, write_checked
 
 JOINTS: tuple[str, ...] = ("rig_roll", "rig_pitch", "rig_yaw", "model_pitch", "model_yaw")
 """Canonical joint names, in the order of every joint-space array."""
@@ -372,10 +372,10 @@ class RigParams:
             node: Any = tree
             for part in parts[:-1]:
                 if not isinstance(node, dict) or part not in node:
-                    raise ParameterError(f"unknown parameter {name!r}; valid names: see rig_env.PARAM_NAMES")
+                    raise ParameterError(f"unknown parameter {name!r}{did_you_mean(name, PARAM_NAMES)}; valid names: see rig_env.PARAM_NAMES")
                 node = node[part]
             if not isinstance(node, dict) or parts[-1] not in node or isinstance(node[parts[-1]], dict):
-                raise ParameterError(f"unknown parameter {name!r}; valid names: see rig_env.PARAM_NAMES")
+                raise ParameterError(f"unknown parameter {name!r}{did_you_mean(name, PARAM_NAMES)}; valid names: see rig_env.PARAM_NAMES")
             node[parts[-1]] = value
         new = _from_plain(RigParams, tree)
         srcs = dict(self.sources)
@@ -705,7 +705,7 @@ def param_batch(
     overrides = dict(overrides or {})
     for name, v in overrides.items():
         if name not in PARAM_INDEX:
-            raise ParameterError(f"unknown parameter {name!r} in overrides; valid names: rig_env.PARAM_NAMES")
+            raise ParameterError(f"unknown parameter {name!r} in overrides{did_you_mean(name, PARAM_NAMES)}; valid names: see rig_env.PARAM_NAMES")
         if np.ndim(v) > 1 or (np.ndim(v) == 1 and len(v) != n_envs):
             raise ParameterError(f"override {name!r} must be a scalar or have n_envs = {n_envs} values, got shape {np.shape(v)}")
         overrides[name] = np.broadcast_to(np.asarray(v, dtype=np.float64), (n_envs,))

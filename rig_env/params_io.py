@@ -10,10 +10,11 @@ each leaf ``name = { value = ..., source = ..., unit = ..., note = ..., std/reco
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import json
 import math
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, Sequence
 
 
 class ParameterError(ValueError):
@@ -25,6 +26,14 @@ IDENTIFIED_KEYS = ("std", "records", "method")
 
 Provenance = Callable[[str], Mapping[str, Any]]
 """A dotted name (or ``"high_incidence"``) -> its ``source``, ``note`` and, if identified, ``std``, ``records``, ``method``."""
+
+
+def did_you_mean(name: str, names: Sequence[str]) -> str:
+    """" (did you mean 'a' or 'b'?)" for the (up to three) names closest to a misspelt ``name``, "" when none
+    is close: the hint an unknown-name error carries instead of a list of every valid name."""
+    lower = {n.lower(): n for n in names}  # the tables' case (CLa, Cnb) is the kind of thing misspelt
+    close = [lower[c] for c in difflib.get_close_matches(name.lower(), list(lower), n=3, cutoff=0.75)]
+    return f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
 
 
 def toml_value(v: Any) -> str:

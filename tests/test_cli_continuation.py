@@ -76,7 +76,7 @@ def test_continuation_command_reports_hopf_points_and_orbits_of_the_lower_band(t
 
 
 @pytest.mark.parametrize(("option", "message"), [
-    ({"--free": ["model_roll"]}, "free_dofs: unknown joint(s) ['model_roll']"),
+    ({"--free": ["model_roll"]}, "--free: unknown joint(s) ['model_roll']"),
     ({"--set": ["hawk_aero.CMq"]}, "--set 'hawk_aero.CMq': expected NAME=VALUE"),
     ({"--set": ["hawk_aero.CMqq=1"]}, "--set 'hawk_aero.CMqq=1': unknown name 'hawk_aero.CMqq'"),
     ({"--set": ["hawk_aero.CMq=abc"]}, "--set 'hawk_aero.CMq=abc': 'abc' is not a number"),
@@ -87,8 +87,12 @@ def test_continuation_command_reports_hopf_points_and_orbits_of_the_lower_band(t
     ({"--values": ["1", "0", "2.5"]}, "the number of points must be an integer"),
     ({"--control": ["hawk_flap=2"]}, "--control 'hawk_flap=2': unknown name 'hawk_flap'"),
     ({"--state": ["rig_roll"]}, "--state 'rig_roll': must be one of the free joints ['model_pitch']"),
-    ({"--aero-model": ["stall"]}, "aero_model"),
-    ({"--parameter": ["hawk_aero.nothing"]}, "hawk_aero.nothing"),
+    ({"--aero-model": ["stall"]}, "--aero-model = 'stall': allowed values: ['linear', 'tables', 'unsteady']"),
+    ({"--parameter": ["hawk_aero.nothing"]}, "--parameter 'hawk_aero.nothing': unknown; valid names: the surfaces"),
+    # a misspelt name is refused by its option before anything runs, with the close names (not all 150 listed)
+    ({"--parameter": ["hawk_elevater"]}, "--parameter 'hawk_elevater': unknown (did you mean 'hawk_elevator'?)"),
+    ({"--sweep": ["airsped", "10", "20", "3"]}, "--sweep 'airsped': unknown (did you mean 'airspeed'?)"),
+    ({"--set": ["geometry.hawk_cgx=0.1"]}, "unknown name 'geometry.hawk_cgx' (did you mean 'geometry.hawk_cg_x'"),
     ({"--physics-dt": ["0"]}, "--physics-dt 0.0: the orbits' RK4 step must lie in [0.0001, 0.005] s"),
     ({"--physics-dt": ["nan"]}, "--physics-dt nan: the orbits' RK4 step must lie in [0.0001, 0.005] s"),
     ({"--physics-dt": ["1e-8"]}, "--physics-dt 1e-08: the orbits' RK4 step must lie in [0.0001, 0.005] s"),  # 79 GiB asked
@@ -101,9 +105,42 @@ def test_continuation_command_refuses_bad_input_by_name(tmp_path, capsys, option
     opts = {"--free": ["model_pitch"], "--parameter": ["hawk_elevator"], "--values": ["2", "-2", "5"], **option}
     argv = ["continuation", "--no-orbits", "--out", str(tmp_path / "x")] + [a for k, v in opts.items() for a in (k, *v)]
     assert main(argv) == 2
-    err = capsys.readouterr().err
+    cap = capsys.readouterr()
+    err = cap.err
     assert err.startswith("rig continuation: error: ") and message in err and len(err.strip().splitlines()) == 1
+    assert len(err) < 500 and "continuing" not in cap.out  # one readable line, and nothing printed as if a run had started
     assert not (tmp_path / "x").exists()
+
+
+def test_continuation_command_passes_q_guess_in_degrees_and_names_it_in_errors(tmp_path, capsys, monkeypatch):
+    """--q-guess (deg) reaches rig_env.continuation as q_guess (rad); the library's advice to give "a better
+    q_guess" comes out naming the command's option, which the command had not had."""
+    seen = {}
+
+    def fake(p, **kw):
+        seen.update(kw)
+        raise ValueError("q_guess: no equilibrium of ['model_pitch'] found near it at any of the values of hawk_elevator "
+                         "(smallest max |qdd| 3 rad/s^2); give a better q_guess")
+
+    monkeypatch.setattr(rig_env, "continuation", fake)
+    argv = ["continuation", "--free", "model_pitch", "--parameter", "hawk_elevator", "--values", "1", "2", "3", "--no-orbits",
+            "--q-guess", "0", "10", "0", "5", "0", "--out", str(tmp_path / "x")]
+    assert main(argv) == 2
+    np.testing.assert_allclose(seen["q_guess"], np.radians([0.0, 10.0, 0.0, 5.0, 0.0]), rtol=0, atol=1e-15)
+    err = capsys.readouterr().err
+    assert err.startswith("rig continuation: error: --q-guess: no equilibrium of ['model_pitch']") and err.rstrip().endswith(
+        "give a better --q-guess (deg)")
+    for bad in (["0", "0", "0", "nan", "0"], ["0", "0", "0", "400", "0"]):
+        assert main(argv[:-8] + ["--q-guess", *bad, "--out", str(tmp_path / "x")]) == 2
+        assert "--q-guess 0 0 0" in capsys.readouterr().err and not (tmp_path / "x").exists()
+
+
+def test_continuation_refuses_a_first_equilibrium_outside_its_domain(params):
+    """A q_guess that leads to an equilibrium beyond +-170 deg (the continuation's domain) is refused by name; it
+    used to leave an empty branch and fail with an IndexError."""
+    with pytest.raises(ValueError, match=r"q_guess: the equilibrium found near it .* model_pitch = 17\d\.\d deg, outside the continuation's \+-170 deg"):
+        rig_env.continuation(params, free_dofs=("model_pitch",), parameter="hawk_elevator", values=[-1.0, 1.0],
+                             q_guess=np.radians([0.0, 0.0, 0.0, 170.0, 0.0]), periodic=False)
 
 
 @pytest.mark.parametrize("where", ["afile", "afile/sub"])

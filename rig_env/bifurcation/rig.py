@@ -36,6 +36,7 @@ from rig_env.bifurcation.result import Branch
 from rig_env.linear import SEPARATION_STATES, hawk_surfaces, joint_accelerations
 from rig_env.physics.aero import MIN_AIRSPEED
 from rig_env.params import JOINTS, PARAM_INDEX, PARAM_NAMES, SURFACES, ParameterError, RigParams, _iter_leaves
+from rig_env.params_io import did_you_mean
 from rig_env.physics import layout as L
 from rig_env.physics.friction import FRICTION_BASE
 from rig_env.physics.joint_space import separation_rates, separation_steady
@@ -91,8 +92,9 @@ def resolve_parameter(params: RigParams, name: str) -> RigParameter:
     if name in PARAM_INDEX:
         unit = next(u for n, _, _, u in _iter_leaves(params) if n == name)
         return RigParameter(name, "param", unit, PARAM_INDEX[name], math.pi / 180.0 if name.endswith(("_deg", "_deg_s")) else 1.0)
-    raise ValueError(f"parameter = {name!r}: unknown; valid names: the surfaces {list(SURFACES)}, 'airspeed', "
-                     f"or a rig parameter of rig_env.PARAM_NAMES: {list(PARAM_NAMES)}")
+    raise ValueError(f"parameter = {name!r}: unknown{did_you_mean(name, (*SURFACES, 'airspeed', *PARAM_NAMES))}; valid names: the "
+                     f"surfaces {list(SURFACES)}, 'airspeed', or one of the {len(PARAM_NAMES)} dotted rig parameter names of "
+                     "rig_env.PARAM_NAMES (e.g. 'geometry.hawk_cg_x')")
 
 
 MAX_ANGLE_DEG = 170.0
@@ -312,6 +314,11 @@ def continuation(
         raise ValueError(f"orbit_kernel = {orbit_kernel!r}: allowed values: 'lanes', 'joint'")
     rig = RigField(params, free, par, q0, controls, airspeed, aero, friction, bool(stops), orbit_kernel)
     x0, start = _first_equilibrium(rig, v)
+    outside = [(j, math.degrees(x0[a])) for a, j in enumerate(free) if not abs(x0[a]) <= math.radians(MAX_ANGLE_DEG)]
+    if outside:  # the trace would stop before its first point (its domain), leaving an empty branch
+        raise ValueError(f"q_guess: the equilibrium found near it at {parameter} = {start:g} {par.unit} has "
+                         f"{', '.join(f'{j} = {d:.4g} deg' for j, d in outside)}, outside the continuation's +-{MAX_ANGLE_DEG:g} deg; "
+                         "give a better q_guess")
     events = {}
     for a, j in enumerate(free):
         if j in _STOPS:
@@ -388,7 +395,7 @@ def _stop_notes(rig: RigField, branch: Branch, stops: bool) -> list[str]:
             notes.append(f"{j} reaches its {side} stop ({math.degrees(lim):g} deg) at {branch.parameter} = {sp.value:.6g} "
                          f"{branch.parameter_unit} ({what})")
     for j, side, mask in rig.stop_contacts(branch.curve_states[:1]):
-        if mask[0]:
+        if mask.size and mask[0]:
             notes.append(f"{j} is past its {side} stop at the start of the branch ({branch.parameter} = {branch.curve_values[0]:.6g} "
                          f"{branch.parameter_unit})")
     return notes
