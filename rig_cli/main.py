@@ -56,6 +56,7 @@ from rig_env.simulate import SimResult, check_static_controls, simulate
 
 DEMO_FREE = ("rig_roll", "model_pitch")
 SETTLE_S = 5.0
+DEMO_MAX_S = 3600.0  # s: rig demo's longest run (about a minute of computing here; 1e5 s ran 17 minutes)
 """Statistics of the steady roll are taken over t >= SETTLE_S (the spin-up lasts about 3 s)."""
 
 
@@ -215,6 +216,15 @@ def demo_roll(
     """``rig demo``: run the velocity-vector roll, print the summary table, write the plot (an earlier
     ``demo_roll.png`` there is refused before the run unless ``overwrite``)."""
     out = stream if stream is not None else sys.stdout
+    if not (math.isfinite(t_final) and SETTLE_S < t_final <= DEMO_MAX_S):
+        raise ValueError(f"--t-final {t_final:g}: the simulated time must lie in ({SETTLE_S:g}, {DEMO_MAX_S:g}] s (after the "
+                         f"{SETTLE_S:g} s spin-up window; longer runs: rig_env.simulate)")
+    if not (math.isfinite(airspeed) and 0.0 <= airspeed <= 60.0):
+        raise ValueError(f"--airspeed {airspeed:g}: the tunnel speed must lie in [0, 60] m/s")
+    try:
+        check_static_controls({"comp_aileron": aileron_deg}, RigParams.default(), "--aileron")
+    except ValueError as exc:
+        raise ValueError(f"--aileron {aileron_deg:g}: {str(exc).split(': ', 2)[-1]}") from None
     if plot:
         _refuse_existing(check_out_folder("--out", out_dir) / "demo_roll.png", overwrite)
     res, summary = run_roll(t_final=t_final, airspeed=airspeed, aileron_deg=aileron_deg, progress=None if quiet else sys.stderr)
@@ -317,7 +327,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="with --backend ray: episodes per Ray task, 1..100000 (default: about two chunks per cluster CPU)")
     d = sub.add_parser("demo", help="velocity-vector roll at 20 m/s with the compensator ailerons (paper Fig. 7)")
     d.add_argument("--out", default="out", metavar="DIR", help="directory for demo_roll.png (default: out)")
-    d.add_argument("--t-final", type=float, default=25.0, metavar="S", help="simulated time, s (default 25)")
+    d.add_argument("--t-final", type=float, default=25.0, metavar="S", help="simulated time, s (default 25; 5 to 3600)")
     d.add_argument("--airspeed", type=float, default=20.0, metavar="M/S", help="tunnel speed, m/s (default 20)")
     d.add_argument("--aileron", type=float, default=20.0, metavar="DEG", help="held compensator aileron, deg (default 20)")
     d.add_argument("--no-plot", action="store_true", help="do not write the plot (only the summary table: deg, deg/s, J, s)")

@@ -172,12 +172,30 @@ def test_draw_and_demo_refuse_bad_poses_and_an_out_that_is_a_file(tmp_path, caps
     assert main(["draw", *argv]) == 2
     err = capsys.readouterr().err
     assert err.startswith("rig draw: error: ") and message in err and len(err.strip().splitlines()) == 1
-    assert main(["demo", "--t-final", "0.5", "--quiet", "--out", "AFILE"]) == 2
+    assert main(["demo", "--t-final", "6", "--quiet", "--out", "AFILE"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("rig demo: error: --out AFILE: is a file, not a folder") and (tmp_path / "AFILE").read_text() == "mine"
     # an aileron past the flaps' travel was reported as held at 90 deg while the flaps flew at 40
     assert main(["demo", "--t-final", "6", "--quiet", "--no-plot", "--aileron", "90"]) == 2
-    assert "aileron_deg: comp_aileron 90, comp_elevator 0, comp_rudder 0 deg put flap 1 at 90 deg, beyond" in capsys.readouterr().err
+    assert "--aileron 90: comp_aileron 90, comp_elevator 0, comp_rudder 0 deg put flap 1 at 90 deg, beyond" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--t-final", "3"], "--t-final 3: the simulated time must lie in (5, 3600] s"),
+    (["--t-final", "inf"], "--t-final inf: the simulated time must lie in (5, 3600] s"),
+    (["--t-final", "1e5"], "--t-final 100000: the simulated time must lie in (5, 3600] s"),  # ran 17 minutes, silent with --quiet
+    (["--airspeed", "nan"], "--airspeed nan: the tunnel speed must lie in [0, 60] m/s"),
+    (["--airspeed", "100"], "--airspeed 100: the tunnel speed must lie in [0, 60] m/s"),
+    (["--aileron", "nan"], "--aileron nan: deflections must be finite (deg)"),
+])
+def test_demo_refuses_bad_options_by_their_names_before_running(capsys, monkeypatch, argv, message):
+    """rig demo's errors name its options (they named run_roll's t_final and aileron_deg), before anything runs."""
+    import sys
+
+    monkeypatch.setattr(sys.modules["rig_cli.main"], "run_roll", lambda **kw: pytest.fail("ran before checking the options"))
+    assert main(["demo", "--quiet", "--no-plot", *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"rig demo: error: {message}") and len(err.strip().splitlines()) == 1
 
 
 def test_draw_and_demo_keep_an_earlier_picture_unless_overwrite(tmp_path, capsys):
