@@ -288,7 +288,8 @@ def simulate(
     tau2 alphadot), and the Hawk's wake at the compensator: docs/MODEL.md 3.1.1-3.1.2); nonlinear_aero=True
     is the older name of "tables".
     formulation: "joint" (fast joint-space model) or "dae" (the paper's body-coordinate DAE).
-    control_rate: Hz; physics_dt: s, default the largest step <= 2.5 ms dividing the control step.
+    control_rate: Hz; physics_dt: s, default the largest step <= 2.5 ms dividing the control step.  The run ends
+    at the control step nearest t_final (a UserWarning says so when that is not t_final itself; ``result.t[-1]``).
     overrides: per-environment parameter overrides (see rig_env.param_batch).
 
     Initial servo state (the environments' convention, :meth:`rig_env.physics.pipeline.PhysicsBatch.reset`):
@@ -317,6 +318,12 @@ def simulate(
     flags = flags_of(aero, friction, stops, servo, model)
     free_idx = np.array([JOINTS.index(j) for j in free], dtype=np.int64)
     n_t = int(round(t_final / control_dt)) + 1
+    if n_t < 2:
+        raise ValueError(f"t_final = {t_final:g} s is shorter than half a control step ({control_dt:g} s at {1.0 / control_dt:g} Hz): "
+                         "nothing would be simulated")
+    if abs((n_t - 1) * control_dt - t_final) > 1e-9 * max(1.0, t_final):
+        warnings.warn(f"t_final = {t_final:g} s is not a whole number of control steps ({control_dt:g} s): the run ends at the "
+                      f"nearest, {(n_t - 1) * control_dt:.10g} s (result.t[-1])", stacklevel=2)
     size = n_t * n * (L.N_STATE + 3) * 8  # the states, energies and residuals sampled, before the result's views
     if size > MAX_RESULT_BYTES:
         raise ValueError(f"t_final = {t_final:g} s: {n} environment(s) sampled at {1.0 / control_dt:g} Hz would need "

@@ -1,5 +1,7 @@
 """Public API: shapes, names and clear errors for bad input."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -44,6 +46,7 @@ def test_controls_as_functions_and_arrays(params):
         (dict(t_final=-1.0), "t_final"),
         # inside t_final's range, but 64 environments over 1e5 s at 80 Hz would be 149 GiB: refused before numpy is asked
         (dict(q0=np.zeros((64, 2)), qd0=np.zeros((64, 2)), t_final=1e5), r"t_final = 100000 s: 64 environment\(s\) sampled at 80 Hz would need 148.8 GiB for the result, more than 4 GiB"),
+        (dict(t_final=0.004), r"t_final = 0.004 s is shorter than half a control step \(0.0125 s at 80 Hz\): nothing would be simulated"),
         (dict(formulation="ode"), "formulation"),
         (dict(physics_dt=0.003), "integer multiple"),
         (dict(control_rate=0.0), "control_rate"),
@@ -56,6 +59,17 @@ def test_bad_input_is_a_clear_error(params, kwargs, match):
     q0, qd0, t_final = args.pop("q0"), args.pop("qd0"), args.pop("t_final")
     with pytest.raises(ValueError, match=match):
         rig_env.simulate(params, q0, qd0, t_final, **args)
+
+
+def test_t_final_between_control_steps_ends_at_the_nearest_and_says_so(params):
+    """simulate() rounded t_final to a control step without a word (0.03 s at 80 Hz ended at 0.025 s); it still
+    does, and warns with the time it ends at; whole steps stay silent."""
+    with pytest.warns(UserWarning, match=r"t_final = 0.03 s is not a whole number of control steps \(0.0125 s\): the run ends at the nearest, 0.025 s"):
+        r = rig_env.simulate(params, [0.0], [0.0], 0.03, free_dofs=["model_pitch"])
+    assert r.t[-1] == pytest.approx(0.025, abs=1e-12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert rig_env.simulate(params, [0.0], [0.0], 0.1, free_dofs=["model_pitch"]).t[-1] == pytest.approx(0.1, abs=1e-12)
 
 
 def test_bad_params_argument(params):
