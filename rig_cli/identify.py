@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import shutil
 import sys
 import tomllib
@@ -55,6 +56,11 @@ READER_KEYS = ("columns", "free_dofs", "airspeed", "locked", "surface_kind", "se
 RECORD_KEYS = ("path", "name", *READER_KEYS, "segment", "resample", "smooth")
 
 
+MIN_RECORD_SAMPLES = 10
+"""Samples a record must hold to be fitted: the residuals' whiteness test then has two lags (n // 5,
+:func:`rig_env.sysid.diagnostics.default_max_lag`); a 2-sample record failed only inside the fit, as "no effect"."""
+
+
 class ConfigError(ValueError):
     """A bad ``rig identify`` configuration: the message names the key and what is allowed."""
 
@@ -69,6 +75,7 @@ class RecordSpec:
     segment: tuple[float, float] | None = None
     resample: float | None = None
     smooth: int | None = None
+    where: str = "record"  # the configuration's "record[k]", for errors
 
 
 @dataclass(frozen=True)
@@ -168,6 +175,10 @@ def _reader_options(where: str, raw: Mapping[str, Any]) -> dict[str, Any]:
             if not isinstance(v, dict) or any(j not in JOINTS for j in v):
                 raise ConfigError(f"{w}: must be a table joint = angle (rad), joints from {list(JOINTS)}")
             v = {j: _number(f"{w}.{j}", a) for j, a in v.items()}
+            wide = [j for j, a in v.items() if abs(a) > 2.0 * math.pi]
+            if wide:
+                raise ConfigError(f"{w}.{wide[0]} = {v[wide[0]]:g}: a locked angle must lie within +-2 pi rad (+-360 deg); "
+                                  "the angles are in rad")
         elif key == "surface_kind":
             if v not in SURFACE_KINDS:
                 raise ConfigError(f"{w} = {v!r}: allowed: {', '.join(SURFACE_KINDS)}")
@@ -201,7 +212,7 @@ def _record(base: Path, k: int, raw: Any) -> RecordSpec:
     span = raw.get("smooth")
     if span is not None and (isinstance(span, bool) or not isinstance(span, int) or span < 3):
         raise ConfigError(f"{where}.smooth = {span!r}: must be an integer span >= 3 samples")
-    return RecordSpec(_path(base, f"{where}.path", raw["path"]), _reader_options(where, raw), name, seg, rate, span)
+    return RecordSpec(_path(base, f"{where}.path", raw["path"]), _reader_options(where, raw), name, seg, rate, span, where)
 
 
 def load_config(path: str | Path) -> IdentifyConfig:
@@ -257,9 +268,15 @@ def read_record(spec: RecordSpec) -> FlightRecord:
     if spec.segment is not None:
         rec = rec.segment(*spec.segment)
     if spec.smooth is not None:
+        if spec.smooth > rec.t.size:  # lowess would clip it to the record: one fit over the whole record, not a smoothing
+            raise ConfigError(f"{spec.where}.smooth = {spec.smooth}: more than the record's {rec.t.size} samples"
+                              f"{' (after segment)' if spec.segment else ''}")
         rec = rec.smooth(spec.smooth)
     if spec.resample is not None:
         rec = rec.resample(spec.resample)
+    if rec.t.size < MIN_RECORD_SAMPLES:
+        raise ConfigError(f"{spec.where}: {rec.name} holds {rec.t.size} sample(s){' after segment and resample' if spec.segment or spec.resample else ''}; "
+                          f"a record to fit needs at least {MIN_RECORD_SAMPLES}")
     return rec
 
 
@@ -289,6 +306,20 @@ def _refuse_existing(paths: list[Path], when: str = "") -> None:
         raise FileExistsError(f"{', '.join(there)} exist(s){when}; pass --overwrite to replace")
 
 
+_FIGURE = re.compile(r"^(fit\d+_)?(correlation|cost|history_.+|acf_.+)\.png$")  # report.figure_name's forms
+
+
+def earlier_figures(dest: Path) -> list[Path]:
+    """The figures an earlier run's ``report.md`` in ``dest`` shows (its image links to files in ``dest`` named
+    as the report names its figures): what an ``--overwrite`` run removes when it does not write them itself."""
+    try:
+        text = (dest / "report.md").read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return []
+    links = re.findall(r"!\[[^\]]*\]\(([^)/\\]+)\)", text)
+    return [dest / n for n in dict.fromkeys(links) if _FIGURE.match(n)]
+
+
 def run(config: str | Path, out_dir: str | Path, *, overwrite: bool = False, stream: TextIO | None = None,
         progress: TextIO | None = None) -> dict[str, Path]:
     """``rig identify``: read the records, fit, write the report and the identified parameter file.
@@ -303,7 +334,8 @@ def run(config: str | Path, out_dir: str | Path, *, overwrite: bool = False, str
     and ``identify.toml`` are checked before the fit (the figures' names from the configuration and the
     records read) and again after it, before anything is written (the fit's records name the figures).
 
-    With ``overwrite``, a fit that does not converge writes the report and ``identify.toml`` but no
+    With ``overwrite``, the figures an earlier report in the folder showed and this one does not (a record fewer)
+    are removed (:func:`earlier_figures`; other files are never touched); a fit that does not converge writes the report and ``identify.toml`` but no
     parameter file; an ``identified.toml`` already in the folder (an earlier run's, of another fit) is then
     renamed ``identified.toml.stale`` (replacing an earlier ``.stale``), so the folder never pairs this
     report with another fit's parameters and the earlier file is kept; the error line says so.
@@ -348,7 +380,13 @@ def run(config: str | Path, out_dir: str | Path, *, overwrite: bool = False, str
     if not result.converged and targets["params"].exists():  # only with overwrite: an earlier run's parameters, kept aside
         stale = targets["params"].replace(targets["params"].with_name(targets["params"].name + STALE_SUFFIX))
         out.write(f"moved the earlier {targets['params']} (another fit's) to {stale}\n")
+    earlier = earlier_figures(dest) if overwrite else []
     written = {"report": write_report(result, dest, title=f"System identification: {cfg.source.name}", overwrite=overwrite)}
+    gone = [f for f in earlier if f not in set(report_files(result, dest)) and f.is_file()]
+    for f in gone:  # the earlier run's own figures this report does not show (a record fewer): not left to be taken for this run's
+        f.unlink()
+    if gone:
+        out.write(f"removed the earlier run's {', '.join(f.name for f in gone)} (not in this report)\n")
     if not (targets["config"].exists() and targets["config"].samefile(cfg.source)):
         shutil.copyfile(cfg.source, targets["config"])
     written["config"] = targets["config"]

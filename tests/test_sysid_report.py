@@ -563,3 +563,48 @@ def test_rig_identify_takes_the_aero_model_and_refuses_it_with_equation_error(co
     err = capsys.readouterr().err
     assert "options.aero_model = 'unsteady' with method = 'equation_error'" in err and err.count("\n") == 1
     assert "fit" not in calls
+
+
+@pytest.mark.parametrize(("extra", "n_samples", "message"), [
+    ("", 2, "record[0]: pitch_3211 holds 2 sample(s) after segment and resample; a record to fit needs at least 10"),
+    ("smooth = 5000\n", 1200, "record[0].smooth = 5000: more than the record's 1200 samples (after segment)"),
+    ("locked = { rig_roll = 100.0 }\n", 1200, "record[0].locked.rig_roll = 100: a locked angle must lie within +-2 pi rad"),
+])
+def test_rig_identify_refuses_records_it_cannot_fit_before_the_fit(tmp_path: Path, params: RigParams, monkeypatch, capsys,
+                                                                   extra, n_samples, message):
+    """A 2-sample record failed only inside the fit, as "no effect on the records' outputs"; a smoothing span longer
+    than the record was clipped to it (one local fit over the whole record); a locked angle of 100 (rad, taken
+    for degrees) was flown.  Each is now refused in one line naming the key, before the fit."""
+    from rig_cli.main import main
+
+    calls = _stub(monkeypatch, params)
+    rec = _record("pitch_3211", n_samples, np.random.default_rng(1))[0]
+    monkeypatch.setattr(FlightRecord, "read", classmethod(lambda cls, path, **o: rec), raising=False)
+    (tmp_path / "pitch.csv").write_text("time_s,pitch_rad\n0,0\n")
+    (tmp_path / "identify.toml").write_text(CONFIG + extra)
+    assert main(["identify", str(tmp_path / "identify.toml"), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"rig identify: error: {message}") and err.count("\n") == 1, err
+    assert "fit" not in calls and not (tmp_path / "out").exists()
+
+
+def test_rig_identify_overwrite_removes_the_earlier_runs_figures_it_does_not_write(config: Path, tmp_path: Path, params: RigParams,
+                                                                                    monkeypatch, capsys):
+    """An --overwrite run with a record fewer left the earlier run's figures of that record beside the new report,
+    to be taken for this run's; they are removed now (the ones the earlier report.md showed), and nothing else."""
+    from rig_cli.main import main
+
+    _stub(monkeypatch, params)
+    out = tmp_path / "out"
+    assert main(["identify", str(config), "--out", str(out)]) == 0
+    assert (out / "history_pitch_doublet.png").is_file() and (out / "acf_pitch_doublet.png").is_file()
+    (out / "history_mine.png").write_text("mine\n")  # the user's, named like a figure but not the report's
+    one = make_fit(params)
+    one = dataclasses.replace(one, records=one.records[:1], outputs=one.outputs[:1], predicted=one.predicted[:1], residuals=one.residuals[:1])
+    monkeypatch.setattr(sysid, "fit", lambda records, base, **kw: one, raising=False)
+    assert main(["identify", str(config), "--out", str(out), "--overwrite"]) == 0
+    said = capsys.readouterr().out
+    assert "removed the earlier run's history_pitch_doublet.png, acf_pitch_doublet.png (not in this report)" in said
+    assert not (out / "history_pitch_doublet.png").exists() and not (out / "acf_pitch_doublet.png").exists()
+    assert (out / "history_pitch_3211.png").is_file() and (out / "history_mine.png").read_text() == "mine\n"
+    assert "pitch_doublet" not in (out / "report.md").read_text()
