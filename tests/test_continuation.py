@@ -265,6 +265,22 @@ def test_an_orbit_family_whose_period_grows_ends_at_the_largest_period():
     assert ob.periods == pytest.approx(2 * np.pi / (w - ob.values), rel=1e-6)
 
 
+@pytest.mark.parametrize("max_orbits", [1, 2, 5])
+def test_an_orbit_family_cut_by_max_orbits_holds_that_many(max_orbits):
+    """max_orbits counts every orbit the family keeps, the first (not traced) included: it kept one more than asked
+    ("41 orbits, ended: stopped after max_points = 40 points"), and says so in its own words."""
+    w = 2.0
+
+    def field(X, P):
+        r2 = (X**2).sum(axis=1)
+        return np.stack([P * X[:, 0] - w * X[:, 1] - X[:, 0] * r2, w * X[:, 0] + P * X[:, 1] - X[:, 1] * r2], axis=1)
+
+    br = equilibria(lambda x, p: field(x[None, :], np.array([p]))[0], [0.0, 0.0], np.linspace(-0.5, 0.5, 11))
+    ob = orbits(field, rk4_flow(field, 200), br.hopf_points()[0], (-0.5, 0.5), amplitude=0.01, max_orbits=max_orbits)
+    assert ob.values.size == max_orbits and ob.end == f"stopped after max_orbits = {max_orbits} orbits"
+    assert ob.upper[:, 0] == pytest.approx(np.sqrt(ob.values), rel=1e-3)  # r = sqrt(mu): the orbits kept are orbits
+
+
 # ---------------------------------------------------------------------------- the rig
 PITCH_HEAVE = ("rig_pitch", "model_pitch")
 

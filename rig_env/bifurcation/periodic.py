@@ -37,6 +37,7 @@ side where the crossing pair is unstable (supercritical: the orbits are born att
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Callable
 
@@ -280,9 +281,12 @@ def orbits(
         grown = grown or a >= 2.0 * size0
         return shrank if grown and a < 0.5 * size0 else ""
 
-    pts, why = trace(sh, Point(found[1], null_vector(J1, t), J1, d01, d01), inside, s,
+    limit = s.max_points  # orbits at most, the first one (not traced) included
+    pts, why = trace(sh, Point(found[1], null_vector(J1, t), J1, d01, d01), inside, dataclasses.replace(s, max_points=max(1, limit - 1)),
                      accepted=lambda b: sh.set_reference(*sh.unpack(b.y)[::2]), stop=shrunk)  # fmt: skip
-    pts = [p for p in [first, *pts] if inside(p.y)]
+    if why.startswith("stopped after max_points"):
+        why = f"stopped after max_orbits = {limit} orbits"
+    pts = [p for p in [first, *pts] if inside(p.y)][:limit]
     if why == shrank:
         pts = pts[:-1]  # the shrunk orbit itself
     if why == "left the parameter range":
