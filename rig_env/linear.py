@@ -26,6 +26,7 @@ from rig_env.params import JOINTS, SURFACES, RigParams
 from rig_env.physics import layout as L
 from rig_env.physics import servo as sv
 from rig_env.physics.integrator import limited_demands
+from rig_env.physics.aero import MIN_AIRSPEED
 from rig_env.physics.joint_space import ATTACHED, accelerations, separation_rates, separation_steady
 from rig_env.physics.pipeline import AERO_MODELS, check_aero_model
 from rig_env.simulate import check_free_dofs, check_static_controls
@@ -246,7 +247,11 @@ def trim(
     q, u, v = unpack(sol.x)
     res = float(np.max(np.abs(residual(sol.x))))
     if max_residual is not None and res > max_residual:
-        raise RuntimeError(f"trim: no equilibrium found for free_dofs={list(free)} (max |qdd| = {res:.3g} rad/s^2)")
+        near_cut = MIN_AIRSPEED <= airspeed <= 1.1 * MIN_AIRSPEED
+        raise RuntimeError(f"trim: no equilibrium found for free_dofs={list(free)} (max |qdd| = {res:.3g} rad/s^2)"
+                           + (f"; airspeed = {airspeed:g} m/s is at the {MIN_AIRSPEED:g} m/s wind-off cut (aero.MIN_AIRSPEED), "
+                              "where a body's loads and aerodynamic states switch on as its local airspeed crosses the cut, so "
+                              "the accelerations jump there: trim a little above or below it" if near_cut else ""))
     out_controls = dict(controls)
     if mix is not None:
         out_controls.update({n: math.degrees(u[c]) for n, c in zip(mix.surfaces, cols)})  # every mixed surface, 0.0 included

@@ -139,3 +139,13 @@ def test_trim_with_an_input_mix_matches_the_surfaces(params):
         rig_env.trim(params, free, None, mix=mix, unknown_inputs=["heave"], hold={"rig_roll": 0.0})
     with pytest.raises(ValueError, match="driven by the input mix"):
         rig_env.trim(params, free, None, controls={"comp_rudder": 1.0}, mix=mix, inputs={"sway": 0.1})
+
+
+def test_trim_failing_at_the_wind_off_cut_says_why(params):
+    """At exactly 0.5 m/s (aero.MIN_AIRSPEED) the unsteady model's loads switch on as a body's local airspeed crosses
+    the cut, and trim finds no equilibrium; the error says so and what to do (it gave only the residual).  A little
+    above the cut the same trim is found."""
+    free = ("rig_pitch", "model_pitch")
+    with pytest.raises(RuntimeError, match=r"no equilibrium found .*airspeed = 0.5 m/s is at the 0.5 m/s wind-off cut.*trim a little above or below it"):
+        rig_env.trim(params, free_dofs=free, airspeed=0.5, aero_model="unsteady")
+    assert rig_env.trim(params, free_dofs=free, airspeed=0.51, aero_model="unsteady").q[1] < 0.0
