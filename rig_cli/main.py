@@ -422,15 +422,21 @@ def _recorded(argv: Sequence[str]) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     """Console entry point ``rig`` (pyproject: rig = "rig_cli.main:main")."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    if argv[:1] == ["train"]:  # its own parser: every option after "train" is the trainer's
-        from controllers.design.rl_train import main as train
+    if argv[:1] in (["train"], ["sweep"]):
+        try:
+            if argv[:1] == ["train"]:  # its own parser: every option after "train" is the trainer's
+                from controllers.design.rl_train import main as train
 
-        return train(argv[1:])
-    if argv[:1] == ["sweep"]:  # its own parser too (controllers.design.sweep)
-        from controllers.design.rl_train import train_trial
-        from controllers.design.sweep import main as sweep
+                return train(argv[1:])
+            from controllers.design.rl_train import train_trial  # its own parser too (controllers.design.sweep)
+            from controllers.design.sweep import main as sweep
 
-        return sweep(argv[1:], train=train_trial)
+            return sweep(argv[1:], train=train_trial)
+        except SystemExit as exc:  # the trainer's refusals (SystemExit with the message): one line, exit 2 as the others'
+            if isinstance(exc.code, str):
+                print(exc.code, file=sys.stderr)
+                return 2
+            raise
     args = _parser().parse_args(argv)
     try:
         if args.command == "compare":

@@ -58,8 +58,25 @@ def check_backend(backend: str, address: str | None = None) -> None:
         raise BackendError(f"--address {address!r}: only with --backend ray")
     if address is not None and (not isinstance(address, str) or not address.strip()):
         raise BackendError(f"--address {address!r}: give auto, HOST:PORT or ray://HOST:PORT")
+    if address is not None:
+        host_port(address)
     if backend == "ray":
         require_ray()
+
+
+CONNECT_TIMEOUT_S = 5.0
+"""Seconds :func:`connect` waits for a TCP answer at ``HOST:PORT`` before Ray is asked (Ray itself retries for minutes)."""
+
+
+def host_port(address: str) -> tuple[str, int] | None:
+    """(host, port) of a ``HOST:PORT`` or ``ray://HOST:PORT`` address, None for ``"auto"``; a :class:`BackendError`
+    naming ``--address`` for any other form or a port outside [1, 65535]."""
+    if address == "auto":
+        return None
+    host, sep, port = address.removeprefix("ray://").rpartition(":")
+    if not sep or not host or not port.isdigit() or not 1 <= int(port) <= 65535:
+        raise BackendError(f"--address {address!r}: give auto, HOST:PORT or ray://HOST:PORT, the port an integer in [1, 65535]")
+    return host.strip("[]"), int(port)
 
 
 def check_chunk_size(chunk_size: int | None, limit: int = 100_000) -> None:
@@ -85,8 +102,16 @@ def connect(address: str | None = None, *, num_cpus: int | None = None) -> bool:
     """Connect to Ray: ``address`` None starts a local cluster on this machine (``num_cpus``: its CPUs, default
     all), ``"auto"`` or ``"HOST:PORT"`` joins a running one.  Returns True when this call started the session
     (the caller shuts it down, :func:`session`); False when a session was already up (left as it is).
-    A cluster that cannot be reached is a :class:`BackendError` naming ``--address``."""
+    A cluster that cannot be reached is a :class:`BackendError` naming ``--address``: at ``HOST:PORT`` a TCP probe
+    first, which fails within :data:`CONNECT_TIMEOUT_S` (even when a session is already up)."""
     ray = require_ray()
+    hp = host_port(address) if address is not None else None
+    if hp is not None:  # Ray retries an address where nothing listens for minutes, silently: ask first
+        try:
+            socket.create_connection(hp, timeout=CONNECT_TIMEOUT_S).close()
+        except OSError as exc:
+            raise BackendError(f"--address {address!r}: nothing answers at {hp[0]}:{hp[1]} within {CONNECT_TIMEOUT_S:g} s ({exc}); "
+                               "is a Ray head running there (ray start --head --port PORT)?") from None
     if ray.is_initialized():
         return False
     kw: dict[str, Any] = {"runtime_env": {"env_vars": worker_env()}, "logging_level": "ERROR", "log_to_driver": False}

@@ -82,12 +82,32 @@ def _same_metrics(a: dict[str, np.ndarray], b: Any) -> None:
     (["--backend", "ray", "--chunk-size", "1"], "--chunk-size = 1: must be an integer in [2, 100000]"),
     (["--chunk-size", "4"], "--chunk-size 4: only with --backend ray"),
     (["--address", "auto"], "--address 'auto': only with --backend ray"),
+    (["--backend", "ray", "--address", "bad:99999"], "--address 'bad:99999': give auto, HOST:PORT or ray://HOST:PORT, the port an integer in [1, 65535]"),
+    (["--backend", "ray", "--address", "localhost"], "--address 'localhost': give auto, HOST:PORT"),
 ])
 def test_bad_backend_options_are_one_line_errors(argv: list[str], needle: str, tmp_path: Path,
                                                  capsys: pytest.CaptureFixture[str]) -> None:
     rc = main(["compare", "--tasks", TASK, "--controllers", "pid", "--episodes", "2", "--out", str(tmp_path / "o"), *argv])
     err = capsys.readouterr().err
     assert rc == 2 and needle in err and "Traceback" not in err
+
+
+def test_an_address_where_nothing_listens_is_an_error_within_seconds() -> None:
+    """rig train / rig compare --backend ray --address HOST:PORT with no Ray head there hung (Ray retries for
+    minutes, printing only its own C++ warnings); now a TCP probe answers within CONNECT_TIMEOUT_S."""
+    import socket
+    import time
+
+    from rig_env import distributed
+
+    with socket.socket() as s:  # a port nothing listens on: bound, never listening, so connections are refused
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+        t0 = time.perf_counter()
+        with pytest.raises(distributed.BackendError, match=rf"--address '127.0.0.1:{port}': nothing answers at 127.0.0.1:{port} within 5 s"):
+            distributed.connect(f"127.0.0.1:{port}")
+    assert time.perf_counter() - t0 < 2 * distributed.CONNECT_TIMEOUT_S
+    assert distributed.host_port("ray://[::1]:10001") == ("::1", 10001) and distributed.host_port("auto") is None
 
 
 def test_ray_missing_names_the_extra(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

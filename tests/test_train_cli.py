@@ -20,8 +20,16 @@ TINY = ["--timesteps", "1", "--eval-every", "100000", "--eval-episodes", "4", "-
     (["--seeds", "1", "2", "--ship"], "--ship takes one --seed"),
     (["--seed", "1", "--seeds", "2"], "not allowed with argument"),
     (["--seeds", "-1"], "must be >= 0"),
+    # a misspelt task exited 1 only when training began; a thread count beyond the machine's was taken; an --out that
+    # is a file (or lies under one) ended in mkdir's traceback
+    (["--task", "bank_to_bnk"], "--task 'bank_to_bnk': unknown (did you mean 'bank_to_bank'?)"),
+    (["--threads", "100000"], "--threads = 100000: allowed range [1, "),
+    (["--out", "AFILE"], "--out AFILE: is a file, not a folder"),
+    (["--out", "AFILE/run"], "--out AFILE/run: lies under AFILE, a file, not a folder"),
 ])
-def test_bad_arguments_are_refused(capsys, argv, message):
+def test_bad_arguments_are_refused(capsys, argv, message, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "AFILE").write_text("mine")
     with pytest.raises(SystemExit) as e:
         parse_args(["--algo", "ppo", "--task", "bank_to_bank", *argv])
     assert e.value.code == 2
@@ -274,3 +282,14 @@ def test_warm_start_from_the_lqr_flies_free_flight_emulation(tmp_path):
     c, w = cold["final_eval"], warm["final_eval"]
     assert w["mean_return"] > c["mean_return"] + 0.1 * w["max_return"], (c, w)
     assert w["success_rate"] >= c["success_rate"] + 0.25, (c, w)
+
+
+def test_rig_train_refusals_exit_2_in_one_line(tmp_path, capsys):
+    """`rig train`'s refusals raised inside the trainer (SystemExit with the message) exited 1, the others 2; through
+    the `rig` command every refusal is now one line on stderr and exit 2."""
+    from rig_cli.main import main as rig
+
+    assert rig(["train", "--algo", "ppo", "--task", "bank_to_bank", *TINY, "--out", str(tmp_path / "r"), "--env", "turbulance=0.01"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("rig train: environment settings") and "unknown configuration name(s) ['turbulance']" in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "r" / "policy.json").exists()

@@ -135,6 +135,22 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         v = getattr(a, name)
         if v is not None and v < 1:
             p.error(f"--{name.replace('_', '-')} = {v}: must be a positive integer")
+    cpus = os.cpu_count() or 1
+    if a.threads is not None and a.threads > cpus:
+        p.error(f"--threads = {a.threads}: allowed range [1, {cpus}] (this machine's CPUs; more only oversubscribes them)")
+    if a.task is not None:
+        from rig_env.envs.tasks import TASKS
+        from rig_env.params_io import did_you_mean
+
+        if a.task not in TASKS:
+            p.error(f"--task {a.task!r}: unknown{did_you_mean(a.task, sorted(TASKS))}; valid names: {sorted(TASKS)}")
+    if a.out is not None:
+        from rig_env.paths import check_out_folder
+
+        try:
+            check_out_folder("--out", a.out)
+        except ValueError as exc:
+            p.error(str(exc))
     if a.seed < 0 or any(x < 0 for x in a.seeds or ()):
         p.error(f"--seed/--seeds = {a.seeds or a.seed}: must be >= 0")
     if a.seeds is not None and len(set(a.seeds)) != len(a.seeds):
