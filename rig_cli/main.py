@@ -56,8 +56,9 @@ from rig_env.simulate import SimResult, check_static_controls, simulate
 
 DEMO_FREE = ("rig_roll", "model_pitch")
 SETTLE_S = 5.0
-DEMO_MAX_S = 3600.0  # s: rig demo's longest run (about a minute of computing here; 1e5 s ran 17 minutes)
 """Statistics of the steady roll are taken over t >= SETTLE_S (the spin-up lasts about 3 s)."""
+DEMO_MAX_S = 3600.0
+"""s: rig demo's longest run (under a minute of computing here; 1e5 s ran 17 minutes, silent with --quiet)."""
 
 
 @dataclass(frozen=True)
