@@ -67,6 +67,15 @@ def test_streams_equal_the_numpy_splitmix_box_muller(n):
             np.testing.assert_array_equal(z[-1:], rs.normal(keys[-1:], episode[-1:], step[-1:], stream, k))  # alone = in a batch
 
 
+def test_stream_keys_take_64_bit_seeds_and_refuse_wrapping():
+    """env_keys(seed, n) is for seed + n - 1 < 2**64; beyond, a ValueError (it wrapped to seed 0's key)."""
+    top = rs.env_keys(2**64 - 2, 2)
+    assert top[1] == rs.env_keys(2**64 - 1, 1)[0] != rs.env_keys(0, 1)[0]
+    for seed, n in ((2**64, 1), (2**64 - 1, 2), (-1, 1), (True, 1)):
+        with pytest.raises(ValueError, match=r"seed = .*: must be an integer in \[0, 2\*\*64 - "):
+            rs.env_keys(seed, n)
+
+
 def test_normal_draws_are_standard_normal():
     z = rs.normal(rs.env_keys(7, 20000), np.zeros(20000, dtype=np.uint64), 3, rs.S_SENSOR, 10).ravel()
     assert abs(z.mean()) < 4.0 / math.sqrt(z.size)  # 4 standard errors

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -150,16 +151,130 @@ def test_out_of_range_actions_are_clipped_and_nonfinite_raise():
         ({"task_options": {"axis": "heave_pitch"}}, "takes no options"),
         ({"task": "forced_oscillation", "task_options": {"axis": "roll"}}, r"axis.*allowed"),
         ({"task": "forced_oscillation", "task_options": {"amplitude": 3}}, "unknown name"),
+        ({"task": "forced_oscillation", "task_options": {"axis": ["roll"]}}, r"axis.*allowed"),
         ({"task": "forced_oscillation", "task_options": {"axis": "sway_yaw"}, "free_dofs": ("rig_pitch",)}, "rig_yaw"),
         ({"task": "pull_up_push_over", "free_dofs": ("model_pitch",)}, "rig_pitch"),
         ({"task": "free_flight_emulation", "free_dofs": ("rig_pitch",)}, "model_pitch"),
         ({"task": "departure_recovery", "free_dofs": ("rig_roll",)}, "model_pitch"),
         ({"nonlinear_aero": "on"}, "nonlinear_aero"),
+        ({"free_dofs": 5}, r"free_dofs = 5: must be a joint name"),
+        ({"locked_deg": None}, r"locked_deg = None: must be a mapping.*\[-89.0, 89.0\] deg"),
+        ({"locked_deg": [1, 2]}, r"locked_deg = \[1, 2\]: must be a mapping"),
+        ({"task": ["a"]}, r"task = \['a'\]: unknown; valid names"),
+        ({"params_file": str(Path(rig_env.__file__).parent)}, r"params_file = .*: a directory"),
+        ({"params_file": 5}, r"params_file = 5: must be the path"),
+        ({"airspeed": (15, 20, 25)}, r"airspeed = \(15, 20, 25\): must be a number or a \(low, high\) pair, allowed range \[0.0, 40.0\] m/s"),
+        ({"airspeed": "20"}, r"airspeed = '20'"),
+        ({"randomise": None}, r"randomise = None: must be a mapping"),
+        ({"pot_bits": 12.0}, r"pot_bits = 12.0: must be an integer"),
+        ({"control_rate": 7.3, "rate_filter_hz": 10.0}, r"rate_filter_hz = 10.0 Hz: allowed range \[0.1, 3.65\] Hz .*control_rate = 7.3 Hz"),
     ],
 )
 def test_bad_configuration_raises_naming_the_field(fields, match):
-    with pytest.raises(ValueError, match=match):
+    with pytest.raises(ValueError, match=match) as err:
         RigVectorEnv(2, **fields)
+    assert "\n" not in str(err.value)
+
+
+def test_numpy_scalars_are_numbers_and_stored_as_python_numbers():
+    """np.float32 / np.int64 wherever a Python number is accepted (they were 'not iterable' or 'must be an integer')."""
+    fields = dict(airspeed=np.float32(20), control_rate=np.int64(80), episode_seconds=np.float32(1.0), pot_bits=np.int64(10),
+                  encoder_bits=np.int64(12), link_delay_steps=np.int64(2), rate_filter_hz=np.float32(8), turbulence=np.float64(0.01),
+                  angle_noise_deg=np.float32(0.1), locked_deg={"rig_pitch": np.int64(3)}, quantise=np.bool_(True))
+    env = RigEnv(**fields)
+    cfg = env.config
+    assert cfg.airspeed == (20.0, 20.0) and RigEnv(airspeed=np.int64(20)).config.airspeed == (20.0, 20.0)
+    assert (cfg.pot_bits, cfg.encoder_bits, cfg.link_delay_steps) == (10, 12, 2) and type(cfg.pot_bits) is int
+    assert type(cfg.control_rate) is float and type(cfg.rate_filter_hz) is float and cfg.locked_deg == {"rig_pitch": 3.0}
+    assert type(cfg.quantise) is bool
+    plain = RigEnv(airspeed=20.0, control_rate=80, episode_seconds=1.0, pot_bits=10, encoder_bits=12, link_delay_steps=2, rate_filter_hz=8.0,
+                   turbulence=0.01, angle_noise_deg=float(np.float32(0.1)), locked_deg={"rig_pitch": 3.0})
+    assert plain.config == cfg
+    assert _same(env.reset(seed=3)[0], plain.reset(seed=3)[0]) and _same(env.step(np.zeros(3))[0], plain.step(np.zeros(3))[0])
+    from rig_env.envs.render import RigRenderer
+
+    r = RigRenderer(np.int64(640), np.int64(320))  # was 'integers of at least 320 and 160 pixels'
+    assert (r.width, r.height) == (640, 320) and type(r.width) is int
+
+
+@pytest.mark.parametrize("rate", [1.0, 7.3, 19.99])
+def test_control_rates_below_20_hz_derive_the_rate_filter(rate):
+    """The documented control_rate range [1, 2000] Hz holds: below 20 Hz the rate filter's default corner is the
+    Nyquist frequency control_rate / 2 (10 Hz above it), not a refusal blaming rate_filter_hz."""
+    env = RigEnv(control_rate=rate, episode_seconds=3.0)
+    assert env.config.rate_filter_hz == pytest.approx(rate / 2) and env.config.rate_filter_derived
+    env.reset(seed=0)
+    for _ in range(3):
+        obs, rew, term, trunc, _ = env.step(np.zeros(3))
+        assert np.all(np.isfinite(obs)) and 0.0 <= rew <= 1.0 and not term
+    assert RigEnv(control_rate=rate, rate_filter_hz=0.4).config.rate_filter_hz == 0.4  # a given corner is kept
+
+
+def test_rate_filter_default_is_10_hz_from_20_hz_and_follows_the_control_rate():
+    from rig_env.envs.config import RigEnvConfig, default_rate_filter_hz
+
+    assert [RigEnvConfig(control_rate=r).rate_filter_hz for r in (20.0, 80.0, 244.0, 2000.0)] == [10.0] * 4
+    assert default_rate_filter_hz(7.0) == 3.5 and default_rate_filter_hz(80.0) == 10.0
+    slow = RigEnvConfig().with_overrides(control_rate=7.0)  # derived again from the new control rate (was refused)
+    assert slow.rate_filter_hz == 3.5 and slow.with_overrides(control_rate=80.0).rate_filter_hz == 10.0
+    assert RigEnvConfig(rate_filter_hz=2.0).with_overrides(control_rate=7.0).rate_filter_hz == 2.0  # given: kept
+    assert RigVectorEnv(1, RigEnvConfig(), control_rate=7.0).config.rate_filter_hz == 3.5
+
+
+def test_seeds_beyond_64_bits_are_refused_not_wrapped():
+    """2**64 replayed seed 0 (and env 1 of a batch seeded 2**64 - 1 too): refused, naming seed and its range."""
+    env = RigEnv()
+    with pytest.raises(ValueError, match=r"seed = 18446744073709551616: allowed range \[0, 18446744073709551615\]"):
+        env.reset(seed=2**64)
+    top = env.reset(seed=2**64 - 1)[0]
+    assert not _same(top, env.reset(seed=0)[0])
+    vec = RigVectorEnv(2)
+    with pytest.raises(ValueError, match=r"seed = 18446744073709551615: allowed range \[0, 18446744073709551614\]"):
+        vec.reset(seed=2**64 - 1)
+    obs = vec.reset(seed=2**64 - 2)[0]
+    assert _same(obs[1], top)  # environment 1 is RigEnv's seed + 1, still below 2**64
+    with pytest.raises(gym.error.Error, match="greater or equal to zero"):  # negative: Gymnasium's own refusal
+        env.reset(seed=-1)
+    with pytest.raises(gym.error.Error, match="greater or equal to zero"):
+        vec.reset(seed=-1)
+
+
+@pytest.mark.parametrize(
+    "action, match",
+    [
+        ("abc", r"action: expected real numbers, shape \(3,\) \(comp_aileron, comp_elevator, comp_rudder\), got str 'abc'"),
+        (np.array([0.5 + 1j, 0.0, 0.0]), r"action: .*got complex numbers"),
+        ([0.5 + 0j, 0.0, 0.0], r"action: .*got complex numbers"),
+        ([None, 0.0, 0.0], r"action: expected real numbers"),
+        ([[0.0], 0.0, 0.0], r"action: expected real numbers"),
+        (np.zeros(6), r"action: expected real numbers, shape \(3,\).*got shape \(6,\)"),
+    ],
+)
+def test_bad_actions_are_refused_naming_the_action_and_its_shape(action, match):
+    env = RigEnv()
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=match) as err:
+        env.step(action)
+    assert "\n" not in str(err.value)
+    assert math.isfinite(env.step(np.array([np.float32(0.1), 0, 0.2], dtype=object))[1])  # objects that are numbers step
+
+
+def test_bad_actions_of_a_batch_and_of_the_sb3_adapter_name_the_expected_shape():
+    pytest.importorskip("stable_baselines3")
+    from rig_env.envs.sb3 import RigSB3VecEnv
+
+    vec = RigVectorEnv(2)
+    vec.reset(seed=0)
+    for bad, got in ((np.full((2, 3), "a"), "got ndarray"), (np.zeros((2, 3), dtype=complex), "got complex numbers"), (np.zeros(3), "got shape")):
+        with pytest.raises(ValueError, match=rf"actions: expected real numbers, shape \(2, 3\) \(comp_aileron, comp_elevator, comp_rudder\), {got}"):
+            vec.step(bad)
+    sb3 = RigSB3VecEnv(2)
+    sb3.reset()
+    with pytest.raises(ValueError, match=r"actions: expected real numbers, shape \(2, 3\) .*got shape \(3,\)"):  # was numpy's reshape error
+        sb3.step(np.zeros(3))
+    with pytest.raises(ValueError, match=r"actions: .*got complex numbers"):
+        sb3.step(np.zeros((2, 3), dtype=complex))
+    assert sb3.step(np.zeros(6))[0].shape == (2, 13)  # the flat actions of the batch are reshaped, as before
 
 
 def test_bad_configuration_through_gymnasium_make():

@@ -77,3 +77,28 @@ def test_a_gymnasium_vector_env_is_pointed_at_the_adapter():
         RigSB3VecEnv.wrap(RigVectorEnv(1, autoreset_mode=AutoresetMode.NEXT_STEP))
     model = PPO("MlpPolicy", as_sb3_vec_env(vec), n_steps=8, batch_size=8, device="cpu")
     assert model.get_env().num_envs == 2
+
+
+@pytest.mark.parametrize("mode", ["NextStep", AutoresetMode.NEXT_STEP])
+def test_next_step_autoreset_is_refused_on_the_keyword_path_too(mode):
+    """RigSB3VecEnv(n, autoreset_mode=NEXT_STEP) built and then failed with KeyError 'final_info' at the first
+    episode end: refused at construction, as RigSB3VecEnv.wrap refuses a next-step batch."""
+    with pytest.raises(ValueError, match="same-step autoreset"):
+        RigSB3VecEnv(1, autoreset_mode=mode, episode_seconds=0.05)
+    with pytest.raises(ValueError, match="autoreset_mode = 'Bogus'"):
+        RigSB3VecEnv(1, autoreset_mode="Bogus")
+    env = RigSB3VecEnv(1, autoreset_mode="SameStep", episode_seconds=0.05)  # same-step by name is SB3's protocol
+    env.reset()
+    dones = [env.step(np.zeros((1, 3)))[2][0] for _ in range(5)]
+    assert dones == [False, False, False, True, False]
+
+
+def test_spec_of_a_slow_batch_derives_its_rate_filter_again():
+    """A rate filter derived from the control rate is not recorded as an override: the spec's environment
+    derives it the same way (and a changed control_rate in the spec derives it anew)."""
+    env = RigSB3VecEnv(1, control_rate=7.0)
+    spec = env.get_attr("spec")[0]
+    assert spec.kwargs == {"task": "velocity_vector_roll", "control_rate": 7.0}
+    assert gym.make(spec).unwrapped.config.rate_filter_hz == 3.5 == env.vec.config.rate_filter_hz
+    given = RigSB3VecEnv(1, control_rate=7.0, rate_filter_hz=2.0).get_attr("spec")[0]
+    assert given.kwargs["rate_filter_hz"] == 2.0

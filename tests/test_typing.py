@@ -51,3 +51,84 @@ def test_mypy_strict_passes_on_the_readme_examples(tmp_path: Path) -> None:
                        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
     notes = [line for line in r.stdout.splitlines() if "Revealed type" in line]
     assert len(notes) == 3 and all('"def (' in n for n in notes), r.stdout
+
+
+def _defined_functions(obj: object, module: str) -> list[tuple[str, object]]:
+    """(name, function) of the public functions of a module or the public methods of a class (classmethods,
+    staticmethods and properties unwrapped, ``__init__`` included), defined in ``module`` (not inherited)."""
+    import inspect
+
+    out = []
+    for name, a in vars(obj).items():
+        if name.startswith("_") and name != "__init__":
+            continue
+        if isinstance(a, (classmethod, staticmethod)):
+            a = a.__func__
+        elif isinstance(a, property):
+            a = a.fget
+        a = getattr(a, "py_func", a)  # a numba kernel: its Python function
+        if inspect.isfunction(a) and a.__module__ == module:
+            out.append((name, a))
+    return out
+
+
+def _unannotated(f: object) -> list[str]:
+    import inspect
+
+    sig = inspect.signature(f)  # type: ignore[arg-type]
+    params = list(sig.parameters.values())
+    bad = [p.name for i, p in enumerate(params) if p.annotation is inspect.Parameter.empty and not (i == 0 and p.name in ("self", "cls"))]
+    return bad + (["return"] if sig.return_annotation is inspect.Signature.empty else [])
+
+
+def test_public_functions_and_methods_of_the_environments_are_annotated() -> None:
+    """Every public function and public method of a public class in rig_env.envs (tasks included) has a
+    type for each parameter and its return: a user's mypy sees real signatures, not Any."""
+    import importlib
+    import inspect
+    import pkgutil
+
+    import rig_env.envs
+
+    names = ["rig_env.envs"] + [m.name for m in pkgutil.walk_packages(rig_env.envs.__path__, "rig_env.envs.")]
+    assert "rig_env.envs.tasks.roll" in names
+    if importlib.util.find_spec("stable_baselines3") is None:
+        names.remove("rig_env.envs.sb3")
+    missing = []
+    checked = 0
+    for mod_name in names:
+        mod = importlib.import_module(mod_name)
+        for name, obj in vars(mod).items():
+            if name.startswith("_") or getattr(obj, "__module__", None) != mod_name:
+                continue
+            found = _defined_functions(obj, mod_name) if inspect.isclass(obj) else _defined_functions(mod, mod_name)
+            for fname, f in found:
+                if inspect.isclass(obj) or fname == name:
+                    checked += 1
+                    if _unannotated(f):
+                        missing.append(f"{mod_name}.{name}{'.' + fname if inspect.isclass(obj) else ''}: {_unannotated(f)}")
+    assert checked > 150 and not missing, "\n".join(missing)
+
+
+def test_task_overrides_have_the_base_task_signatures() -> None:
+    """A task's override of a public ``Task`` method (reward, tracked, success, display, ...) declares the base
+    method's signature: the same parameters and annotations, the same return (or one member of the base's
+    union: ``driven_joint`` -> ``str`` of ``str | None``)."""
+    import inspect
+
+    from rig_env.envs.tasks import TASKS, Task
+
+    base = dict(_defined_functions(Task, Task.__module__))
+    differ = []
+    overrides = 0
+    for cls in TASKS.values():
+        for name, f in _defined_functions(cls, cls.__module__):
+            if name in base and name != "__init__":
+                overrides += 1
+                sig, ref = inspect.signature(f), inspect.signature(base[name])  # type: ignore[arg-type]
+                ret = sig.return_annotation == ref.return_annotation or sig.return_annotation in str(ref.return_annotation).split(" | ")
+                if sig.parameters != ref.parameters or not ret:
+                    differ.append(f"{cls.__name__}.{name}{inspect.signature(f)} != Task.{name}{inspect.signature(base[name])}")  # type: ignore[arg-type]
+            elif not name.startswith("_") and _unannotated(f):
+                differ.append(f"{cls.__name__}.{name}: no annotation for {_unannotated(f)}")
+    assert overrides >= 21 and not differ, "\n".join(differ)

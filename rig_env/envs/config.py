@@ -8,9 +8,9 @@ Errors are ``ValueError`` naming the field and its allowed range.  ``None`` in a
 |---|---|---|---|
 | task | "velocity_vector_roll" | name in ``tasks.TASKS`` | the task object |
 | task_options | {} | name -> value, checked by the task | e.g. ``{"axis": "sway_yaw"}`` for forced_oscillation |
-| free_dofs | None (task's) | subset of rig_env.JOINTS | free joints; the others are locked |
+| free_dofs | None (task's) | a name or a sequence of distinct names of rig_env.JOINTS | free joints; the others are locked |
 | locked_deg | {} | joint -> deg, [-89, 89] | angles of locked joints (default 0) |
-| airspeed | None (task's) | m/s, float or (lo, hi), [0, 40] | tunnel speed, drawn per episode |
+| airspeed | None (task's) | m/s, a number or a (lo, hi) pair, [0, 40] | tunnel speed, drawn per episode |
 | control_rate | 80.0 | Hz, [1, 2000] | real-time loop rate (244 for the later rig) |
 | physics_dt | None | s | physics step; control step must be an integer multiple |
 | episode_seconds | None (task's) | s, (0, 600] | time limit (truncation) |
@@ -20,7 +20,7 @@ Errors are ``ValueError`` naming the field and its allowed range.  ``None`` in a
 | quantise | True | bool | pots 12-bit over 360 deg, encoders 13-bit (0.044 deg) |
 | pot_bits, encoder_bits | 12, 13 | [6, 24] | converter resolution over one turn |
 | link_delay_steps | 1 | control steps, [0, 50] | wireless telemetry delay |
-| rate_filter_hz | 10.0 | Hz, [0.1, control_rate / 2] | low-pass of the rate estimate |
+| rate_filter_hz | None: min(10, control_rate / 2) | Hz, [0.1, control_rate / 2] | low-pass of the rate estimate (None: 10 Hz, or the Nyquist frequency below 20 Hz control rates; the attribute holds the value in use) |
 | turbulence | 0.0 | fraction of airspeed, [0, 0.3] | gust intensity (1 sigma, per axis) |
 | turbulence_model | "gauss_markov" | "gauss_markov", "dryden" or "von_karman" | gust spectrum: first-order Gauss-Markov per world axis (correlation time ``turbulence_tau``), or Dryden's or von Karman's longitudinal, lateral and vertical forms at length scale ``turbulence_scale`` (von Karman's within 0.5 % up to T omega = 100, T = L / V: :mod:`rig_env.turbulence`) |
 | turbulence_tau | 0.2 | s, [0.01, 10] | gust correlation time (gauss_markov) |
@@ -30,7 +30,7 @@ Errors are ``ValueError`` naming the field and its allowed range.  ``None`` in a
 | hawk_surfaces | False | bool | Hawk elevator, aileron, rudder are actions too |
 | aero_model | None (task's) | "linear", "tables" or "unsteady" | aerodynamic model: stability derivatives, static high-incidence tables, or the tables through the Hawk's flow-separation state (departure_recovery: "tables" by default) |
 | nonlinear_aero | None | bool | older name: True is aero_model "tables", False "linear" (contradicting aero_model is an error) |
-| params_file | None | path | rig parameter file (None: the default rig) |
+| params_file | None | path of a file | rig parameter file (None: the default rig) |
 | pilot_inputs | None | ``rig_env.signals.InputSchedule``, deg | test inputs flown from every episode's start instead of the task's pilot inputs (below) |
 
 ``pilot_inputs``: at each control step the schedule is evaluated at the episode's time and held (as
@@ -42,14 +42,23 @@ clip the sum.  So a schedule flies in an environment as in the rig's loop, where
 to the law's command before the output limits.  The task's reference, reward and success still follow
 the task's own pilot input (free_flight_emulation's free-Hawk model flies its own 3-2-1-1), so a
 schedule is for identification and test runs, not for scoring those tasks.
+
+Numbers may be Python's or numpy's (``np.float32(20)``, ``np.int64(2)``); they are stored as Python
+``float`` and ``int``.  ``rate_filter_hz`` None (the default) is :func:`default_rate_filter_hz` of the
+control rate, resolved on construction: ``config.rate_filter_hz`` is the corner in use, and
+:meth:`RigEnvConfig.with_overrides` derives it again from a new ``control_rate`` unless it was given.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
+import os
 from dataclasses import dataclass, field
 from typing import Any, Mapping
+
+import numpy as np
 
 from rig_env.params import JOINTS, PARAM_INDEX
 from rig_env.physics.pipeline import check_aero_model, resolve_aero_model
@@ -57,10 +66,30 @@ from rig_env.signals import InputSchedule
 from rig_env.turbulence import SCALE_RANGE, SPECTRAL_MODELS, TUNNEL_SCALE, TURBULENCE_MODELS
 
 MAX_AIRSPEED = 40.0  # m/s: the Bristol 7x5 ft tunnel's working range for the rig
+RATE_FILTER_HZ = 10.0
+"""Hz: the rate estimate's low-pass corner on the rig (its 80 and 244 Hz loops)."""
+
+
+def default_rate_filter_hz(control_rate: float) -> float:
+    """Hz: the rate filter's corner when ``rate_filter_hz`` is None: ``RATE_FILTER_HZ`` (10 Hz), or the Nyquist
+    frequency ``control_rate / 2`` at control rates below 20 Hz (the highest corner a sampled filter has; there
+    the backward difference over the long control step already averages the rate).  10 Hz at every rate from
+    20 Hz: environments at those rates are those of a fixed 10 Hz corner."""
+    return min(RATE_FILTER_HZ, float(control_rate) / 2.0)
+
+
+def _is_number(v: Any) -> bool:
+    """A real number, Python's or numpy's (``numbers.Real``, which numpy's bool is not), not a bool."""
+    return isinstance(v, numbers.Real) and not isinstance(v, bool)
+
+
+def _is_integer(v: Any) -> bool:
+    """An integer, Python's or numpy's (not a bool)."""
+    return isinstance(v, numbers.Integral) and not isinstance(v, bool)
 
 
 def _range(name: str, v: Any, lo: float, hi: float, unit: str = "", lo_open: bool = False) -> None:
-    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    ok = _is_number(v) and math.isfinite(v)
     ok = ok and (lo < v if lo_open else lo <= v) and v <= hi
     if not ok:
         br = "(" if lo_open else "["
@@ -86,7 +115,10 @@ class RigEnvConfig:
     pot_bits: int = 12
     encoder_bits: int = 13
     link_delay_steps: int = 1
-    rate_filter_hz: float = 10.0
+    rate_filter_hz: float | None = None
+    """Hz: corner of the rate estimate's low-pass, [0.1, control_rate / 2].  None (the default):
+    :func:`default_rate_filter_hz`, 10 Hz, or ``control_rate / 2`` (the Nyquist frequency) below 20 Hz; the
+    attribute then holds that value, derived again by :meth:`with_overrides` from a new ``control_rate``."""
     turbulence: float = 0.0
     turbulence_model: str = "gauss_markov"
     turbulence_tau: float = 0.2
@@ -102,56 +134,88 @@ class RigEnvConfig:
     def __post_init__(self) -> None:
         from rig_env.envs.tasks import TASKS  # late: tasks import this module
 
-        if self.task not in TASKS:
+        if not isinstance(self.task, str) or self.task not in TASKS:
             raise ValueError(f"task = {self.task!r}: unknown; valid names: {sorted(TASKS)}")
         if not isinstance(self.task_options, Mapping):
             raise ValueError(f"task_options = {self.task_options!r}: must be a mapping of option names to values")
         TASKS[self.task].check_options(self.task_options)  # ValueError naming a bad option; defaults stay the task's
         object.__setattr__(self, "task_options", dict(self.task_options))
         if self.free_dofs is not None:
-            fd = (self.free_dofs,) if isinstance(self.free_dofs, str) else tuple(self.free_dofs)
-            bad = [j for j in fd if j not in JOINTS]
-            if bad or not fd or len(set(fd)) != len(fd):
-                raise ValueError(f"free_dofs = {list(fd)}: must be distinct names from {list(JOINTS)}, at least one")
+            try:
+                fd = (self.free_dofs,) if isinstance(self.free_dofs, str) else tuple(self.free_dofs)
+            except TypeError:
+                fd = None
+            if fd is None or not fd or any(j not in JOINTS for j in fd) or len(set(fd)) != len(fd):
+                shown = list(fd) if fd else self.free_dofs
+                raise ValueError(f"free_dofs = {shown!r}: must be a joint name or distinct names from {list(JOINTS)}, at least one")
             object.__setattr__(self, "free_dofs", tuple(j for j in JOINTS if j in fd))
-        locked = dict(self.locked_deg)
+        try:
+            locked = dict(self.locked_deg)
+        except (TypeError, ValueError):
+            raise ValueError(f"locked_deg = {self.locked_deg!r}: must be a mapping of joint names to angles, "
+                             "deg, each in [-89.0, 89.0] deg (e.g. {'rig_pitch': 5.0})") from None
         for j, a in locked.items():
             if j not in JOINTS:
                 raise ValueError(f"locked_deg: unknown joint {j!r}; valid names: {list(JOINTS)}")
             _range(f"locked_deg[{j!r}]", a, -89.0, 89.0, "deg")
+            locked[j] = float(a)
         object.__setattr__(self, "locked_deg", locked)
         if self.airspeed is not None:
-            a = self.airspeed
-            lo, hi = (a, a) if isinstance(a, (int, float)) else tuple(a)
+            spd: Any = self.airspeed
+            pair: Any = (spd, spd) if _is_number(spd) else None
+            if pair is None and not isinstance(spd, (str, bytes)):
+                try:
+                    pair = tuple(spd)
+                except TypeError:
+                    pass
+            if pair is None or len(pair) != 2:
+                raise ValueError(f"airspeed = {spd!r}: must be a number or a (low, high) pair, allowed range [0.0, {MAX_AIRSPEED}] m/s")
+            lo, hi = pair
             _range("airspeed (low)", lo, 0.0, MAX_AIRSPEED, "m/s")
             _range("airspeed (high)", hi, lo, MAX_AIRSPEED, "m/s")
             object.__setattr__(self, "airspeed", (float(lo), float(hi)))
         _range("control_rate", self.control_rate, 1.0, 2000.0, "Hz")
+        object.__setattr__(self, "control_rate", float(self.control_rate))
         if self.physics_dt is not None:
             _range("physics_dt", self.physics_dt, 1e-6, 0.05, "s")
+            object.__setattr__(self, "physics_dt", float(self.physics_dt))
             ratio = 1.0 / (self.control_rate * self.physics_dt)
             if abs(ratio - round(ratio)) > 1e-9 * ratio or round(ratio) < 1:
                 raise ValueError(f"physics_dt = {self.physics_dt} s: the control step 1/{self.control_rate} s must be an integer multiple of it")
         if self.episode_seconds is not None:
             _range("episode_seconds", self.episode_seconds, 0.0, 600.0, "s", lo_open=True)
+            object.__setattr__(self, "episode_seconds", float(self.episode_seconds))
         _range("angle_noise_deg", self.angle_noise_deg, 0.0, 5.0, "deg")
         _range("flap_noise_deg", self.flap_noise_deg, 0.0, 5.0, "deg")
         _range("airspeed_noise", self.airspeed_noise, 0.0, 5.0, "m/s")
         for name in ("pot_bits", "encoder_bits", "link_delay_steps"):
             v = getattr(self, name)
-            if not isinstance(v, int) or isinstance(v, bool):
+            if not _is_integer(v):
                 raise ValueError(f"{name} = {v!r}: must be an integer")
+            object.__setattr__(self, name, int(v))
         _range("pot_bits", self.pot_bits, 6, 24)
         _range("encoder_bits", self.encoder_bits, 6, 24)
         _range("link_delay_steps", self.link_delay_steps, 0, 50, "control steps")
-        _range("rate_filter_hz", self.rate_filter_hz, 0.1, self.control_rate / 2.0, "Hz")
+        nyquist, rf = self.control_rate / 2.0, self.rate_filter_hz
+        object.__setattr__(self, "_rate_filter_derived", rf is None)
+        if rf is None:
+            object.__setattr__(self, "rate_filter_hz", default_rate_filter_hz(self.control_rate))
+        elif not (_is_number(rf) and math.isfinite(rf) and 0.1 <= rf <= nyquist):
+            raise ValueError(f"rate_filter_hz = {rf!r} Hz: allowed range [0.1, {nyquist:g}] Hz (at most control_rate / 2 "
+                             f"at control_rate = {self.control_rate:g} Hz; None: {default_rate_filter_hz(self.control_rate):g} Hz)")
         _range("turbulence", self.turbulence, 0.0, 0.3, "(fraction of airspeed)")
-        if self.turbulence_model not in TURBULENCE_MODELS:
+        if not isinstance(self.turbulence_model, str) or self.turbulence_model not in TURBULENCE_MODELS:
             raise ValueError(f"turbulence_model = {self.turbulence_model!r}: one of {list(TURBULENCE_MODELS)}")
         _range("turbulence_tau", self.turbulence_tau, 0.01, 10.0, "s")
         _range("turbulence_scale", self.turbulence_scale, SCALE_RANGE[0], SCALE_RANGE[1], "m")
+        for name in ("angle_noise_deg", "flap_noise_deg", "airspeed_noise", "rate_filter_hz", "turbulence", "turbulence_tau", "turbulence_scale"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+        try:
+            randomise = dict(self.randomise)
+        except (TypeError, ValueError):
+            raise ValueError(f"randomise = {self.randomise!r}: must be a mapping of parameter names to (low, high) pairs, file units") from None
         rnd: dict[str, tuple[float, float]] = {}
-        for name, bounds in dict(self.randomise).items():
+        for name, bounds in randomise.items():
             if name not in PARAM_INDEX:
                 raise ValueError(f"randomise: unknown parameter {name!r}; valid names: rig_env.PARAM_NAMES")
             try:
@@ -167,9 +231,18 @@ class RigEnvConfig:
                              "(InputSchedule.from_data / load build one from plain data)")
         for name in ("quantise", "hawk_surfaces", "turbulence_convected", "nonlinear_aero"):
             v = getattr(self, name)
-            if not isinstance(v, bool) and not (name in ("nonlinear_aero", "turbulence_convected") and v is None):
+            if not isinstance(v, (bool, np.bool_)) and not (name in ("nonlinear_aero", "turbulence_convected") and v is None):
                 default = {"nonlinear_aero": " (or None: the task's default)", "turbulence_convected": " (or None: the turbulence model's default)"}
                 raise ValueError(f"{name} = {v!r}: must be True or False" + default.get(name, ""))
+            if v is not None:
+                object.__setattr__(self, name, bool(v))
+        if self.params_file is not None:
+            pf = self.params_file
+            if not isinstance(pf, (str, os.PathLike)):
+                raise ValueError(f"params_file = {pf!r}: must be the path (str or pathlib.Path) of a rig parameter file, or None (the default rig)")
+            if os.path.exists(pf) and not os.path.isfile(pf):
+                kind = "a directory" if os.path.isdir(pf) else "not a regular file"
+                raise ValueError(f"params_file = {os.fspath(pf)!r}: {kind}; must be the path of a rig parameter file (.toml), or None (the default rig)")
         if self.aero_model is not None:
             check_aero_model(self.aero_model)  # ValueError naming aero_model and the allowed values
             resolve_aero_model(self.aero_model, self.nonlinear_aero)  # and the older switch must not contradict it
@@ -181,10 +254,18 @@ class RigEnvConfig:
         always were)."""
         return self.turbulence_model in SPECTRAL_MODELS if self.turbulence_convected is None else self.turbulence_convected
 
+    @property
+    def rate_filter_derived(self) -> bool:
+        """Whether ``rate_filter_hz`` was derived from the control rate (given as None), not set."""
+        return bool(getattr(self, "_rate_filter_derived", False))
+
     def with_overrides(self, **overrides: Any) -> "RigEnvConfig":
-        """A copy with fields replaced; an unknown name is a ValueError listing the valid ones."""
+        """A copy with fields replaced; an unknown name is a ValueError listing the valid ones.  A derived
+        ``rate_filter_hz`` (given as None) is derived again, from the copy's ``control_rate``."""
         valid = {f.name for f in dataclasses.fields(self)}
         unknown = sorted(set(overrides) - valid)
         if unknown:
             raise ValueError(f"unknown configuration name(s) {unknown}; valid names: {sorted(valid)}")
+        if self.rate_filter_derived and "rate_filter_hz" not in overrides:
+            overrides = {**overrides, "rate_filter_hz": None}
         return dataclasses.replace(self, **overrides)

@@ -9,7 +9,7 @@ import numpy as np
 
 from rig_env.envs.config import RigEnvConfig
 from rig_env.envs.render import RENDER_MODES
-from rig_env.envs.vector_env import RigVectorEnv
+from rig_env.envs.vector_env import RigVectorEnv, action_array, check_seed
 
 
 class RigEnv(gym.Env):
@@ -32,7 +32,8 @@ class RigEnv(gym.Env):
     | 2 | compensator rudder | +-40 deg |
     | 3-5 | Hawk elevator, aileron, rudder (``hawk_surfaces`` only; the task's pilot input is added) | +-40 deg |
 
-    Out-of-range values are clipped to [-1, 1]; NaN or inf raises ``ValueError``.  The servos then add
+    Out-of-range values are clipped to [-1, 1]; NaN or inf, a wrong shape, strings or complex numbers raise
+    ``ValueError``.  The servos then add
     their delay, lag, rate limit and +-40 deg stop (rig_env.physics.servo).  A ``pilot_inputs`` schedule
     (:class:`rig_env.signals.InputSchedule`) replaces the task's pilot inputs on the Hawk surfaces and is
     added to the compensator commands (:mod:`rig_env.envs.config`).
@@ -74,6 +75,8 @@ class RigEnv(gym.Env):
     ## Seeding
 
     ``reset(seed=s)`` runs exactly as environment ``j`` of a ``RigVectorEnv`` reset with seed ``s - j``.
+    Seeds are in ``[0, 2**64 - 1]``: a larger one is a ``ValueError`` (it would wrap round to a small seed's
+    episodes); negative seeds and non-``int`` types are refused as by Gymnasium.
 
     ## Rendering
 
@@ -99,6 +102,7 @@ class RigEnv(gym.Env):
         self._next: tuple[np.ndarray, dict[str, Any]] | None = None  # the autoreset episode, after an end
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        check_seed(seed, 1)
         super().reset(seed=seed)
         if seed is None and options is None and self._next is not None:
             obs, info = self._next  # the batch already started the next episode of this stream
@@ -115,9 +119,7 @@ class RigEnv(gym.Env):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self._next is not None:
             raise RuntimeError("the episode has ended: call reset() before step()")
-        a = np.asarray(action, dtype=np.float64)
-        if a.shape != self.action_space.shape:
-            raise ValueError(f"action: expected shape {self.action_space.shape} ({', '.join(self.action_names)}), got {a.shape}")
+        a = action_array(action, (len(self.action_names),), self.action_names, "action")
         obs, rew, term, trunc, infos = self.vec.step(a[None])
         info: dict[str, Any] = {}
         if term[0] or trunc[0]:

@@ -35,6 +35,7 @@ nothing; the environment runs on and ``render()`` returns None.
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -186,8 +187,10 @@ class RigRenderer:
     """
 
     def __init__(self, width: int = 1024, height: int = 448, task: str = "") -> None:
-        if not (isinstance(width, int) and isinstance(height, int) and width >= 320 and height >= 160):
+        ints = all(isinstance(v, numbers.Integral) and not isinstance(v, bool) for v in (width, height))  # numpy's too
+        if not (ints and width >= 320 and height >= 160):
             raise ValueError(f"width, height = {width!r}, {height!r}: integers of at least 320 and 160 pixels")
+        width, height = int(width), int(height)
         self.task, self.width, self.height = task, width, height
         self.fig = Figure(figsize=(width / _DPI, height / _DPI), dpi=_DPI, facecolor="white")
         self.canvas = FigureCanvasAgg(self.fig)

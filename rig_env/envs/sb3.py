@@ -34,14 +34,17 @@ from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
 from rig_env.envs.config import RigEnvConfig
-from rig_env.envs.vector_env import RigVectorEnv
+from rig_env.envs.vector_env import RigVectorEnv, _autoreset_mode, action_array
 
 
 class RigSB3VecEnv(VecEnv):
     """``RigSB3VecEnv(num_envs, config=None, render_mode=None, **fields)`` or ``RigSB3VecEnv.wrap(vector_env)``.
 
     ``fields``: :class:`rig_env.envs.config.RigEnvConfig` fields; ``render_mode`` None, "rgb_array" or
-    "human".  The batch is always same-step (SB3's protocol); a wrapped ``RigVectorEnv`` must be too.
+    "human".  The batch is always same-step (SB3's protocol); a wrapped ``RigVectorEnv`` must be too, and
+    ``autoreset_mode`` among the fields anything but same-step is a ``ValueError``.  Actions are
+    ``(num_envs, n_actions)`` (an array of that size in another shape is reshaped to it); anything else, or
+    strings or complex numbers, is a ``ValueError`` naming the expected shape.
     """
 
     def __init__(
@@ -53,12 +56,13 @@ class RigSB3VecEnv(VecEnv):
         render_mode: str | None = None,
         **fields: Any,
     ) -> None:
-        if vec is not None and vec.metadata["autoreset_mode"] is not AutoresetMode.SAME_STEP:
+        mode = vec.metadata["autoreset_mode"] if vec is not None else _autoreset_mode(fields.get("autoreset_mode", AutoresetMode.SAME_STEP))
+        if mode is not AutoresetMode.SAME_STEP:
             raise ValueError("RigSB3VecEnv: the RigVectorEnv must use same-step autoreset (SB3's protocol), not next-step")
         self.vec = vec if vec is not None else RigVectorEnv(num_envs, config, render_mode=render_mode, **fields)
         super().__init__(self.vec.num_envs, self.vec.single_observation_space, self.vec.single_action_space)
         self.metadata = {**self.metadata, "render_fps": self.vec.metadata["render_fps"]}  # VecVideoRecorder's frame rate
-        self._actions: np.ndarray | None = None
+        self._actions: Any = None
 
     @classmethod
     def wrap(cls, vec: RigVectorEnv) -> "RigSB3VecEnv":
@@ -81,13 +85,14 @@ class RigSB3VecEnv(VecEnv):
         return obs
 
     def step_async(self, actions: np.ndarray) -> None:
-        self._actions = np.asarray(actions)
+        self._actions = actions  # checked by step_wait (ValueError naming the expected shape)
 
     def step_wait(self) -> VecEnvStepReturn:
         if self._actions is None:
             raise RuntimeError("step_async must be called before step_wait")
-        obs, rew, term, trunc, infos = self.vec.step(self._actions.reshape(self.num_envs, -1))
-        self._actions = None
+        actions, self._actions = self._actions, None
+        a = action_array(actions, (self.num_envs, len(self.vec.action_names)), self.vec.action_names, exact=False)
+        obs, rew, term, trunc, infos = self.vec.step(a)
         tl = trunc & ~term
         out: list[dict[str, Any]] = [{"TimeLimit.truncated": bool(tl[i])} for i in range(self.num_envs)]
         if infos:
@@ -148,6 +153,8 @@ def env_spec(vec: RigVectorEnv) -> EnvSpec:
     register_envs()
     cfg, default = vec.config, RigEnvConfig()
     kwargs = {f.name: getattr(cfg, f.name) for f in dataclasses.fields(cfg) if getattr(cfg, f.name) != getattr(default, f.name)}
+    if cfg.rate_filter_derived:  # derived from the control rate: so it is again
+        kwargs.pop("rate_filter_hz", None)
     env_id = next((i for i, kw in ENV_IDS.items() if kw.get("task") == cfg.task), "rig_env/ManoeuvreRig-v0")
     kwargs = {**ENV_IDS[env_id], "task": cfg.task, **kwargs}  # as gymnasium.make records them: the id's, then the overrides
     if vec.render_mode is not None:

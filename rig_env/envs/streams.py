@@ -66,10 +66,11 @@ def _mix(x: np.ndarray) -> np.ndarray:
 
 
 def env_keys(seed: int, n: int) -> np.ndarray:
-    """(n,) uint64 keys of environments 0..n-1 of a batch seeded with ``seed`` (env i: seed + i)."""
-    if not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed = {seed!r}: must be a non-negative integer")
-    s = (np.arange(n, dtype=np.uint64) + np.uint64(int(seed) % (1 << 64)))
+    """(n,) uint64 keys of environments 0..n-1 of a batch seeded with ``seed`` (env i: seed + i), ``seed`` in
+    ``[0, 2**64 - n]`` (so that every seed + i is 64-bit; ValueError otherwise, never a wrap)."""
+    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or not 0 <= int(seed) <= (1 << 64) - n:
+        raise ValueError(f"seed = {seed!r}: must be an integer in [0, 2**64 - {n}] ({(1 << 64) - n})")
+    s = (np.arange(n, dtype=np.uint64) + np.uint64(int(seed)))
     with np.errstate(over="ignore"):
         return _mix(s * _GOLD + _GOLD)
 

@@ -14,7 +14,9 @@ counter-based function of (stream, episode number, control step) (:mod:`rig_env.
 environment ``i`` of a batch reset with seed ``s`` runs exactly as ``RigEnv`` reset with seed
 ``s + i``, also across automatic resets (each reset advances that environment's episode number;
 ``reset(seed=None)`` advances every environment's).  ``reset(seed=None)`` before any seeded reset draws
-``s`` from the batch generator ``self.np_random``.
+``s`` from the batch generator ``self.np_random``.  Seeds are 64-bit: a batch of ``n`` takes seeds in
+``[0, 2**64 - n]`` (so that ``s + n - 1`` is one), a larger seed is a ``ValueError`` (it would wrap round to
+replay a small seed's episodes); negative seeds and non-``int`` types are refused as by Gymnasium.
 
 Autoreset (``autoreset_mode``, also ``metadata["autoreset_mode"]``; Gymnasium's two modes):
 
@@ -39,7 +41,8 @@ registered spec, so the batch ends episodes where ``gymnasium.make``'s ``TimeLim
 
 Actions are ``(num_envs, 3)`` (``(num_envs, 6)`` with ``hawk_surfaces``): compensator aileron,
 elevator, rudder (then Hawk elevator, aileron, rudder), each in [-1, 1] for +-40 deg.  Out-of-range
-values are clipped; a non-finite value raises ``ValueError``.  The task's pilot inputs
+values are clipped; a non-finite value, a wrong shape or anything but real numbers (strings, complex
+numbers) raises ``ValueError``.  The task's pilot inputs
 (:meth:`rig_env.envs.tasks.Task.pilot_inputs`: 3-2-1-1s, pulses) are the Hawk surface commands, held
 over each control step; with ``hawk_surfaces`` they are added to the action's Hawk commands.  A
 configuration's ``pilot_inputs`` schedule (:class:`rig_env.signals.InputSchedule`, evaluated at each
@@ -51,6 +54,7 @@ Observations are float32, see :class:`rig_env.envs.env.RigEnv` for the table.
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Any
 
 import numpy as np
@@ -60,7 +64,7 @@ from gymnasium.vector.utils import batch_space
 from numba import njit
 
 from rig_env.envs import streams as rs
-from rig_env.envs.config import RigEnvConfig
+from rig_env.envs.config import RigEnvConfig, default_rate_filter_hz
 from rig_env.envs.metrics import StepMetrics
 from rig_env.envs.observation import observe
 from rig_env.envs.render import RENDER_MODES, EnvFrames, EnvViewer, check_render_mode
@@ -119,6 +123,44 @@ def _episode_ends(status, beyond, steps, max_steps, reward, terminated, truncate
         reward_out[i] = 0.0 if te else reward[i]
         any_done |= te or tr
     return any_done
+
+
+SEED_LIMIT = 2**64
+"""Seeds are below this (64-bit stream keys): environment ``i`` of a batch takes ``seed + i``."""
+
+
+def check_seed(seed: Any, num_envs: int) -> None:
+    """ValueError naming ``seed`` and its range ``[0, 2**64 - num_envs]`` for an ``int`` seed beyond it (it would
+    wrap round to replay a small seed's episodes); None, negative seeds and other types are left to Gymnasium."""
+    if isinstance(seed, int) and not isinstance(seed, bool) and seed > SEED_LIMIT - num_envs:
+        envs = f"; environment i of the batch of {num_envs} takes seed + i" if num_envs > 1 else ""
+        raise ValueError(f"seed = {seed}: allowed range [0, {SEED_LIMIT - num_envs}] (2**64 - {num_envs}{envs}; "
+                         "a larger seed would wrap round to a small one's episodes)")
+
+
+def action_array(actions: Any, shape: tuple[int, ...], names: tuple[str, ...], what: str = "actions", exact: bool = True) -> np.ndarray:
+    """``actions`` as a float64 array of ``shape``; ValueError naming ``what``, the expected shape and the
+    entries (``names``) for anything but real numbers (strings, complex numbers, None...) or, with ``exact``,
+    another shape.  ``exact=False``: any shape of ``shape``'s size, reshaped to it (SB3's flat actions)."""
+    expected = f"expected real numbers, shape {shape} ({', '.join(names)})"
+    try:
+        a = np.asarray(actions)
+    except (TypeError, ValueError):  # ragged nesting
+        raise ValueError(f"{what}: {expected}, got {_describe(actions)}") from None
+    if a.dtype.kind == "O" and all(isinstance(x, numbers.Real) for x in a.flat):
+        a = a.astype(np.float64)  # a sequence of numbers of several types (not None: astype makes it NaN)
+    if a.dtype.kind not in "biuf":
+        got = "complex numbers" if a.dtype.kind == "c" else _describe(actions)
+        raise ValueError(f"{what}: {expected}, got {got}")
+    if a.shape != shape and (exact or a.size != math.prod(shape)):
+        raise ValueError(f"{what}: {expected}, got shape {a.shape}")
+    return a.astype(np.float64, copy=False).reshape(shape)
+
+
+def _describe(x: Any) -> str:
+    """A short description of a bad action for an error message."""
+    r = repr(x)
+    return f"{type(x).__name__} {r[:60] + '...' if len(r) > 60 else r}"
 
 
 def _autoreset_mode(mode: AutoresetMode | str) -> AutoresetMode:
@@ -216,7 +258,8 @@ class RigVectorEnv(VectorEnv):
 
         self.task = task_cls(n, self.free_dofs, self.dt, self.episode_seconds, **cfg.task_options)
         self.sensors = Sensors(
-            n, self.free_dofs, self.dt, rate_filter_hz=cfg.rate_filter_hz, delay_steps=cfg.link_delay_steps,
+            n, self.free_dofs, self.dt, rate_filter_hz=cfg.rate_filter_hz or default_rate_filter_hz(cfg.control_rate),
+            delay_steps=cfg.link_delay_steps,
             angle_noise=np.radians(cfg.angle_noise_deg), flap_noise=np.radians(cfg.flap_noise_deg),
             airspeed_noise=cfg.airspeed_noise, quantise=cfg.quantise, pot_bits=cfg.pot_bits, encoder_bits=cfg.encoder_bits,
         )
@@ -266,6 +309,7 @@ class RigVectorEnv(VectorEnv):
         of the stream of seed ``env_seeds[i]`` (as ``RigEnv.reset(seed=env_seeds[i])``), so several
         blocks of a batch can fly identical episodes (paired comparisons of control laws).
         """
+        check_seed(seed, self.num_envs)
         super().reset(seed=seed)
         if seed is not None:
             self.keys, self.episode[:] = rs.env_keys(seed, self.num_envs), 0
@@ -393,11 +437,10 @@ class RigVectorEnv(VectorEnv):
         return observe(self.sensors, self.task, self.t, ref)
 
     def check_actions(self, actions: Any) -> np.ndarray:
-        """(num_envs, n_actions) float64 clipped to [-1, 1]; ValueError on wrong shape or non-finite values."""
-        a = np.asarray(actions, dtype=np.float64)
+        """(num_envs, n_actions) float64 clipped to [-1, 1]; ValueError on a wrong shape, non-finite values or
+        anything but real numbers (strings, complex numbers: :func:`action_array`)."""
         shape = (self.num_envs, len(self.action_names))
-        if a.shape != shape:
-            raise ValueError(f"actions: expected shape {shape} ({', '.join(self.action_names)}), got {a.shape}")
+        a = action_array(actions, shape, self.action_names)
         out = np.empty(shape)
         if not _clip_actions(a, out):
             bad = ~np.all(np.isfinite(a), axis=1)

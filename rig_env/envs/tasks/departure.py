@@ -166,21 +166,21 @@ class DepartureRecovery(Task):
                   np.max(np.abs(qd[:, self.rate_cols]), axis=1) / s_rate)
         return np.maximum.reduce(ratios)
 
-    def reward(self, q, qd, ref, a, a_prev):
+    def reward(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, a: np.ndarray, a_prev: np.ndarray) -> np.ndarray:
         excess = np.maximum(np.abs(static_alpha(q)) - ALPHA_RECOVERED, 0.0)
         c = (wrap(q[:, 0]) / (20.0 * D)) ** 2 + (q[:, 1] / (15.0 * D)) ** 2 + (excess / (5.0 * D)) ** 2
         c = c + np.sum((qd[:, self.rate_cols] / RATE_RECOVERED) ** 2, axis=1)
         return self.shaped_reward(c, a, a_prev)
 
-    def tracked(self, t, q, qd, ref):
+    def tracked(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, ...]:
         r = self.recovery_distance(q, qd)
         return np.zeros(self.n, dtype=np.int64), r, np.zeros(self.n), self.level_error(q) / D, np.ones(self.n)
 
-    def display(self, t, q, qd, ref):
+    def display(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(level error E, 0), deg: the recovery's target is level."""
         return self.level_error(q) / D, np.zeros(self.n)
 
-    def success(self, q, qd, ref, metrics):
+    def success(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, metrics: dict[str, np.ndarray]) -> np.ndarray:
         settled = metrics["segments_settled"] == 1
         in_time = metrics["settling_time"] <= metrics["release_time"] + T_RECOVER
         return settled & in_time & (self.recovery_distance(q, qd) < 1.0)

@@ -386,23 +386,23 @@ class FreeFlightEmulation(Task):
         on = ref[:, 4] > 0.5
         return np.where(on, ref[:, 0] - (alpha - ref[:, 5]), 0.0), ref[:, 1] - qa, on
 
-    def reward(self, q, qd, ref, a, a_prev):
+    def reward(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, a: np.ndarray, a_prev: np.ndarray) -> np.ndarray:
         ea, eq, on = self._errors(q, qd, ref)
         stop = np.maximum(np.abs(q[:, 1]) - 15.0 * D, 0.0) / (5.0 * D)
         tracking = (ea / (self.FIT_LIMIT * self.s_alpha)) ** 2 + (eq / (self.FIT_LIMIT * self.s_q)) ** 2 + 0.5 * stop**2
         settle = (eq / (10.0 * D)) ** 2 + (qd[:, 1] / (10.0 * D)) ** 2
         return self.shaped_reward(np.where(on, tracking, settle), a, a_prev)
 
-    def tracked(self, t, q, qd, ref):
+    def tracked(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, ...]:
         ea, _, _ = self._errors(q, qd, ref)
         alpha, _ = rig_alpha(q, qd, self.V, self.l)
         return np.full(self.n, -1), alpha - ref[:, 5], ref[:, 0], ea / D, np.full(self.n, 0.5 * D)
 
-    def display(self, t, q, qd, ref):
+    def display(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(alpha - alpha_b, alpha_ff), deg, from the input's start (NaN before: nothing is emulated yet)."""
         alpha, _ = rig_alpha(q, qd, self.V, self.l)
         on = ref[:, 4] > 0.5
         return np.where(on, (alpha - ref[:, 5]) / D, np.nan), np.where(on, ref[:, 0] / D, np.nan)
 
-    def success(self, q, qd, ref, metrics):
+    def success(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, metrics: dict[str, np.ndarray]) -> np.ndarray:
         return metrics["emulation_error"] < self.FIT_LIMIT

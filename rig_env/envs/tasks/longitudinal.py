@@ -170,15 +170,15 @@ class PullUpPushOver(Task):
         obs = np.stack([e, ref[:, 1] / sc["heave_rate_ref"], er, ref[:, 2] / sc["accel_ref"], self.e_int / sc["heave_error_int"]], axis=1)
         return np.clip(obs, self.obs_low, self.obs_high)
 
-    def reward(self, q, qd, ref, a, a_prev):
+    def reward(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, a: np.ndarray, a_prev: np.ndarray) -> np.ndarray:
         c = ((ref[:, 0] - q[:, 1]) / self.ANGLE_SCALE) ** 2 + ((ref[:, 1] - qd[:, 1]) / (15.0 * D)) ** 2
         return self.shaped_reward(c, a, a_prev)
 
-    def tracked(self, t, q, qd, ref):
+    def tracked(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, ...]:
         seg = np.where(t <= self.T_LEAD, -1, np.where(t <= self.t_return(), 0, 1))
         target = np.where(seg == 0, self.theta_1, self.theta_b)
         return seg, q[:, 1], target, (ref[:, 0] - q[:, 1]) / D, np.full(self.n, 0.5 * D)
 
-    def success(self, q, qd, ref, metrics):
+    def success(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, metrics: dict[str, np.ndarray]) -> np.ndarray:
         both = (metrics["segments"] == 2) & (metrics["segments_settled"] == 2)
         return both & (np.abs(ref[:, 0] - q[:, 1]) < 1.0 * D)

@@ -74,7 +74,7 @@ class ForcedOscillation(Task):
         if unknown:
             raise ValueError(f"task_options: unknown name(s) {unknown} for task {cls.name!r}; valid: ['axis']")
         axis = options.get("axis", "heave_pitch")
-        if axis not in AXES:
+        if not isinstance(axis, str) or axis not in AXES:
             raise ValueError(f"task_options['axis'] = {axis!r}: allowed {sorted(AXES)}")
         return {"axis": axis}
 
@@ -153,13 +153,13 @@ class ForcedOscillation(Task):
         ], axis=1)
         return np.clip(obs, self.obs_low, self.obs_high)
 
-    def reward(self, q, qd, ref, a, a_prev):
+    def reward(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, a: np.ndarray, a_prev: np.ndarray) -> np.ndarray:
         c = ((ref[:, 0] - q[:, self.j]) / (2.0 * D)) ** 2 + ((ref[:, 1] - qd[:, self.j]) / (15.0 * D)) ** 2
         return self.shaped_reward(c, a, a_prev)
 
-    def tracked(self, t, q, qd, ref):
+    def tracked(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, ...]:
         y = q[:, self.j]
         return np.full(self.n, -1), y, ref[:, 0], (ref[:, 0] - y) / D, np.full(self.n, 0.5 * D)
 
-    def success(self, q, qd, ref, metrics):
+    def success(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, metrics: dict[str, np.ndarray]) -> np.ndarray:
         return metrics["rms_error"] * D < 0.3 * ref[:, 3]

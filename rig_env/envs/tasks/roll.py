@@ -160,12 +160,12 @@ class VelocityVectorRoll(Task):
         _roll_observation(ref, angles, rates, self.meas_roll, sc["roll_error"], sc["roll_rate_error"], self.obs_low, self.obs_high, out)
         return out
 
-    def reward(self, q, qd, ref, a, a_prev):
+    def reward(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, a: np.ndarray, a_prev: np.ndarray) -> np.ndarray:
         s_p = np.where(ref[:, 1] == 0.0, 20.0 * D, 60.0 * D)
         c = ((ref[:, 0] - q[:, 0]) / (10 * D)) ** 2 + ((ref[:, 1] - qd[:, 0]) / s_p) ** 2
         return self.shaped_reward(c, a, a_prev)
 
-    def tracked(self, t, q, qd, ref):
+    def tracked(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, ...]:
         n = t.shape[0]
         seg, y, r, err, band = np.empty(n, dtype=np.int64), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
         # C-ordered, as every caller's copies are (RigVectorEnv.step passes views of X): one compiled signature, which
@@ -175,11 +175,11 @@ class VelocityVectorRoll(Task):
                       seg, y, r, err, band)
         return seg, y, r, err, band
 
-    def display(self, t, q, qd, ref):
+    def display(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(roll angle, its reference), deg: the tracked quantity of :meth:`tracked` switches from the rate to the angle."""
         return q[:, 0] / D, ref[:, 0] / D
 
-    def success(self, q, qd, ref, metrics):
+    def success(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, metrics: dict[str, np.ndarray]) -> np.ndarray:
         return (np.abs(ref[:, 0] - q[:, 0]) < 5 * D) & (np.abs(qd[:, 0]) < 20 * D)
 
 
@@ -249,18 +249,18 @@ class BankToBank(Task):
         e = (ref[:, 0] - angles[:, self.meas_roll]) / sc["roll_error"]
         return np.clip(np.stack([e, ref[:, 0] / sc["roll_ref"]], axis=1), self.obs_low, self.obs_high)
 
-    def reward(self, q, qd, ref, a, a_prev):
+    def reward(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, a: np.ndarray, a_prev: np.ndarray) -> np.ndarray:
         c = ((ref[:, 0] - q[:, 0]) / (15 * D)) ** 2
         if self.yaw:
             c = c + 0.25 * (q[:, 2] / (20 * D)) ** 2
         return self.shaped_reward(c, a, a_prev)
 
-    def tracked(self, t, q, qd, ref):
+    def tracked(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, ...]:
         # a step segment starts on the step; the metrics' segment clock starts one step earlier
         seg = self._segment(t - self.dt)
         target = np.where(seg < 0, self.phi0, self.banks[np.arange(self.n), np.maximum(seg, 0)])
         return seg, q[:, 0], target, (ref[:, 0] - q[:, 0]) / D, np.full(self.n, 2.0 * D)
 
-    def success(self, q, qd, ref, metrics):
+    def success(self, q: np.ndarray, qd: np.ndarray, ref: np.ndarray, metrics: dict[str, np.ndarray]) -> np.ndarray:
         every = (metrics["segments"] > 0) & (metrics["segments_settled"] == metrics["segments"])
         return every & (np.abs(ref[:, 0] - q[:, 0]) < 5 * D)
