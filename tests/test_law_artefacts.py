@@ -183,6 +183,19 @@ def test_old_format_policy_converts_exactly(tmp_path):
     assert main(["convert-policy", str(old), str(tmp_path / "x.json")]) == 2 and not (tmp_path / "x.json").exists()
 
 
+def test_convert_policy_keeps_an_existing_file_unless_overwrite(tmp_path, capsys):
+    """convert-policy replaced an existing NEW (a flight law file, perhaps another's) without a word; now as
+    export: refused in one line unless --overwrite."""
+    from controllers.deploy.cli import main
+
+    old, new = tmp_path / "old.json", tmp_path / "new.json"
+    _old_policy_file(old)
+    new.write_text("mine\n")
+    assert main(["convert-policy", str(old), str(new)]) == 2
+    assert f"NEW {new}: already exists; give --overwrite" in capsys.readouterr().err and new.read_text() == "mine\n"
+    assert main(["convert-policy", str(old), str(new), "--overwrite"]) == 0 and A.load(new).kind == "ppo"
+
+
 # ---------------------------------------------------------------------- registry and numpy-only runtime
 def test_a_registered_law_is_an_artefact_kind(tmp_path):
     """register(kind) with an artefact_kind and to_data / from_data is all a law needs; a taken artefact kind is refused."""

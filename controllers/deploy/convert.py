@@ -88,7 +88,7 @@ def old_policy_to_artefact(payload: Any, where: str = "<old policy>") -> Artefac
     return art
 
 
-def convert_policy_file(old: str | os.PathLike, new: str | os.PathLike, key: bytes | None = None) -> str:
+def convert_policy_file(old: str | os.PathLike, new: str | os.PathLike, key: bytes | None = None, overwrite: bool = True) -> str:
     """Convert the old-format policy file ``old`` to the artefact ``new``; returns its SHA-256."""
     p = Path(old)
     try:
@@ -97,4 +97,4 @@ def convert_policy_file(old: str | os.PathLike, new: str | os.PathLike, key: byt
         raise ArtefactError(f"{p}: cannot read ({e.strerror})") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as e:
         raise ArtefactError(f"{p}: not a readable JSON policy file (truncated or corrupted?): {e}") from None
-    return save(old_policy_to_artefact(payload, str(p)), new, key)
+    return save(old_policy_to_artefact(payload, str(p)), new, key, overwrite=overwrite)

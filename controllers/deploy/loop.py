@@ -106,6 +106,7 @@ from controllers.deploy.framelog import FrameLog
 from controllers.deploy.overrun import OverrunWatchdog
 from controllers.deploy.plausibility import REASONS as IMPLAUSIBLE_REASONS, Plausibility
 from controllers.deploy.stuck import StuckDetector
+from rig_env.envs.ranges import CONTROL_RATE_HZ
 from rig_env.envs.observation import labels, observe, task_for_seed
 from rig_env.envs.sensors import UNLIMITED, Sensors
 from rig_env.params import JOINTS, SURFACES, RigParams, param_batch
@@ -118,6 +119,9 @@ FAULTS = {F_STALE: "stale", F_SENSOR: "sensor_range", F_RIG: "rig_status", F_CON
           F_STUCK: "stuck_sensor", F_LINK: "command_ack", F_IMPLAUSIBLE: "implausible", F_LOG: "log_write"}
 MAX_DURATION_S = 1.0e6
 """Longest ``duration`` accepted, s (11.6 days): a bound on the tick counter, not on memory (below)."""
+MAX_SEED = 2**32 - 1
+"""Largest ``seed`` (the loop's, and the sim rig's ``seed`` and fault seed): the project's seed range,
+[0, 2**32 - 1], as ``rig compare --seed`` (``controllers.evaluation.evaluate.MAX_SEED``)."""
 STATS_CAP = 1 << 18
 """Per-tick timing statistics (latency, wake jitter, law time) keep the last ``STATS_CAP`` ticks (a ring of
 3 x 2 MiB; 55 min at 80 Hz): memory stays bounded whatever the duration."""
@@ -134,7 +138,7 @@ class LoopConfig:
     """Settings of :class:`RigLoop` (addresses are (host, port); ``duration`` None: until ``stop()``).
 
     rate_hz: loop rate, must equal the law's ``1 / spec.dt``.  seed: draws the task's reference as
-    ``RigVectorEnv.reset(seed=seed)`` does.  episode_seconds: the task's horizon (None: the task's).
+    ``RigVectorEnv.reset(seed=seed)`` does, [0, :data:`MAX_SEED`].  episode_seconds: the task's horizon (None: the task's).
     phase: tick offset after the rig's frame, periods, [0, 0.9].  spin_s: busy-wait before a deadline, s.
     overrun_s: None = half a period.  frame_wait: when the tick finds no new frame, wait up to this many
     periods for it (select, bounded), [0, 0.5].  miss_fraction: a tick whose command leaves later than this many
@@ -188,14 +192,16 @@ class LoopConfig:
     allow_unlogged: bool = False
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.rate_hz) and 1.0 <= self.rate_hz <= 2000.0):
-            raise ValueError(f"rate_hz = {self.rate_hz}: allowed range [1, 2000] Hz")
+        if not (math.isfinite(self.rate_hz) and CONTROL_RATE_HZ[0] <= self.rate_hz <= CONTROL_RATE_HZ[1]):
+            raise ValueError(f"rate_hz = {self.rate_hz}: allowed range [{CONTROL_RATE_HZ[0]:g}, {CONTROL_RATE_HZ[1]:g}] Hz")
         if self.duration is not None and not (isinstance(self.duration, (int, float)) and math.isfinite(self.duration) and 0 < self.duration <= MAX_DURATION_S):
             raise ValueError(f"duration = {self.duration}: allowed range (0, {MAX_DURATION_S:g}] s")
         if not (isinstance(self.stale_frames, int) and 1 <= self.stale_frames <= self.fault_frames <= 1000):
             raise ValueError(f"stale_frames = {self.stale_frames}, fault_frames = {self.fault_frames}: need 1 <= stale_frames <= fault_frames <= 1000")
         if not 0.0 <= self.phase <= 0.9:
             raise ValueError(f"phase = {self.phase}: allowed range [0, 0.9] periods")
+        if not (isinstance(self.seed, (int, np.integer)) and not isinstance(self.seed, bool) and 0 <= self.seed <= MAX_SEED):
+            raise ValueError(f"seed = {self.seed!r}: an integer in [0, {MAX_SEED}]")
         if not (isinstance(self.link_delay_steps, int) and 0 <= self.link_delay_steps <= 50):
             raise ValueError(f"link_delay_steps = {self.link_delay_steps!r}: an integer in [0, 50]")
         if not 0.0 <= self.frame_wait <= 0.5:
@@ -314,11 +320,12 @@ class RigLoop:
         self._stop = True
 
     def open(self) -> int:
-        """Bind the socket (before :meth:`run` when the caller needs the port); returns the local port."""
+        """Bind the socket (before :meth:`run` when the caller needs the port); returns the local port.
+
+        Raises :class:`controllers.deploy.protocol.BindError` (an OSError saying whether the host or the port
+        of ``config.bind`` was refused)."""
         if self.sock is None:
-            self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            self.sock.bind(self.cfg.bind)
-            self.sock.setblocking(False)
+            self.sock = pr.bind_udp(*self.cfg.bind)
             self.port = self.sock.getsockname()[1]
         return self.port
 
@@ -326,8 +333,9 @@ class RigLoop:
     def run(self) -> dict[str, Any]:
         """Fly until ``duration`` or :meth:`stop`, then wind down to neutral and disarm; returns :meth:`summary`.
 
-        Raises :class:`controllers.deploy.framelog.LogPathError` (an existing log path) or OSError (the
-        log cannot be created) before any frame is sent."""
+        Raises :class:`controllers.deploy.protocol.BindError` (the socket cannot be bound: no log is created),
+        :class:`controllers.deploy.framelog.LogPathError` (an existing log path) or OSError (the log cannot be
+        created) before any frame is sent."""
         cfg = self.cfg
         if cfg.realtime:
             try:
@@ -340,8 +348,14 @@ class RigLoop:
                   "stuck_frames": cfg.stuck_frames, "stuck_cmd_deg": cfg.stuck_cmd_deg,
                   "link": {"keyed": self.key is not None, "session": self.session, "ack_frames": cfg.ack_frames,
                            "protocol_version": pr.VERSION}}
-        self.log = FrameLog(cfg.log_path, cfg.rate_hz, header)
-        self.open()
+        self.open()  # first: a socket that cannot be bound leaves no log file behind
+        try:
+            self.log = FrameLog(cfg.log_path, cfg.rate_hz, header)
+        except BaseException:
+            if self.sock is not None:
+                self.sock.close()
+            self.sock = None
+            raise
         n_ticks = None if cfg.duration is None else int(round(cfg.duration * cfg.rate_hz))
         self.lat = np.zeros(min(n_ticks or STATS_CAP, STATS_CAP))  # a ring: statistics of the last STATS_CAP ticks
         self.jit = np.zeros_like(self.lat)

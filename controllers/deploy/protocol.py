@@ -45,14 +45,17 @@ The MAC covers ``seq`` and ``session``: a receiver that accepts only seqs newer 
 Sequence numbers compare by serial-number arithmetic (RFC 1982): :func:`newer`.  ``unpack_*`` raise
 :class:`FrameError` (a ``ValueError``) with a short ``reason`` (``length``, ``magic``, ``version``, ``crc``,
 ``mac``, ``nonfinite``, ``mode``) for the counters; ``pack_*_into`` write into a preallocated buffer.
+Both ends open their socket with :func:`bind_udp` (a :class:`BindError` says whether the host or the port was refused).
 """
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import hmac
 import math
 import os
+import socket
 import stat
 import struct
 import zlib
@@ -113,6 +116,30 @@ def newer(a: int, b: int) -> bool:
     """True when sequence number ``a`` is after ``b`` (mod 2**32, RFC 1982)."""
     d = (a - b) & 0xFFFFFFFF
     return 0 < d < 0x80000000
+
+
+class BindError(OSError):
+    """A UDP socket could not be bound to (``host``, ``port``): errno and message of the cause.
+
+    ``host_refused``: the host is at fault (not a name or address that resolves: ``socket.gaierror``; not an
+    address of this machine: EADDRNOTAVAIL); otherwise the port (in use, privileged, ...)."""
+
+    def __init__(self, cause: OSError, host: str, port: int) -> None:
+        super().__init__(cause.errno, cause.strerror or str(cause))
+        self.host, self.port = host, port
+        self.host_refused = isinstance(cause, socket.gaierror) or cause.errno == errno.EADDRNOTAVAIL
+
+
+def bind_udp(host: str, port: int) -> socket.socket:
+    """A non-blocking IPv4 UDP socket bound to (``host``, ``port``; 0: any free port); :class:`BindError` when it cannot be."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        sock.bind((host, port))
+    except (OSError, OverflowError) as e:  # OverflowError: a port beyond 65535
+        sock.close()
+        raise BindError(e if isinstance(e, OSError) else OSError(errno.EINVAL, str(e)), host, port) from None
+    sock.setblocking(False)
+    return sock
 
 
 def read_link_key(path: str | os.PathLike[str]) -> bytes:

@@ -40,7 +40,6 @@ import collections
 import math
 import os
 import select
-import socket
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -48,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from controllers.deploy import protocol as pr
+from controllers.deploy.loop import MAX_SEED
 from rig_env.envs.vector_env import ACTION_SCALE_DEG, RigVectorEnv
 from rig_env.params import JOINTS
 
@@ -74,6 +74,8 @@ class Faults:
                 raise ValueError(f"{k} = {v!r}: allowed range [0, 1]")
         if not (math.isfinite(self.delay) and 0.0 <= self.delay <= 1.0):
             raise ValueError(f"delay = {self.delay!r} s: allowed range [0, 1] s")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or not 0 <= self.seed <= MAX_SEED:
+            raise ValueError(f"fault seed = {self.seed!r}: an integer in [0, {MAX_SEED}]")
         for k in ("blackout", "cmd_blackout"):
             v = getattr(self, k)
             if v is not None and not (v[0] >= 0 and v[1] > 0):
@@ -107,17 +109,21 @@ class SimRig:
             raise ValueError(f"duration = {duration}: must be > 0 s")
         if link_key is not None and len(link_key) < pr.KEY_MIN_BYTES:
             raise ValueError(f"link_key: at least {pr.KEY_MIN_BYTES} bytes")
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed <= MAX_SEED:
+            raise ValueError(f"seed = {seed!r}: an integer in [0, {MAX_SEED}]")
         self.key = link_key
-        self.env = make_env(task, rate_hz, duration, **fields)
-        warm = make_env(task, rate_hz, duration, **fields)  # a separate env: load the numba cache (or compile) outside the run
-        warm.reset(seed=seed)
-        warm.step(np.zeros((1, len(warm.action_names))))
+        self.sock = pr.bind_udp(host, port)  # first: a refused address costs no model build (BindError: host or port)
+        try:
+            self.env = make_env(task, rate_hz, duration, **fields)
+            warm = make_env(task, rate_hz, duration, **fields)  # a separate env: load the numba cache (or compile) outside the run
+            warm.reset(seed=seed)
+            warm.step(np.zeros((1, len(warm.action_names))))
+        except BaseException:
+            self.sock.close()
+            raise
         self.seed, self.faults, self.cmd_timeout, self.wait_timeout, self.realtime = seed, faults, cmd_timeout, wait_timeout, realtime
         self.period = self.env.dt
         self.n_steps = self.env.max_steps
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.bind((host, port))
-        self.sock.setblocking(False)
         self.port = self.sock.getsockname()[1]
         self.rng = np.random.default_rng(faults.seed)
         self.stop_flag = False
@@ -199,9 +205,11 @@ class SimRig:
                                      "p99": float(np.percentile(lat, 99) * 1e3) if lat.size else 0.0,
                                      "max": float(lat.max() * 1e3) if lat.size else 0.0}}
 
-    def save_record(self, path: str) -> None:
-        """Write the state / command record (``t`` s, ``q``/``qd`` (N, 5) rad, rad/s, ``cmd`` (N, 6) rad) to .npz."""
-        np.savez(path, **self.rec)
+    def save_record(self, path: str, overwrite: bool = False) -> None:
+        """Write the state / command record (``t`` s, ``q``/``qd`` (N, 5) rad, rad/s, ``cmd`` (N, 6) rad) as .npz to
+        exactly ``path`` (``np.savez`` would add ``.npz`` to another name); an existing file only with ``overwrite``."""
+        with open(path, "wb" if overwrite else "xb") as f:
+            np.savez(f, **self.rec)
 
     # ------------------------------------------------------------------ internals
     def _record(self, rec: dict[str, np.ndarray], k: int) -> None:

@@ -58,6 +58,7 @@ versions, the environment settings ``env_overrides``).  A law re-exported from a
 from __future__ import annotations
 
 import base64
+import errno
 import hashlib
 import hmac
 import json
@@ -218,10 +219,12 @@ def canonical(body: Mapping[str, Any]) -> bytes:
         raise ArtefactError(f"not plain finite JSON data: {e}") from None
 
 
-def save(art: Artefact, path: str | os.PathLike, key: bytes | None = None) -> str:
+def save(art: Artefact, path: str | os.PathLike, key: bytes | None = None, overwrite: bool = True) -> str:
     """Write ``art`` to ``path`` (atomically: temporary file then rename); returns the SHA-256 hex digest.
 
-    key: optional shared HMAC-SHA256 key (bytes); the file then carries a signature.
+    key: optional shared HMAC-SHA256 key (bytes); the file then carries a signature.  overwrite: False
+    refuses an existing ``path`` (FileExistsError naming it), also one that appears while writing (the
+    file is linked into place, never renamed over another).
     """
     body = _body(art)
     _check_body(body, str(path))
@@ -230,13 +233,31 @@ def save(art: Artefact, path: str | os.PathLike, key: bytes | None = None) -> st
     if key is not None:
         doc["signature"] = {"alg": "HMAC-SHA256", "value": hmac.new(_key(key), raw, hashlib.sha256).hexdigest()}
     p = Path(path)
+    if not overwrite and os.path.lexists(p):
+        raise FileExistsError(errno.EEXIST, "already exists; refusing to overwrite it", str(p))
     tmp = p.with_name(p.name + ".tmp")
     try:
         tmp.write_text(json.dumps(doc, indent=1, sort_keys=True, allow_nan=False) + "\n", encoding="ascii")
-        os.replace(tmp, p)
+        if overwrite:
+            os.replace(tmp, p)
+        else:
+            _link_new(tmp, p)
     finally:  # a failed write or rename leaves no temporary file behind
         tmp.unlink(missing_ok=True)
     return doc["sha256"]
+
+
+def _link_new(tmp: Path, p: Path) -> None:
+    """Move ``tmp`` to the new path ``p``: a hard link (FileExistsError if ``p`` exists by now), or, on a file
+    system without hard links, a rename after checking that ``p`` still does not exist."""
+    try:
+        os.link(tmp, p)
+    except FileExistsError:
+        raise FileExistsError(errno.EEXIST, "already exists; refusing to overwrite it", str(p)) from None
+    except OSError:  # no hard links here (EPERM, ENOTSUP, ...)
+        if os.path.lexists(p):
+            raise FileExistsError(errno.EEXIST, "already exists; refusing to overwrite it", str(p)) from None
+        os.replace(tmp, p)
 
 
 def _key(key: bytes | str) -> bytes:

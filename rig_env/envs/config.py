@@ -63,9 +63,9 @@ import numpy as np
 from rig_env.params import JOINTS, PARAM_INDEX
 from rig_env.physics.pipeline import check_aero_model, resolve_aero_model
 from rig_env.signals import InputSchedule
+from rig_env.envs.ranges import CONTROL_RATE_HZ, CONVERTER_BITS, LINK_DELAY_STEPS, MAX_AIRSPEED, RATE_FILTER_MIN_HZ
 from rig_env.turbulence import SCALE_RANGE, SPECTRAL_MODELS, TUNNEL_SCALE, TURBULENCE_MODELS
 
-MAX_AIRSPEED = 40.0  # m/s: the Bristol 7x5 ft tunnel's working range for the rig
 RATE_FILTER_HZ = 10.0
 """Hz: the rate estimate's low-pass corner on the rig (its 80 and 244 Hz loops)."""
 
@@ -174,7 +174,7 @@ class RigEnvConfig:
             _range("airspeed (low)", lo, 0.0, MAX_AIRSPEED, "m/s")
             _range("airspeed (high)", hi, lo, MAX_AIRSPEED, "m/s")
             object.__setattr__(self, "airspeed", (float(lo), float(hi)))
-        _range("control_rate", self.control_rate, 1.0, 2000.0, "Hz")
+        _range("control_rate", self.control_rate, *CONTROL_RATE_HZ, "Hz")
         object.__setattr__(self, "control_rate", float(self.control_rate))
         if self.physics_dt is not None:
             _range("physics_dt", self.physics_dt, 1e-6, 0.05, "s")
@@ -193,15 +193,15 @@ class RigEnvConfig:
             if not _is_integer(v):
                 raise ValueError(f"{name} = {v!r}: must be an integer")
             object.__setattr__(self, name, int(v))
-        _range("pot_bits", self.pot_bits, 6, 24)
-        _range("encoder_bits", self.encoder_bits, 6, 24)
-        _range("link_delay_steps", self.link_delay_steps, 0, 50, "control steps")
+        _range("pot_bits", self.pot_bits, *CONVERTER_BITS)
+        _range("encoder_bits", self.encoder_bits, *CONVERTER_BITS)
+        _range("link_delay_steps", self.link_delay_steps, *LINK_DELAY_STEPS, "control steps")
         nyquist, rf = self.control_rate / 2.0, self.rate_filter_hz
         object.__setattr__(self, "_rate_filter_derived", rf is None)
         if rf is None:
             object.__setattr__(self, "rate_filter_hz", default_rate_filter_hz(self.control_rate))
-        elif not (_is_number(rf) and math.isfinite(rf) and 0.1 <= rf <= nyquist):
-            raise ValueError(f"rate_filter_hz = {rf!r} Hz: allowed range [0.1, {nyquist:g}] Hz (at most control_rate / 2 "
+        elif not (_is_number(rf) and math.isfinite(rf) and RATE_FILTER_MIN_HZ <= rf <= nyquist):
+            raise ValueError(f"rate_filter_hz = {rf!r} Hz: allowed range [{RATE_FILTER_MIN_HZ:g}, {nyquist:g}] Hz (at most control_rate / 2 "
                              f"at control_rate = {self.control_rate:g} Hz; None: {default_rate_filter_hz(self.control_rate):g} Hz)")
         _range("turbulence", self.turbulence, 0.0, 0.3, "(fraction of airspeed)")
         if not isinstance(self.turbulence_model, str) or self.turbulence_model not in TURBULENCE_MODELS:
