@@ -206,6 +206,8 @@ def test_seed_range_is_the_loops_and_the_sim_rigs():
     (["sim-rig", "--port", "0", "--stuck", "rig_roll", "1", "-2"], "--stuck", "stuck ="),
     (["sim-rig", "--port", "0", "--stuck", "tail_wag", "1", "1"], "--stuck", "stuck joint"),
     (["sim-rig", "--port", "0", "--loss", "2"], "--loss", "loss = "),
+    (["sim-rig", "--port", "0", "--blackout", "nan", "1"], "--blackout", "rig-deploy: blackout ="),
+    (["sim-rig", "--port", "0", "--cmd-blackout", "1", "-2"], "--cmd-blackout", "rig-deploy: cmd_blackout ="),
     ([*EXPORT, "--out", "x.json", "--gains", "nan", "1", "1"], "--gains", "K:"),
     ([*EXPORT, "--out", "x.json", "--gains", "1", "inf", "1"], "--gains", "K:"),
 ])

@@ -350,9 +350,14 @@ def cmd_sim_rig(a: argparse.Namespace) -> int:
         raise ValueError(f"--record and --summary: both {a.record}; give two files")
     from controllers.deploy.simrig import Faults, SimRig
 
-    faults = Faults(loss=a.loss, cmd_loss=a.cmd_loss, delay=a.delay, duplicate=a.duplicate, reorder=a.reorder, corrupt=a.corrupt,
-                    blackout=tuple(a.blackout) if a.blackout else None, cmd_blackout=tuple(a.cmd_blackout) if a.cmd_blackout else None,
-                    stuck=_stuck(a.stuck), seed=a.fault_seed)
+    try:
+        faults = Faults(loss=a.loss, cmd_loss=a.cmd_loss, delay=a.delay, duplicate=a.duplicate, reorder=a.reorder, corrupt=a.corrupt,
+                        blackout=tuple(a.blackout) if a.blackout else None, cmd_blackout=tuple(a.cmd_blackout) if a.cmd_blackout else None,
+                        stuck=_stuck(a.stuck), seed=a.fault_seed)
+    except ValueError as e:  # Faults names its fields (blackout = ...); the command's options are --blackout, --cmd-blackout
+        text = str(e)
+        field = text.split(" = ", 1)[0]
+        raise ValueError(f"--{field.replace('_', '-')}{text[len(field):]}" if field in ("blackout", "cmd_blackout") else text) from None
     fields: dict[str, Any] = {"task_options": task_options(a.task_option)}
     if a.no_noise:
         fields.update(angle_noise_deg=0.0, flap_noise_deg=0.0, airspeed_noise=0.0)
