@@ -43,6 +43,7 @@ def _zero_crossings(t: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 def _mechanism_only(params, joint, q0, t_final, rate=400.0, **kw):
+    t_final = math.ceil(t_final * rate) / rate  # a whole number of control steps (simulate warns otherwise)
     return rig_env.simulate(params, [q0], [0.0], t_final, free_dofs=[joint], aero=False, friction=False, stops=False,
                             servo=False, control_rate=rate, **kw)  # fmt: skip
 
