@@ -62,6 +62,69 @@ def _results(folder: Path) -> dict[str, list[dict[str, Any]]]:
     return out
 
 
+@pytest.fixture
+def no_ray(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A test that must not reach Ray: starting a session fails it (quickly: no cluster starts)."""
+    from rig_env import distributed
+
+    def session(address: str | None = None, **kw: Any) -> Any:
+        raise AssertionError("a Ray session was started")
+
+    monkeypatch.setattr(distributed, "session", session)
+
+
+class _Tune:
+    """Ray Tune without a cluster: the session a no-op, ``Tuner(...).fit()`` calls ``on_fit`` (if set) and returns
+    ``grid`` (Tune's results as fold reads them)."""
+
+    def __init__(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        import contextlib
+
+        from ray import tune
+
+        from rig_env import distributed
+
+        self.grid: list[Any] = []
+        self.on_fit: Any = None
+        self.fits = 0
+        fake = self
+
+        class Tuner:
+            can_restore = staticmethod(tune.Tuner.can_restore)
+
+            def __init__(self, *a: Any, **kw: Any) -> None:
+                pass
+
+            def fit(self) -> list[Any]:
+                fake.fits += 1
+                if fake.on_fit is not None:
+                    fake.on_fit()
+                return fake.grid
+
+        monkeypatch.setattr(distributed, "session", lambda address=None, **kw: contextlib.nullcontext())
+        monkeypatch.setattr(tune, "Tuner", Tuner)
+
+    def trial(self, folder: Path, name: str, seed: int, done: bool) -> None:
+        """A trial of ``folder``'s sweep in the grid: finished (its final result logged) or errored."""
+        import types
+
+        (folder / name).mkdir(parents=True)
+        lines = [{"timesteps": 512, "final": False, "attempt": 1}] + ([FINAL] if done else [])
+        (folder / name / "result.json").write_text("".join(json.dumps(x) + "\n" for x in lines))
+        self.grid.append(types.SimpleNamespace(metrics=lines[-1], config={"task": "bank_to_bank", "seed": seed, "hp": {}},
+                                               path=str(folder / name), error=None if done else RuntimeError("failed"),
+                                               checkpoint=None))
+
+
+@pytest.fixture
+def fake_tune(monkeypatch: pytest.MonkeyPatch) -> _Tune:
+    pytest.importorskip("ray.tune")
+    return _Tune(monkeypatch)
+
+
+PLAIN = 'algo = "ppo"\ntasks = ["bank_to_bank"]\ntimesteps = 2048\ncheckpoint_every = 512\nstorage = "st"\nname = "x"\n'
+
+
 @pytest.mark.parametrize("text, needle", [
     ('algo = "ppo"\ntasks = ["bank_to_bank"]\nwarp = 9\n', "unknown key(s) ['warp']"),
     ('algo = "ppo"\ntasks = ["nowhere"]\n', "tasks = ['nowhere']: distinct names from"),
@@ -70,12 +133,106 @@ def _results(folder: Path) -> dict[str, list[dict[str, Any]]]:
     ('algo = "ppo"\ntasks = ["bank_to_bank"]\n[grid]\n"algo.warp" = [1]\n', "algo.warp: unknown field"),
     ('algo = "ppo"\ntasks = ["bank_to_bank"]\nmax_failures = -1\n', "max_failures = -1: must be an integer in [0, 100]"),
     ('algo = "ppo"\ntasks = ["bank_to_bank"]\nmetric = "luck"\n', "metric = 'luck': allowed"),
+    # [env] checked when the file is read, as rig train checks --env (not by every trial failing on the cluster)
+    (PLAIN + '[env]\nturbulense = 0.02\n', "[env] unknown configuration name(s) ['turbulense']; valid names:"),
+    (PLAIN + '[env]\nturbulence = "lots"\n', "[env] turbulence = 'lots' (fraction of airspeed): allowed range"),
+    (PLAIN + '[env]\ntask = "bank_to_bank"\n', "[env] task: not an environment setting"),
+    (PLAIN + 'target_success = true\n', "target_success = True: must be a number in the range (0, 1]"),
+    (PLAIN + '[grid]\n"algo.learning_rate" = [3e-4, 1e-3, 3e-4]\n', "grid.algo.learning_rate = [0.0003, 0.001, 0.0003]: "
+                                                                     "the value 0.0003 is listed twice"),
 ])
-def test_bad_sweep_file_is_a_one_line_error(text: str, needle: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_bad_sweep_file_is_a_one_line_error(text: str, needle: str, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                            no_ray: None) -> None:
     (tmp_path / "s.toml").write_text(text)
     rc = rig(["sweep", str(tmp_path / "s.toml")])
     err = capsys.readouterr().err
-    assert rc == 2 and needle in err and "Traceback" not in err, err
+    assert rc == 2 and needle in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "st").exists()
+
+
+@pytest.mark.parametrize("file, option", [("st", "storage"), ("st/x", "name")])
+def test_storage_or_name_that_is_a_file_is_refused_before_ray(file: str, option: str, tmp_path: Path,
+                                                              capsys: pytest.CaptureFixture[str], no_ray: None) -> None:
+    (tmp_path / "s.toml").write_text(PLAIN)
+    (tmp_path / file).parent.mkdir(parents=True, exist_ok=True)
+    (tmp_path / file).write_text("mine")
+    rc = rig(["sweep", str(tmp_path / "s.toml")])
+    err = capsys.readouterr().err
+    assert rc == 2 and f"{option} {tmp_path / file}: is a file, not a folder" in err and "Traceback" not in err, err
+    assert (tmp_path / file).read_text() == "mine"
+
+
+@pytest.mark.parametrize("flags", [[], ["--overwrite"]])
+def test_folder_that_is_not_a_sweep_is_refused_and_kept(flags: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                        no_ray: None) -> None:
+    (tmp_path / "s.toml").write_text(PLAIN)
+    (tmp_path / "st" / "x" / "my_results").mkdir(parents=True)
+    (tmp_path / "st" / "x" / "notes.txt").write_text("notes")
+    (tmp_path / "st" / "x" / "my_results" / "a.csv").write_text("1,2\n")
+    rc = rig(["sweep", str(tmp_path / "s.toml"), *flags])
+    err = capsys.readouterr().err
+    assert rc == 2 and f"{tmp_path / 'st' / 'x'}: not a sweep" in err and "holds a sweep" not in err, err
+    assert (tmp_path / "st" / "x" / "notes.txt").read_text() == "notes"
+    assert (tmp_path / "st" / "x" / "my_results" / "a.csv").read_text() == "1,2\n"
+
+
+def test_overwrite_replaces_only_what_the_sweep_wrote(tmp_path: Path, capsys: pytest.CaptureFixture[str], fake_tune: _Tune) -> None:
+    (tmp_path / "s.toml").write_text(PLAIN)
+    folder = tmp_path / "st" / "x"
+    old_trial = folder / "trial_0a1b2_00000_0_hp=,seed=0,task=bank_to_bank_2026-01-01_00-00-00"
+    (old_trial / "checkpoint_000000").mkdir(parents=True)
+    (folder / "summary").mkdir()
+    theirs = ["sweep.toml.json", "books.json", "tuner.pkl", ".validate_storage_marker", "experiment_state-2026-01-01_00-00-00.json",
+              "basic-variant-state-2026-01-01_00-00-00.json", "summary/sweep.csv", "summary/best_policy.json",
+              f"{old_trial.name}/result.json"]
+    mine = ["notes.txt", "summary/my_plot.png", "trial_notes/a.txt"]
+    for f in theirs + mine:
+        (folder / f).parent.mkdir(parents=True, exist_ok=True)
+        (folder / f).write_text("{}")
+    rc = rig(["sweep", str(tmp_path / "s.toml")])  # a sweep: refused without --overwrite
+    assert rc == 2 and "holds a sweep; --resume continues it, --overwrite replaces it" in capsys.readouterr().err
+
+    def at_fit() -> None:  # the old sweep gone before Tune runs the new one
+        assert not old_trial.exists() and not (folder / "tuner.pkl").exists() and not (folder / "summary" / "sweep.csv").exists()
+        fake_tune.trial(folder, "trial_ccccc_00000_0", 0, done=True)
+
+    fake_tune.on_fit = at_fit
+    rc = rig(["sweep", str(tmp_path / "s.toml"), "--overwrite"])
+    captured = capsys.readouterr()
+    assert rc == 0 and fake_tune.fits == 1, captured.err
+    assert all((folder / f).read_text() == "{}" for f in mine)  # what the sweep did not write stays
+    assert "kept what it did not write: ['notes.txt', 'summary/my_plot.png', 'trial_notes']" in captured.out
+    assert json.loads((folder / "sweep.toml.json").read_text())["name"] == "x"
+    assert json.loads((folder / "summary" / "sweep.json").read_text())["done"] == 1
+
+
+@pytest.mark.parametrize("done, rc, needle", [((False,), 1, "no trial finished"), ((True, False), 1, "only 1 of the 2 trials finished"),
+                                              ((True, True), 0, None)])
+def test_sweep_exits_non_zero_unless_every_trial_finished(done: tuple[bool, ...], rc: int, needle: str | None, tmp_path: Path,
+                                                          capsys: pytest.CaptureFixture[str], fake_tune: _Tune) -> None:
+    (tmp_path / "s.toml").write_text(PLAIN.replace('name = "x"', f"name = \"x\"\nseeds = {list(range(len(done)))}"))
+
+    def at_fit() -> None:
+        for i, d in enumerate(done):
+            fake_tune.trial(tmp_path / "st" / "x", f"trial_{i}", i, d)
+
+    fake_tune.on_fit = at_fit
+    assert rig(["sweep", str(tmp_path / "s.toml")]) == rc
+    err = capsys.readouterr().err
+    if needle is None:
+        assert "error" not in err, err
+    else:
+        assert len(err.strip().splitlines()) == 1 and err.startswith("rig sweep: error: ") and needle in err, err
+
+
+def test_checkpoint_every_not_below_timesteps_is_warned(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "s.toml").write_text(PLAIN.replace("checkpoint_every = 512", "checkpoint_every = 4096"))
+    parse(tmp_path / "s.toml")
+    err = capsys.readouterr().err
+    assert "warning: checkpoint_every = 4096 >= timesteps = 2048" in err and "lost trial restarts from scratch" in err, err
+    (tmp_path / "s.toml").write_text(PLAIN)
+    parse(tmp_path / "s.toml")
+    assert "warning" not in capsys.readouterr().err
 
 
 def test_rig_train_backend_ray_without_ray_names_the_extra(monkeypatch: pytest.MonkeyPatch, tmp_path: Path,

@@ -47,6 +47,11 @@ Outputs in ``<storage>/<name>/summary/``:
 | ``best_policy.json`` | the best trial's policy (plain data, :mod:`controllers.laws.artefact`): ``rig compare --policy`` flies it |
 
 Progress: a line every few seconds with the trials done, running and retried (:class:`Books`).
+
+``rig sweep`` exits 0 when every trial finished, 1 when some did not (``--resume`` runs them again), 2 on a bad
+configuration or folder, refused before Ray starts.  It writes into a new or empty folder or one of its own sweeps
+(the folder holds its ``sweep.toml.json``); ``--overwrite`` replaces such a sweep, removing only what a sweep writes
+there (entries of other origin stay), and never touches a folder that is not a sweep.
 """
 
 from __future__ import annotations
@@ -56,6 +61,7 @@ import csv
 import itertools
 import json
 import math
+import re
 import shutil
 import sys
 import tempfile
@@ -67,10 +73,16 @@ from typing import Any, Callable, Sequence, TextIO
 
 from controllers.design.rl_hyperparams import ALGOS, HyperparamError, settings
 from rig_env import distributed
+from rig_env.paths import check_out_folder
 
 METRICS = {"success_rate": "max", "rms_error_deg": "min", "mean_return": "max"}
 CONDITIONS = ("nominal", "robust", "gusty", "none")
 BOOKS_FILE = "books.json"
+CONFIG_FILE = "sweep.toml.json"  # the sweep's configuration, written first into its folder: what marks it a sweep
+SUMMARY_FILES = ("sweep.csv", "sweep.json", "sweep.png", "best_policy.json")
+TUNE_FILES = ("tuner.pkl", ".validate_storage_marker", "experiment_state-*.json", "basic-variant-state-*.json",
+              "search_gen_state-*.json")  # Tune's state of the experiment in its folder
+TRIAL_DIR = re.compile(r"trial_[0-9a-f]{5}_[0-9]{5,}_")  # a Tune trial's folder of the trainable ``trial``
 
 
 class SweepError(ValueError):
@@ -119,8 +131,32 @@ def _int(where: str, v: Any, lo: int, hi: int) -> int:
     return v
 
 
+def _same(a: Any, b: Any) -> bool:
+    return a == b and isinstance(a, bool) == isinstance(b, bool)  # true is not 1
+
+
+def _check_env(cfg: SweepConfig, task: str, file_env: dict[str, Any], where: str) -> None:
+    """The trial's environment settings as rig train builds them (``--conditions``, then the settings file's ``env``
+    table, then ``[env]``: :func:`controllers.design.rl_train.training_overrides`) checked by RigEnvConfig."""
+    from controllers.design.conditions import MODES
+    from rig_env.envs.config import RigEnvConfig
+
+    base = dict(MODES[cfg.conditions].env_fields(task)) if cfg.conditions != "none" else {}
+    base.update(file_env)
+    try:
+        RigEnvConfig(task=task).with_overrides(**base)
+    except (ValueError, TypeError) as exc:
+        raise SweepError(f"{where}: conditions = {cfg.conditions!r} with the settings file's env table {file_env} "
+                         f"(task {task}): {exc}") from None
+    try:
+        RigEnvConfig(task=task).with_overrides(**{**base, **{k: json.loads(json.dumps(v)) for k, v in cfg.env.items()}})
+    except (ValueError, TypeError) as exc:  # as a trial reads it: --env KEY=JSON
+        raise SweepError(f"{where}: [env] {exc}") from None
+
+
 def check(cfg: SweepConfig, where: str = "sweep") -> SweepConfig:
-    """Every field in range and every grid point a valid settings override for every task (SweepError naming it)."""
+    """Every field in range, every grid point a valid settings override for every task, the environment settings
+    valid and the folders usable (SweepError naming it); a warning on stderr if a trial would take no checkpoint."""
     from rig_env.envs.tasks import TASKS
 
     if cfg.algo not in ALGOS:
@@ -145,17 +181,46 @@ def check(cfg: SweepConfig, where: str = "sweep") -> SweepConfig:
     _int(f"{where}: eval_episodes", cfg.eval_episodes, 1, 100_000)
     _int(f"{where}: final_episodes", cfg.final_episodes, 1, 100_000)
     _int(f"{where}: max_failures", cfg.max_failures, 0, 100)
-    if not 0.0 < cfg.target_success <= 1.0:
-        raise SweepError(f"{where}: target_success = {cfg.target_success!r}: allowed range (0, 1]")
+    ts = cfg.target_success
+    if isinstance(ts, bool) or not isinstance(ts, (int, float)) or not 0.0 < ts <= 1.0:
+        raise SweepError(f"{where}: target_success = {ts!r}: must be a number in the range (0, 1]")
     for k, vals in cfg.grid.items():
         if not isinstance(vals, list) or not vals:
             raise SweepError(f"{where}: grid.{k} = {vals!r}: must be a non-empty list of values")
+        for i, v in enumerate(vals):
+            if any(_same(v, w) for w in vals[:i]):
+                raise SweepError(f"{where}: grid.{k} = {vals!r}: the value {v!r} is listed twice; list each value once")
+    if "task" in cfg.env:
+        raise SweepError(f"{where}: [env] task: not an environment setting here; the tasks are the key tasks")
+    for k, v in cfg.env.items():
+        try:
+            json.dumps(v)
+        except (TypeError, ValueError):
+            raise SweepError(f"{where}: [env] {k} = {v!r}: must be a number, string, boolean, list or table") from None
+    shortest: tuple[int, str] | None = None
+    envs: set[tuple[str, str]] = set()
     for task in cfg.tasks:
         for point in cfg.points():
             try:
-                settings(cfg.algo, task, Path(cfg.hyperparams) if cfg.hyperparams else None, point)
+                hp = settings(cfg.algo, task, Path(cfg.hyperparams) if cfg.hyperparams else None, point)
             except HyperparamError as exc:
                 raise SweepError(f"{where}: grid point {point}: {exc}") from None
+            steps = cfg.timesteps or hp.timesteps  # as rig train: --timesteps, else the settings'
+            if shortest is None or steps < shortest[0]:
+                shortest = (steps, "" if cfg.timesteps else f" (the settings' for {task}{f' at {point}' if point else ''})")
+            key = (task, json.dumps(hp.env, sort_keys=True, default=str))
+            if key not in envs:  # a grid of other settings shares the file's env table: check it once
+                envs.add(key)
+                _check_env(cfg, task, dict(hp.env), where)
+    try:
+        check_out_folder(f"{where}: storage", cfg.storage)
+        check_out_folder(f"{where}: name", cfg.folder)
+    except ValueError as exc:
+        raise SweepError(str(exc)) from None
+    if shortest is not None and cfg.checkpoint_every >= shortest[0]:
+        sys.stderr.write(f"{where}: warning: checkpoint_every = {cfg.checkpoint_every} >= timesteps = {shortest[0]}"
+                         f"{shortest[1]}: no checkpoint before a trial's end, so a lost trial restarts from scratch; "
+                         "give checkpoint_every < timesteps\n")
     return cfg
 
 
@@ -401,6 +466,50 @@ def read_books(folder: Path) -> list[dict[str, Any]]:
 
 
 # ----------------------------------------------------------------- the sweep (on the driver)
+def _sweep_entries(folder: Path) -> list[Path]:
+    """What a sweep wrote in ``folder``: its configuration and books, Tune's state and trial folders, the summary's
+    files (not the summary folder: it can hold other files)."""
+    found = [folder / n for n in (CONFIG_FILE, BOOKS_FILE)]
+    found += [f for pattern in TUNE_FILES for f in folder.glob(pattern)]
+    found += [d for d in folder.iterdir() if d.is_dir() and not d.is_symlink() and TRIAL_DIR.match(d.name)]
+    found += [folder / "summary" / n for n in SUMMARY_FILES]
+    return [f for f in found if f.is_file() or f.is_dir()]
+
+
+def _replace(folder: Path, out: TextIO) -> None:
+    """``--overwrite``: remove the sweep in ``folder`` (what :func:`_sweep_entries` finds), keep everything else."""
+    for f in _sweep_entries(folder):
+        if f.is_dir():
+            shutil.rmtree(f)
+        else:
+            f.unlink()
+    summary = folder / "summary"
+    if summary.is_dir() and not any(summary.iterdir()):
+        summary.rmdir()
+    kept = sorted(str(f.relative_to(folder)) for f in [*folder.iterdir(), *(summary.iterdir() if summary.is_dir() else ())]
+                  if f != summary)
+    out.write(f"replaced the sweep in {folder}" + (f"; kept what it did not write: {kept}\n" if kept else "\n"))
+
+
+def _check_folder(folder: Path, *, resume: bool, overwrite: bool, state: bool) -> None:
+    """Refuse a ``folder`` that cannot take this sweep (SweepError naming it): ``--resume`` without a sweep's state,
+    a folder that is not a sweep (files of other origin), a sweep without ``--resume`` or ``--overwrite``."""
+    if resume:
+        if not state:
+            raise SweepError(f"--resume: {folder} holds no sweep to resume")
+        return
+    if not folder.is_dir() or not any(folder.iterdir()):
+        return
+    if not (folder / CONFIG_FILE).is_file():
+        held = sorted(f.name for f in folder.iterdir())
+        shown = ", ".join(held[:5]) + (f" and {len(held) - 5} more" if len(held) > 5 else "")
+        raise SweepError(f"{folder}: not a sweep (no {CONFIG_FILE}; it holds {shown}): rig sweep writes only into a new or "
+                         "empty folder or one of its own sweeps; choose another name or storage")
+    if not overwrite:
+        what = "holds a sweep; --resume continues it, " if state else "holds a sweep that never started (no Tune state); "
+        raise SweepError(f"{folder}: {what}--overwrite replaces it, or choose another name")
+
+
 def run_sweep(cfg: SweepConfig, *, train: TrainTrial, address: str | None = None, resume: bool = False, overwrite: bool = False,
               stream: TextIO | None = None, progress: bool = True) -> dict[str, Any]:
     """Run (or with ``resume`` continue) the sweep ``cfg`` on the Ray cluster at ``address`` (default: a local one,
@@ -412,13 +521,15 @@ def run_sweep(cfg: SweepConfig, *, train: TrainTrial, address: str | None = None
     from ray import tune
 
     folder = cfg.folder
+    try:
+        check_out_folder("storage", cfg.storage)
+        check_out_folder("name", folder)
+    except ValueError as exc:
+        raise SweepError(str(exc)) from None
     state = folder.is_dir() and tune.Tuner.can_restore(str(folder))
-    if resume and not state:
-        raise SweepError(f"--resume: {folder} holds no sweep to resume")
-    if not resume and folder.exists() and any(folder.iterdir()):
-        if not overwrite:
-            raise SweepError(f"{folder}: holds a sweep; --resume continues it, --overwrite replaces it, or choose another name")
-        shutil.rmtree(folder)
+    _check_folder(folder, resume=resume, overwrite=overwrite, state=state)
+    if not resume and (folder / CONFIG_FILE).is_file():
+        _replace(folder, out)
     trainable = tune.with_resources(tune.with_parameters(trial, sweep=asdict(cfg), train=train), {"cpu": 1})
     books = make_books(cfg.n_trials(), folder, quiet=progress is False)
     with distributed.session(address):
@@ -428,7 +539,7 @@ def run_sweep(cfg: SweepConfig, *, train: TrainTrial, address: str | None = None
             tuner = tune.Tuner.restore(str(folder), trainable=trainable, resume_unfinished=True, resume_errored=True)
         else:
             folder.mkdir(parents=True, exist_ok=True)
-            (folder / "sweep.toml.json").write_text(json.dumps(asdict(cfg), indent=1))
+            (folder / CONFIG_FILE).write_text(json.dumps(asdict(cfg), indent=1))
             tuner = tune.Tuner(
                 trainable,
                 param_space={"task": tune.grid_search(cfg.tasks), "seed": tune.grid_search(cfg.seeds), "hp": tune.grid_search(cfg.points())},
@@ -562,12 +673,18 @@ def main(argv: Sequence[str] | None, train: TrainTrial) -> int:
     p.add_argument("config", metavar="CONFIG.toml", help="the sweep (controllers.design.sweep: algo, tasks, seeds, [grid], storage, name ...)")
     p.add_argument("--address", default=None, metavar="ADDR", help="the Ray cluster (auto, HOST:PORT; default: a local cluster)")
     p.add_argument("--resume", action="store_true", help="continue the stopped sweep in <storage>/<name> (Tuner.restore)")
-    p.add_argument("--overwrite", action="store_true", help="replace an earlier sweep of the same name")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an earlier sweep of the same name (only what a sweep writes; never a folder that is not one)")
     a = p.parse_args(list(sys.argv[1:] if argv is None else argv))
     try:
         cfg = parse(a.config)
-        run_sweep(cfg, train=train, address=a.address, resume=a.resume, overwrite=a.overwrite)
+        result = run_sweep(cfg, train=train, address=a.address, resume=a.resume, overwrite=a.overwrite)
     except ValueError as exc:  # SweepError, BackendError: one line
         print(f"rig sweep: error: {exc}", file=sys.stderr)
         return 2
+    if result["done"] < result["trials"]:
+        what = "no trial" if result["done"] == 0 else f"only {result['done']} of the {result['trials']} trials"
+        print(f"rig sweep: error: {what} finished (the status column of {cfg.folder / 'summary' / 'sweep.csv'}, the errors in "
+              "the trials' error.txt); --resume runs the unfinished ones again", file=sys.stderr)
+        return 1
     return 0
