@@ -252,12 +252,15 @@ def test_hil_flight_with_a_designed_law(tmp_path, kind):
     r = subprocess.run([sys.executable, SCRIPT, "export", "--controller", kind, "--task", td.TASK, "--out", str(law_file)],
                        check=False, env=ENV, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
-    for attempt in range(2):  # a timing fault (a stall of the shared VM) latches the safe state, as it must; fly once more
+    for attempt in range(2):  # a timing fault or a burst of missed deadlines (a stall of the shared VM: the loop latches
+        # the safe state, as it must, or just runs late) gets one more flight; the second is held to every assertion below
         (tmp_path / f"try{attempt}").mkdir()
         loop, rig, rec, _ = td.fly(tmp_path / f"try{attempt}", law_file, 20.0)
-        if not (loop["faults"] and set(loop["faults"]) <= TIMING_FAULTS):
+        stalled = loop["deadline_miss_fraction"] >= 0.01
+        if not ((loop["faults"] and set(loop["faults"]) <= TIMING_FAULTS) or (stalled and not loop["faults"])):
             break
-        print(f"HIL {kind}: attempt {attempt} latched {loop['faults']} (law compute max {loop['compute']['max_ms']:.1f} ms); flying again")
+        print(f"HIL {kind}: attempt {attempt} latched {loop['faults']}, deadline misses {loop['deadline_misses']}/{loop['ticks']} "
+              f"(law compute max {loop['compute']['max_ms']:.1f} ms); flying again")
     off = td.fly_offline(A.load(law_file), td.TASK, 80.0, 20.0, seed=0)
     roll, worst = td._compare(rec, off)
     fr, fo = rig["final_info"], off["final_info"]
