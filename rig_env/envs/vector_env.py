@@ -64,7 +64,7 @@ from gymnasium.vector.utils import batch_space
 from numba import njit
 
 from rig_env.envs import streams as rs
-from rig_env.envs.config import RigEnvConfig, default_rate_filter_hz
+from rig_env.envs.config import RigEnvConfig
 from rig_env.envs.metrics import StepMetrics
 from rig_env.envs.observation import observe
 from rig_env.envs.render import RENDER_MODES, EnvFrames, EnvViewer, check_render_mode
@@ -258,7 +258,7 @@ class RigVectorEnv(VectorEnv):
 
         self.task = task_cls(n, self.free_dofs, self.dt, self.episode_seconds, **cfg.task_options)
         self.sensors = Sensors(
-            n, self.free_dofs, self.dt, rate_filter_hz=cfg.rate_filter_hz or default_rate_filter_hz(cfg.control_rate),
+            n, self.free_dofs, self.dt, rate_filter_hz=cfg.rate_filter_hz,
             delay_steps=cfg.link_delay_steps,
             angle_noise=np.radians(cfg.angle_noise_deg), flap_noise=np.radians(cfg.flap_noise_deg),
             airspeed_noise=cfg.airspeed_noise, quantise=cfg.quantise, pot_bits=cfg.pot_bits, encoder_bits=cfg.encoder_bits,
