@@ -45,7 +45,7 @@ from typing import Any, Mapping, TextIO
 
 from rig_env.paths import check_out_folder
 from rig_env.params import DEFAULT_FILE, JOINTS, PARAM_INDEX, RigParams
-from rig_env.sysid.records import SURFACE_KINDS, FlightRecord
+from rig_env.sysid.records import MIN_RECORD_SAMPLES, SURFACE_KINDS, FlightRecord  # MIN_RECORD_SAMPLES: what sysid.fit refuses below
 
 METHODS = ("output_error", "filter_error", "equation_error")  # rig_env.sysid.fit.METHODS (kept here so parsing a config imports no model)
 AERO_MODEL_NAMES = ("linear", "tables", "unsteady")  # rig_env.physics.pipeline.AERO_MODELS' names (a test keeps them equal)
@@ -54,11 +54,6 @@ OPTION_KEYS = ("max_iter", "tol", "aero_model")
 ESTIMATE_KEYS = ("name", "start", "bounds")
 READER_KEYS = ("columns", "free_dofs", "airspeed", "locked", "surface_kind", "setup")
 RECORD_KEYS = ("path", "name", *READER_KEYS, "segment", "resample", "smooth")
-
-
-MIN_RECORD_SAMPLES = 10
-"""Samples a record must hold to be fitted: the residuals' whiteness test then has two lags (n // 5,
-:func:`rig_env.sysid.diagnostics.default_max_lag`); a 2-sample record failed only inside the fit, as "no effect"."""
 
 
 class ConfigError(ValueError):

@@ -5,7 +5,9 @@ BAe Hawk (Pattinson, Lowenberg & Goman, AIAA 2009-5727).  Every value in the fil
 ``paper`` (that paper), ``rig-code`` (the later Bristol rig's control code) or ``estimate`` with a
 one-line derivation, or ``identified`` (fitted by :mod:`rig_env.sysid`: the entry also carries ``std``,
 the Cramer-Rao standard error in the value's unit, ``records``, the names of the records it was fitted
-to, and ``method``).  Values are validated on load; errors name the field and its allowed range.
+to, and ``method``, one of :data:`rig_env.params_io.IDENTIFICATION_METHODS`, which are ``rig_env.sysid.METHODS``).
+Values are validated on load; errors name the file, the field and its allowed range.  An entry's optional ``unit``
+must be the field's own: values are never converted.
 
 Units are SI except where the field name says otherwise (``_deg``, ``_deg_s``, ``_hz``).
 
@@ -26,7 +28,14 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from rig_env.params_io import IDENTIFIED_KEYS, ParameterError, did_you_mean, params_text, write_checked
+from rig_env.params_io import (
+    IDENTIFICATION_METHODS,
+    IDENTIFIED_KEYS,
+    ParameterError,
+    did_you_mean,
+    params_text,
+    write_checked,
+)
 
 JOINTS: tuple[str, ...] = ("rig_roll", "rig_pitch", "rig_yaw", "model_pitch", "model_yaw")
 """Canonical joint names, in the order of every joint-space array."""
@@ -286,6 +295,15 @@ class Fixtures:
     model_yaw: Fixture
 
 
+TABLE_ALPHA_RANGE_DEG: tuple[float, float] = (-180.0, 180.0)
+"""Allowed breakpoints of the high-incidence tables' grids (``alpha_deg``, ``comp_alpha_deg``), deg: every angle of attack."""
+TABLE_COEFFICIENT_LIMIT = 5.0
+"""Allowed magnitude of a high-incidence table's coefficient (``hawk_CL``, ``hawk_CM``, ``comp_CN``): a sanity bound,
+not a physical claim.  No wing or body at any incidence comes near it (a flat plate broadside has CN about 2,
+a wing's CLmax is below 2 without high-lift devices and the default tables stay within 1.2); a value beyond it is
+a typing or unit error."""
+
+
 @dataclass(frozen=True)
 class HighIncidence:
     """Static coefficient tables over angle of attack (deg) for the optional nonlinear model.
@@ -293,6 +311,10 @@ class HighIncidence:
     ``hawk_CL``/``hawk_CM`` replace ``CL0 + CLalpha (alpha - alpha0)`` and ``CM0 + CMalpha (alpha -
     alpha0)``; ``comp_CN`` replaces the compensator panels' ``CLalpha (alpha - alpha0)``.  Outside the
     table the end values are held.  These are not per-environment parameters.
+
+    Each field is a tuple of floats; a grid (``alpha_deg``, ``comp_alpha_deg``) has at least 2 strictly
+    increasing breakpoints within :data:`TABLE_ALPHA_RANGE_DEG`, a coefficient one value per breakpoint of
+    its grid, each within +-:data:`TABLE_COEFFICIENT_LIMIT`.
     """
 
     alpha_deg: tuple[float, ...]
@@ -349,20 +371,30 @@ class RigParams:
                 raw = tomllib.load(fh)
         except FileNotFoundError:
             raise ParameterError(f"parameter file not found: {path}") from None
+        except IsADirectoryError:
+            raise ParameterError(f"{path}: is a folder, not a parameter file") from None
+        except OSError as exc:
+            raise ParameterError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+        except UnicodeDecodeError as exc:
+            raise ParameterError(f"{path}: not a parameter file (not UTF-8 text: byte {exc.start} is {exc.object[exc.start:exc.start + 1]!r})") from None
         except tomllib.TOMLDecodeError as exc:
             raise ParameterError(f"{path}: not valid TOML: {exc}") from None
         sources: dict[str, tuple[str, str]] = {}
         identified: dict[str, dict[str, Any]] = {}
         params = _build(cls, raw, "", sources, str(path), identified)
         params = dataclasses.replace(params, sources=sources, identified=identified)
-        params.validate()
+        try:
+            params.validate()
+        except ParameterError as exc:
+            raise ParameterError(f"{path}: {exc}") from None
         return params
 
-    def replace(self, **overrides: float) -> "RigParams":
+    def replace(self, **overrides: Any) -> "RigParams":
         """A copy with dotted-name overrides, e.g. ``p.replace(**{"mass.hawk_mass": 1.2})``.
 
         Names are those of :data:`PARAM_NAMES` (``group.field``, ``friction.<joint>.<field>`` or
-        ``fixture.<joint>.<field>``).
+        ``fixture.<joint>.<field>``), each a number (Python or numpy), or a table ``high_incidence.<field>``, a
+        sequence of numbers (list, tuple or 1-D array; stored as a tuple of floats).  The copy is validated.
         """
         tree = dataclasses.asdict(self)
         for meta in _META:
@@ -376,7 +408,11 @@ class RigParams:
                 node = node[part]
             if not isinstance(node, dict) or parts[-1] not in node or isinstance(node[parts[-1]], dict):
                 raise ParameterError(f"unknown parameter {name!r}{did_you_mean(name, PARAM_NAMES)}; valid names: see rig_env.PARAM_NAMES")
-            node[parts[-1]] = value
+            if parts[0] == "high_incidence":
+                node[parts[-1]] = _table_values(name, value)
+            else:
+                number = _real(value)
+                node[parts[-1]] = value if number is None else number  # not a number: validate() names it
         new = _from_plain(RigParams, tree)
         srcs = dict(self.sources)
         for name in overrides:
@@ -403,6 +439,9 @@ class RigParams:
         """
         hi = self.high_incidence
         a = [float(v) for v in hi.alpha_deg]
+        a_num, d_num = _real(alpha_deg), _real(depth)  # numpy numbers as Python's
+        alpha_deg = alpha_deg if a_num is None else a_num
+        depth = depth if d_num is None else d_num
         if not isinstance(alpha_deg, (int, float)) or isinstance(alpha_deg, bool) or not math.isfinite(alpha_deg):
             raise ParameterError(f"alpha_deg: a finite angle of attack in deg, not {alpha_deg!r}")
         if not a[0] < alpha_deg < a[-1] or alpha_deg in a:
@@ -462,17 +501,20 @@ class RigParams:
         if g.arm_radius >= self.comp_aero.span / 2:
             raise ParameterError("geometry.arm_radius must be smaller than comp_aero.span / 2")
         hi = self.high_incidence
-        for xs, ys, name in (
-            (hi.alpha_deg, hi.hawk_CL, "high_incidence.hawk_CL"),
-            (hi.alpha_deg, hi.hawk_CM, "high_incidence.hawk_CM"),
-            (hi.comp_alpha_deg, hi.comp_CN, "high_incidence.comp_CN"),
-        ):
-            if len(xs) != len(ys) or len(xs) < 2:
-                raise ParameterError(f"{name}: needs as many values as its alpha grid (>= 2), got {len(ys)} vs {len(xs)}")
-            if any(b_ <= a for a, b_ in zip(xs, xs[1:])):
-                raise ParameterError(f"{name}: the alpha grid must be strictly increasing")
-            if not all(math.isfinite(v) for v in (*xs, *ys)):
-                raise ParameterError(f"{name}: values must be finite")
+        lim = TABLE_COEFFICIENT_LIMIT
+        for grid, coefficients in (("alpha_deg", ("hawk_CL", "hawk_CM")), ("comp_alpha_deg", ("comp_CN",))):
+            gname = f"high_incidence.{grid}"
+            xs = _check_table(gname, getattr(hi, grid), TABLE_ALPHA_RANGE_DEG, " deg")
+            if len(xs) < 2:
+                raise ParameterError(f"{gname}: needs at least 2 breakpoints, got {len(xs)}")
+            for i in range(len(xs) - 1):
+                if not xs[i] < xs[i + 1]:
+                    raise ParameterError(f"{gname} must be strictly increasing: [{i}] = {xs[i]} deg, then [{i + 1}] = {xs[i + 1]} deg")
+            for c in coefficients:
+                cname = f"high_incidence.{c}"
+                ys = _check_table(cname, getattr(hi, c), (-lim, lim), "", f" (|CL|, |CM|, |CN| <= {lim:g}: no wing or body comes near it)")
+                if len(ys) != len(xs):
+                    raise ParameterError(f"{cname}: needs one value per breakpoint of {gname} ({len(xs)}), got {len(ys)}")
 
     # ------------------------------------------------------------------ flat layout for kernels
     def to_vector(self) -> np.ndarray:
@@ -544,6 +586,48 @@ HEADER = """# Rig parameters (written by rig_env: RigParams.to_toml or rig_env.s
 """
 
 
+def _real(v: Any) -> int | float | None:
+    """``v`` as a Python int or float if it is a real number (Python's or numpy's, a 0-d array too; not a bool), else None."""
+    if isinstance(v, (bool, np.bool_)):
+        return None
+    if isinstance(v, (int, float)):
+        return v
+    if isinstance(v, (np.integer, np.floating)) or (isinstance(v, np.ndarray) and v.ndim == 0 and v.dtype.kind in "iuf"):
+        return v.item()
+    return None
+
+
+def _table_values(name: str, v: Any) -> tuple[float, ...]:
+    """A high-incidence table's values as the dataclass holds them, a tuple of floats; ParameterError naming ``name``
+    if ``v`` is not a flat sequence (list, tuple, 1-D array) of numbers.  Ranges: :meth:`RigParams.validate`."""
+    if isinstance(v, np.ndarray) and v.ndim != 1:
+        raise ParameterError(f"{name} must be a flat list of numbers, got an array of shape {v.shape}")
+    if not isinstance(v, (list, tuple, np.ndarray)):
+        raise ParameterError(f"{name} must be a list of numbers (one per breakpoint), got {type(v).__name__} {v!r}")
+    out = []
+    for i, x in enumerate(v):
+        number = _real(x)
+        if number is None:
+            what = "a nested list" if isinstance(x, (list, tuple, np.ndarray)) else repr(x)
+            raise ParameterError(f"{name}[{i}] must be a number, got {what}")
+        out.append(float(number))
+    return tuple(out)
+
+
+def _check_table(name: str, values: Any, bounds: tuple[float, float], unit: str, why: str = "") -> tuple[float, ...]:
+    lo, hi = bounds
+    if not isinstance(values, tuple):
+        raise ParameterError(f"{name} must be a tuple of floats (RigParams.replace and from_toml convert), got {type(values).__name__}")
+    for i, v in enumerate(values):
+        if not isinstance(v, (int, float)) or isinstance(v, bool):
+            raise ParameterError(f"{name}[{i}] must be a number, got {v!r}")
+        if not math.isfinite(v):
+            raise ParameterError(f"{name}[{i}] must be finite, got {v!r}")
+        if not lo <= v <= hi:
+            raise ParameterError(f"{name}[{i}] = {v}{unit} is outside the allowed range [{lo}, {hi}]{unit}{why}")
+    return values
+
+
 def _leaf(params: Any, name: str) -> Any:
     obj = params
     for part in name.split("."):
@@ -587,7 +671,11 @@ def _build(cls: type, raw: Mapping[str, Any], prefix: str, sources: dict, path: 
         if dataclasses.is_dataclass(ftype) and ftype is not HighIncidence:
             kwargs[f.name] = _build(ftype, entry, name + ".", sources, path, identified)
         elif ftype is HighIncidence:
-            kwargs[f.name] = HighIncidence(**{k: tuple(float(x) for x in v) for k, v in _table_entry(entry, name, path).items()})
+            table = _table_entry(entry, name, path)
+            try:
+                kwargs[f.name] = HighIncidence(**{k: _table_values(f"{name}.{k}", v) for k, v in table.items()})
+            except ParameterError as exc:
+                raise ParameterError(f"{path}: {exc}") from None
             sources[name] = (entry["source"], str(entry.get("note", "")))
         else:
             if not isinstance(entry, Mapping) or "value" not in entry or "source" not in entry:
@@ -601,6 +689,10 @@ def _build(cls: type, raw: Mapping[str, Any], prefix: str, sources: dict, path: 
             extra = set(entry) - {"value", "source", "note", "unit", *IDENTIFIED_KEYS}
             if extra:
                 raise ParameterError(f"{path}: {name} has unknown key(s) {sorted(extra)}")
+            unit = f.metadata["unit"]
+            if "unit" in entry and entry["unit"] != unit:  # a label, never a conversion: a value in another unit is refused
+                raise ParameterError(f"{path}: {name}.unit = {entry['unit']!r}, but {name} is in {unit!r}; give the value in "
+                                     f"{unit!r} (unit = {unit!r}, or no unit key): units are not converted")
             if src == "identified":
                 identified[name] = _identified_entry(entry, name, path)
             elif set(entry) & set(IDENTIFIED_KEYS):
@@ -624,6 +716,8 @@ def _identified_entry(entry: Mapping[str, Any], name: str, path: str) -> dict[st
     method = entry["method"]
     if not isinstance(method, str) or not method:
         raise ParameterError(f"{path}: {name}.method = {method!r}: must be a non-empty string")
+    if method not in IDENTIFICATION_METHODS:
+        raise ParameterError(f"{path}: {name}.method = {method!r}; allowed: {', '.join(IDENTIFICATION_METHODS)}")
     return {"std": float(std), "records": tuple(recs), "method": method}
 
 

@@ -13,6 +13,8 @@ import dataclasses
 import difflib
 import json
 import math
+import os
+import tempfile
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
@@ -23,6 +25,11 @@ class ParameterError(ValueError):
 
 IDENTIFIED_KEYS = ("std", "records", "method")
 """Keys an ``identified`` entry carries besides value, source, note and unit (and no other source may)."""
+
+IDENTIFICATION_METHODS = ("output_error", "filter_error", "equation_error")
+"""The ``method`` an ``identified`` entry may name: :data:`rig_env.sysid.METHODS` (``rig_env.sysid.fit``), held here, in
+the file format's lowest layer, because the parameters may not import the identification package (the import
+contracts of pyproject.toml; tests/test_params.py keeps the two equal)."""
 
 Provenance = Callable[[str], Mapping[str, Any]]
 """A dotted name (or ``"high_incidence"``) -> its ``source``, ``note`` and, if identified, ``std``, ``records``, ``method``."""
@@ -97,19 +104,31 @@ def params_text(params: Any, provenance: Provenance, header: str,
 
 
 def write_checked(text: str, path: str | Path, load: Callable[[Path], Any], want: Any, overwrite: bool = False) -> Path:
-    """Write ``text`` at ``path`` only if ``load`` reads it back equal to ``want`` (through a temporary file
-    beside it, then renamed); FileExistsError if ``path`` exists and not ``overwrite``.  Returns the path."""
+    """Write ``text`` at ``path`` only if ``load`` reads it back equal to ``want`` (through a temporary file of a
+    unique name beside it, then renamed: no other file is touched, and an error names ``path``); FileExistsError
+    if ``path`` exists and not ``overwrite``.  Returns the path."""
     path = Path(path)
+    if path.is_dir():
+        raise ParameterError(f"{path}: is a folder, not a parameter file")
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists; pass overwrite=True (rig identify: --overwrite) to replace it")
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text)
+    fd, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    tmp = Path(name)
     try:
-        if load(tmp) != want:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:  # UTF-8 whatever the locale: tomllib reads it so
+            fh.write(text)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # the mode a new file gets (mkstemp's is 0600)
+        try:
+            same = load(tmp) == want
+        except ParameterError as e:  # the loader names the file it read: name the file being written
+            raise ParameterError(str(e).replace(str(tmp), str(path))) from None
+        if not same:
             raise ParameterError(f"{path}: the written file does not load back to the same values (a writer bug)")
+        tmp.replace(path)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
-    tmp.replace(path)
     return path

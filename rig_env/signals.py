@@ -39,6 +39,10 @@ UNIT_3211 = 0.28
 FORMAT = "rig_env.InputSchedule"
 VERSION = 1
 _SAMPLE_TOL = 1e-9  # fraction of a sample: a time this close below a sample boundary counts as the next sample
+MAX_CHECK_SAMPLES = 1 << 22
+"""Most samples :meth:`InputSchedule.check` evaluates per surface (4194304: 14.5 hours at 80 Hz, 4.8 hours at 244 Hz);
+a check of more (a tiny ``dt`` or a very long schedule) is refused, naming dt and the duration."""
+_CHUNK = 1 << 20  # values (samples x components) evaluated at once: bounds the memory of a long or rich evaluation
 
 
 class ScheduleError(ValueError):
@@ -75,7 +79,12 @@ def _number(owner: str, name: str, v: Any, *, positive: bool = False, nonneg: bo
 def _numbers(owner: str, name: str, v: Any, *, positive: bool = False) -> tuple[float, ...]:
     if isinstance(v, (str, bytes, Mapping)) or not isinstance(v, (Sequence, np.ndarray)):
         raise ScheduleError(f"{owner}.{name}: must be a sequence of numbers, got {type(v).__name__}")
-    out = tuple(_number(owner, f"{name}[{k}]", x, positive=positive) for k, x in enumerate(np.asarray(v, dtype=object).ravel()))
+    if isinstance(v, np.ndarray) and v.ndim != 1:
+        raise ScheduleError(f"{owner}.{name}: must be a flat sequence of numbers, got an array of shape {v.shape}")
+    for k, x in enumerate(v):
+        if isinstance(x, (Sequence, np.ndarray)) and not isinstance(x, (str, bytes)):
+            raise ScheduleError(f"{owner}.{name}[{k}] = {x!r}: must be a number ({name} is a flat sequence, not nested)")
+    out = tuple(_number(owner, f"{name}[{k}]", x, positive=positive) for k, x in enumerate(v))
     if not out:
         raise ScheduleError(f"{owner}.{name}: must not be empty")
     return out
@@ -215,15 +224,28 @@ class Multisine(_Shape):
         """Deflection at times t (s, any shape), deg."""
         f, a, p = self._arrays
         tau = np.asarray(t, dtype=np.float64) - self.start_s
-        u = (np.sin(2.0 * math.pi * np.multiply.outer(tau, f) + p) * a).sum(axis=-1)
-        return np.where((tau >= 0.0) & (tau < self.duration_s), u, 0.0)
+        flat = tau.ravel()
+        u = np.empty(flat.size)
+        step = max(1, _CHUNK // f.size)  # in blocks: samples x components bounded, whatever the length of t
+        for i in range(0, flat.size, step):
+            u[i : i + step] = (np.sin(2.0 * math.pi * np.multiply.outer(flat[i : i + step], f) + p) * a).sum(axis=-1)
+        return np.where((tau >= 0.0) & (tau < self.duration_s), u.reshape(tau.shape), 0.0)
 
     @property
     def relative_peak_factor(self) -> float:
         """max |u| / (sqrt(2) rms(u)) over the window (1 for a single sine), on a grid of at least 64 points
         per period of the highest frequency (and 4096 in all)."""
         n = int(min(1 << 20, max(4096, 64.0 * max(self.frequencies_hz) * self.duration_s)))
-        u = self(self.start_s + self.duration_s * np.arange(n) / n)
+        f, a, p = self._arrays
+        k = f * self.duration_s
+        kk = np.round(k).astype(np.int64)
+        if np.all(np.abs(k - kk) <= 1e-9 * k) and kk.min() >= 1 and kk.max() < n // 2:
+            # harmonics of 1 / duration_s (as designed): the same grid by one inverse FFT, not n x components sines
+            X = np.zeros(n // 2 + 1, dtype=np.complex128)
+            np.add.at(X, kk, 0.5 * n * a * np.exp(1j * (p - 0.5 * math.pi)))
+            u = np.fft.irfft(X, n)
+        else:
+            u = self(self.start_s + self.duration_s * np.arange(n) / n)
         return float(np.abs(u).max() / (math.sqrt(2.0) * math.sqrt(np.mean(u**2))))
 
 
@@ -356,23 +378,33 @@ class InputSchedule:
     def check(self, limit_deg: float = 40.0, rate_deg_s: float = 350.0, dt: float = 1.0 / 80.0) -> None:
         """ValueError naming the surface, the time and the limit if the command, sampled every ``dt`` s from
         t = 0 and held, exceeds +-``limit_deg`` deg or changes faster than ``rate_deg_s`` deg/s between
-        samples (the command before t = 0 is 0: the servos start at rest at 0)."""
+        samples (the command before t = 0 is 0: the servos start at rest at 0).  At most
+        :data:`MAX_CHECK_SAMPLES` samples (``duration / dt + 2``): a check of more is refused, naming dt."""
         for name, v in (("limit_deg", limit_deg), ("rate_deg_s", rate_deg_s), ("dt", dt)):
             _number("check", name, v, positive=True)
-        t = np.arange(int(math.ceil(self.duration / dt)) + 2) * dt
-        u = self.sample(t)
-        for j, s in enumerate(SURFACES):
-            if s not in self.shapes:
-                continue
-            over = np.flatnonzero(np.abs(u[:, j]) > limit_deg * (1.0 + 1e-12))
-            if over.size:
-                k = over[0]
-                raise ScheduleError(f"{s}: {u[k, j]:.4g} deg at t = {t[k]:.4f} s exceeds the position limit +-{limit_deg:g} deg")
-            rate = np.diff(u[:, j], prepend=0.0) / dt
-            fast = np.flatnonzero(np.abs(rate) > rate_deg_s * (1.0 + 1e-12))
-            if fast.size:
-                k = fast[0]
-                raise ScheduleError(f"{s}: the command changes at {abs(rate[k]):.4g} deg/s at t = {t[k]:.4f} s (held every {dt:g} s), "
+        dt = float(dt)
+        count = self.duration / dt + 2.0
+        if not count <= MAX_CHECK_SAMPLES:  # also inf
+            raise ScheduleError(f"check: dt = {dt:g} s over the schedule's {self.duration:g} s is {count:.4g} samples, more than "
+                                f"{MAX_CHECK_SAMPLES} (rig_env.signals.MAX_CHECK_SAMPLES); check with a larger dt or shorten the schedule")
+        n = int(math.ceil(self.duration / dt)) + 2
+        for s in self.shapes:  # SURFACES order
+            fast_at: tuple[float, float] | None = None  # the first rate excess (reported if no position excess)
+            before = 0.0
+            for i in range(0, n, 1 << 16):  # in blocks: bounded memory
+                t = np.arange(i, min(n, i + (1 << 16))) * dt
+                u = self.value(s, t)
+                over = np.flatnonzero(np.abs(u) > limit_deg * (1.0 + 1e-12))
+                if over.size:
+                    k = over[0]
+                    raise ScheduleError(f"{s}: {u[k]:.4g} deg at t = {t[k]:.4f} s exceeds the position limit +-{limit_deg:g} deg")
+                rate = np.diff(u, prepend=before) / dt
+                before = float(u[-1])
+                fast = np.flatnonzero(np.abs(rate) > rate_deg_s * (1.0 + 1e-12))
+                if fast.size and fast_at is None:
+                    fast_at = (float(abs(rate[fast[0]])), float(t[fast[0]]))
+            if fast_at is not None:
+                raise ScheduleError(f"{s}: the command changes at {fast_at[0]:.4g} deg/s at t = {fast_at[1]:.4f} s (held every {dt:g} s), "
                                     f"beyond the rate limit {rate_deg_s:g} deg/s")
 
     # ------------------------------------------------------------------ plain data
@@ -410,8 +442,20 @@ class InputSchedule:
 
     @classmethod
     def load(cls, path: str | Path) -> "InputSchedule":
-        """The schedule in a JSON file written by :meth:`save`; ScheduleError naming the file and the problem."""
-        text = Path(path).read_text()
+        """The schedule in a JSON file written by :meth:`save`; ScheduleError naming the file and the problem
+        (a missing, unreadable or non-UTF-8 file too)."""
+        try:
+            raw = Path(path).read_bytes()
+        except FileNotFoundError as e:
+            raise ScheduleError(f"{path}: input schedule file not found ({e.strerror})") from None
+        except IsADirectoryError:
+            raise ScheduleError(f"{path}: is a folder, not an input schedule file") from None
+        except OSError as e:
+            raise ScheduleError(f"{path}: cannot be read ({e.strerror or e})") from None
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as e:
+            raise ScheduleError(f"{path}: not an input schedule (not UTF-8 text: byte {e.start} is {raw[e.start:e.start + 1]!r})") from None
 
         def refuse(token: str) -> float:
             raise ScheduleError(f"{path}: non-finite number {token} (numbers must be finite)")
@@ -427,6 +471,6 @@ class InputSchedule:
 
 
 __all__ = [
-    "SHAPES", "UNIT_3211", "Doublet", "InputSchedule", "Multisine", "Sampled", "ScheduleError", "Shape", "Step",
+    "MAX_CHECK_SAMPLES", "SHAPES", "UNIT_3211", "Doublet", "InputSchedule", "Multisine", "Sampled", "ScheduleError", "Shape", "Step",
     "ThreeTwoOneOne", "doublet", "shape_from_data", "three_two_one_one",
 ]

@@ -1,6 +1,7 @@
 """Parameter file, provenance tags, validation and the kernel layout."""
 
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -155,3 +156,133 @@ def test_file_without_the_issue21_parameters_keeps_its_model(tmp_path):
     # everything else as in the file
     d = RigParams.consistent()
     assert p.replace(**{n: getattr(d.hawk_aero, n.split(".")[1]) for n in NEUTRAL_DEFAULTS}) == d
+
+
+# ---------------------------------------------------------------------- the file's units, tables, methods and the writer
+def _default_with(tmp_path: Path, old: str, new: str, name: str = "edited.toml") -> Path:
+    text = rig_env.params.DEFAULT_FILE.read_text()
+    assert text.count(old) >= 1, old
+    path = tmp_path / name
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+LOWER = 'lower_deg = { value = -25.0, source = "estimate", unit = "deg"'  # the first: [stops.rig_pitch]
+
+
+@pytest.mark.parametrize("unit", ['"rad"', '"pounds"', "5", '"DEG"'])
+def test_a_unit_other_than_the_fields_own_is_refused_never_reinterpreted(tmp_path: Path, unit: str):
+    path = _default_with(tmp_path, LOWER, LOWER.replace('unit = "deg"', f"unit = {unit}"))
+    given = repr(unit.strip('"')) if unit.startswith('"') else unit
+    with pytest.raises(ParameterError, match=rf"^{path}: stops.rig_pitch.lower_deg.unit = {given}, but stops.rig_pitch.lower_deg "
+                                             rf"is in 'deg'; give the value in 'deg'.*not converted"):
+        RigParams.from_toml(path)
+
+
+def test_the_fields_own_unit_or_none_loads(tmp_path: Path, params):
+    assert RigParams.from_toml(_default_with(tmp_path, LOWER, LOWER.replace(', unit = "deg"', ""))) == params
+    assert RigParams.from_toml(_default_with(tmp_path, LOWER, LOWER, "same.toml")).stops.rig_pitch.lower_deg == -25.0
+
+
+def test_replace_stores_tables_as_tuples_of_floats_and_numpy_numbers_as_numbers(params, tmp_path: Path):
+    hi = params.high_incidence
+    for given in (np.array(hi.hawk_CL), list(hi.hawk_CL), [np.float64(v) for v in hi.hawk_CL]):
+        q = params.replace(**{"high_incidence.hawk_CL": given})
+        assert type(q.high_incidence.hawk_CL) is tuple and all(type(v) is float for v in q.high_incidence.hawk_CL)
+        assert q == params and hash(q) == hash(params)
+    q = params.replace(**{"high_incidence.alpha_deg": [int(a) for a in hi.alpha_deg]})  # ints: floats in the table
+    assert q.high_incidence.alpha_deg == hi.alpha_deg and all(type(v) is float for v in q.high_incidence.alpha_deg)
+    RigParams.from_toml(params.replace(**{"high_incidence.hawk_CL": np.array(hi.hawk_CL)}).to_toml(tmp_path / "t.toml"))
+    m = params.replace(**{"mass.hawk_mass": np.float32(1.25), "stops.rig_pitch.upper_deg": np.int64(20), "mass.arm_mass": np.array(2.4)})
+    assert (m.mass.hawk_mass, m.stops.rig_pitch.upper_deg, m.mass.arm_mass) == (1.25, 20, 2.4)
+    assert type(m.mass.hawk_mass) is float and type(m.stops.rig_pitch.upper_deg) is int
+    assert params.with_lift_break(np.int64(6), np.float64(0.05)) == params.with_lift_break(6, 0.05)
+    with pytest.raises(ParameterError, match="mass.hawk_mass must be a number, got np.True_|mass.hawk_mass must be a number, got True"):
+        params.replace(**{"mass.hawk_mass": np.bool_(True)})
+
+
+@pytest.mark.parametrize("name, value, match", [
+    ("high_incidence.alpha_deg", 5.0, r"high_incidence.alpha_deg must be a list of numbers \(one per breakpoint\), got float 5.0"),
+    ("high_incidence.alpha_deg", np.zeros((2, 18)), r"high_incidence.alpha_deg must be a flat list of numbers, got an array of shape \(2, 18\)"),
+    ("high_incidence.hawk_CM", ["x"] * 18, r"high_incidence.hawk_CM\[0\] must be a number, got 'x'"),
+    ("high_incidence.hawk_CM", [[0.1]] * 18, r"high_incidence.hawk_CM\[0\] must be a number, got a nested list"),
+    ("high_incidence.hawk_CL", [0.1] * 17, r"high_incidence.hawk_CL: needs one value per breakpoint of high_incidence.alpha_deg \(18\), got 17"),
+    ("high_incidence.comp_alpha_deg", [0.0], r"high_incidence.comp_alpha_deg: needs at least 2 breakpoints, got 1"),
+])
+def test_replace_refuses_bad_tables_by_field(params, name, value, match):
+    with pytest.raises(ParameterError, match=match):
+        params.replace(**{name: value})
+
+
+ALPHA = "alpha_deg = [-30.0, -20.0,"
+HAWK_CL = "hawk_CL = [-0.60, -0.55,"
+COMP_CN = "comp_CN = [0.0, -1.0,"
+
+
+@pytest.mark.parametrize("old, new, match", [
+    (ALPHA, 'alpha_deg = ["x", -20.0,', r"high_incidence.alpha_deg\[0\] must be a number, got 'x'"),
+    (ALPHA, "alpha_deg = [[-30.0], -20.0,", r"high_incidence.alpha_deg\[0\] must be a number, got a nested list"),
+    ("alpha_deg = [-30.0, -20.0, -16.0, -12.0, -8.0, -4.0, 0.0, 4.0, 8.0, 10.0, 13.0, 16.0, 20.0, 25.0, 30.0, 40.0, 60.0, 90.0]",
+     "alpha_deg = 5.0", r"high_incidence.alpha_deg must be a list of numbers \(one per breakpoint\), got float 5.0"),
+    (ALPHA, "alpha_deg = [nan, -20.0,", r"high_incidence.alpha_deg\[0\] must be finite, got nan"),
+    (ALPHA, "alpha_deg = [-10.0, -20.0,", r"high_incidence.alpha_deg must be strictly increasing: \[0\] = -10.0 deg, then \[1\] = -20.0 deg"),
+    (ALPHA, "alpha_deg = [-300.0, -20.0,", r"high_incidence.alpha_deg\[0\] = -300.0 deg is outside the allowed range \[-180.0, 180.0\] deg"),
+    (HAWK_CL, "hawk_CL = [-1e6, -0.55,", r"high_incidence.hawk_CL\[0\] = -1000000.0 is outside the allowed range \[-5.0, 5.0\] \(\|CL\|"),
+    (COMP_CN, "comp_CN = [0.0, inf,", r"high_incidence.comp_CN\[1\] must be finite, got inf"),
+    (HAWK_CL, "hawk_CL = [-0.55,", r"high_incidence.hawk_CL: needs one value per breakpoint of high_incidence.alpha_deg \(18\), got 17"),
+    ("hawk_mass = { value = 1.0,", "hawk_mass = { value = 100.0,", r"mass.hawk_mass = 100.0 kg is outside the allowed range \[0.1, 10.0\] kg"),
+    ("hawk_Izz = { value = 0.021,", "hawk_Izz = { value = 0.5,", "mass.hawk_Izz = 0.5 violates the rigid-body triangle inequality"),
+])
+def test_file_errors_name_the_file_and_the_field(tmp_path: Path, old, new, match):
+    path = _default_with(tmp_path, old, new)
+    with pytest.raises(ParameterError, match=rf"^{path}: {match}"):
+        RigParams.from_toml(path)
+
+
+def test_a_folder_or_a_binary_file_is_refused_naming_it(tmp_path: Path):
+    with pytest.raises(ParameterError, match=rf"^{tmp_path}: is a folder, not a parameter file$"):
+        RigParams.from_toml(tmp_path)
+    binary = tmp_path / "rig.toml"
+    binary.write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00")
+    with pytest.raises(ParameterError, match=rf"^{binary}: not a parameter file \(not UTF-8 text: byte 0 is b'\\x89'\)$"):
+        RigParams.from_toml(binary)
+
+
+def test_identified_method_is_one_of_the_identification_methods(params, tmp_path: Path):
+    from rig_env.params_io import IDENTIFICATION_METHODS
+    from rig_env.sysid import METHODS
+    from rig_env.sysid.paramfile import write_params
+
+    assert IDENTIFICATION_METHODS == METHODS  # the file format's list is the identification's
+    ident = {"mass.hawk_mass": {"value": 1.2, "std": 0.01, "records": ["r1"], "method": "filter_error"}}
+    text = write_params(params, tmp_path / "fit.toml", identified=ident).read_text()
+    assert RigParams.from_toml(tmp_path / "fit.toml").provenance("mass.hawk_mass")["method"] == "filter_error"
+    typo = tmp_path / "typo.toml"
+    typo.write_text(text.replace('method = "filter_error"', 'method = "outptu_error"'))
+    with pytest.raises(ParameterError, match=rf"^{typo}: mass.hawk_mass.method = 'outptu_error'; allowed: output_error, filter_error, equation_error$"):
+        RigParams.from_toml(typo)
+    with pytest.raises(ParameterError, match=r"identified\['mass.hawk_mass'\].method = 'oe'; allowed: output_error"):
+        write_params(params, tmp_path / "oe.toml", identified={"mass.hawk_mass": dict(ident["mass.hawk_mass"], method="oe")})
+    assert not (tmp_path / "oe.toml").exists()
+
+
+def test_writers_leave_other_files_alone_and_errors_name_the_destination(params, tmp_path: Path):
+    """A user's ``<name>.tmp`` beside the destination is neither replaced nor removed; a file that does not load
+    back is reported under the destination's name; nothing is left behind; the file's mode is a new file's."""
+    from rig_env.sysid.paramfile import write_params
+
+    mine = tmp_path / "user.toml.tmp"
+    mine.write_text("my notes\n")
+    params.to_toml(tmp_path / "user.toml")
+    write_params(params, tmp_path / "user.toml", overwrite=True)
+    assert mine.read_text() == "my notes\n"
+    assert RigParams.from_toml(tmp_path / "user.toml") == params
+    umask = os.umask(0)
+    os.umask(umask)
+    assert (tmp_path / "user.toml").stat().st_mode & 0o777 == 0o666 & ~umask
+    bad = tmp_path / "rep" / "w2.toml"
+    with pytest.raises(ParameterError, match=rf"^{bad}: mass.hawk_mass.records = \[''\]: must be a non-empty list of record names"):
+        write_params(params, bad, identified={"mass.hawk_mass": {"value": 1.2, "std": 0.01, "records": [""], "method": "output_error"}})
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["rep", "user.toml", "user.toml.tmp"]
+    with pytest.raises(ParameterError, match=rf"^{tmp_path / 'rep'}: is a folder, not a parameter file$"):
+        params.to_toml(tmp_path / "rep", overwrite=True)

@@ -391,3 +391,72 @@ def test_fit_from_starts_refuses_bad_starts_by_name(pitch_run):
             sysid.fit_from_starts(rec, P, ["hawk_aero.CMq"], starts)
     with pytest.raises(ValueError, match="give the start values in starts"):
         sysid.fit_from_starts(rec, P, ["hawk_aero.CMq"], [{"hawk_aero.CMq": -4.0}], start={"hawk_aero.CMq": -3.0})
+
+
+def test_records_too_short_or_named_alike_are_refused_before_the_fit(pitch_run):
+    """A 2-sample record ran the fit and failed in the diagnostics; a 5-sample one returned CMq = -77 +- 112 without a
+    word.  Two records of one name gave one nuisance parameter name (x0.<record>.<joint>) and one report figure, and so did
+    two names of one file-name form.  Each is refused by the API before the fit, naming the records; rig identify
+    refuses short records by the API's own number."""
+    import inspect
+
+    import rig_cli.identify as identify
+
+    assert identify.MIN_RECORD_SAMPLES == sysid.MIN_RECORD_SAMPLES == 10
+    assert "MIN_RECORD_SAMPLES = " not in inspect.getsource(identify)  # imported, not a second number
+    rec = record_of(pitch_run, 0.1, 0)
+    for n in (2, 5, 9):
+        short = rec.segment(rec.t[0], rec.t[n - 1])
+        with pytest.raises(RecordError, match=rf"pitch\[0:[\d.]+\]: {n} sample\(s\); a record to fit needs at least 10"):
+            sysid.fit(short, P, ["hawk_aero.CMq"])
+        with pytest.raises(RecordError, match=rf"{n} sample\(s\); a record to fit needs at least 10"):
+            sysid.fit_from_starts([rec, short], P, ["hawk_aero.CMq"], [{"hawk_aero.CMq": -4.0}])
+    with pytest.raises(RecordError, match=r"records\[0\] 'pitch' and records\[1\] 'pitch': the same name, so their estimated initial states "
+                                          r"\(x0.pitch.<joint>\), biases and report figures \(history_pitch.png, acf_pitch.png\) would collide; "
+                                          r"give each record its own name \(FlightRecord\(name=...\)"):
+        sysid.fit([rec, record_of(pitch_run, 0.1, 1)], P, ["hawk_aero.CMq"])
+    with pytest.raises(RecordError, match=r"records\[0\] 'run 1' and records\[1\] 'run_1': names of one file-name form 'run_1', so their report "
+                                          r"figures \(history_run_1.png, acf_run_1.png\) would collide.*rig identify: the \[\[record\]\] table's name"):
+        sysid.fit([record_of(pitch_run, 0.1, 0, "run 1"), record_of(pitch_run, 0.1, 1, "run_1")], P, ["hawk_aero.CMq"], method="equation_error")
+
+
+def test_fit_arguments_of_the_wrong_type_are_refused_by_name(pitch_run):
+    """Each was a raw Python error (or, for progress, one from inside the optimiser); max_iter=True ran as 1 and a
+    numpy integer was refused."""
+    rec = record_of(pitch_run, 0.1, 0)
+    E = ["hawk_aero.CMq"]
+    for kw, words in (({"tol": "1e-6"}, r"tol = '1e-6': allowed a number in \(0, 1\)"), ({"tol": None}, r"tol = None: allowed a number"),
+                      ({"max_iter": True}, r"max_iter = True: allowed an integer in \[1, 1000\]"), ({"max_iter": 2.0}, r"max_iter = 2.0"),
+                      ({"progress": 5}, r"progress = 5: give a function taking one line \(str\) per iteration, or None"),
+                      ({"start": {"hawk_aero.CMq": "x"}}, r"start\['hawk_aero.CMq'\] = 'x': must be a number in \[-100.0, 10.0\] 1/rad"),
+                      ({"bounds": {"hawk_aero.CMq": (True, 0.0)}}, r"bounds\['hawk_aero.CMq'\] must be a pair \(low, high\) of numbers"),
+                      ({"start": 5}, r"start = 5: give a mapping")):
+        with pytest.raises(ValueError, match=words):
+            sysid.fit(rec, P, E, **kw)
+    for records in (None, "pitch", [rec, None]):
+        with pytest.raises(RecordError, match=r"records = .*: give one or more FlightRecord objects"):
+            sysid.fit(records, P, E)
+    with pytest.raises(ParameterError, match=r"estimate = None: give a list of dotted parameter names"):
+        sysid.fit(rec, P, None)
+    lines = []
+    fit = sysid.fit(rec, P, E, max_iter=np.int64(1), tol=np.float32(1e-3), progress=lines.append)
+    assert fit.iterations == 1 and lines
+
+
+def test_fit_from_starts_checks_every_start_and_option_before_the_first_fit(pitch_run):
+    """A bad second start failed only after the first start's fit had run; an estimate given as one string was
+    refused listing its characters."""
+    rec = record_of(pitch_run, 0.1, 0)
+    ran = []
+    with pytest.raises(ParameterError, match=r"starts\[1\]: start value of hawk_aero.CMq = 500.0 1/rad is outside its bounds"):
+        sysid.fit_from_starts(rec, P, ["hawk_aero.CMq"], [{"hawk_aero.CMq": -4.0}, {"hawk_aero.CMq": 500.0}], progress=ran.append)
+    with pytest.raises(ParameterError, match=r"starts\[1\]: start\['hawk_aero.CMq'\] = 'x': must be a number"):
+        sysid.fit_from_starts(rec, P, ["hawk_aero.CMq"], [{"hawk_aero.CMq": -4.0}, {"hawk_aero.CMq": "x"}], progress=ran.append)
+    with pytest.raises(ValueError, match=r"tol = 'x': allowed a number"):
+        sysid.fit_from_starts(rec, P, ["hawk_aero.CMq"], [{"hawk_aero.CMq": -4.0}], tol="x", progress=ran.append)
+    with pytest.raises(ValueError, match=r"options: got an unexpected keyword argument 'max_iters'"):
+        sysid.fit_from_starts(rec, P, ["hawk_aero.CMq"], [{"hawk_aero.CMq": -4.0}], max_iters=3, progress=ran.append)
+    assert ran == []  # no fit ran
+    with pytest.raises(ValueError, match=r"estimate = 'hawk_aero.CMq': give a list of names \(dotted names of rig_env.PARAM_NAMES\), "
+                                         r"e.g. \['hawk_aero.CMq'\]"):
+        sysid.fit_from_starts(rec, P, "hawk_aero.CMq", [{"hawk_aero.CMq": -4.0}])

@@ -18,6 +18,7 @@ code under test.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -221,8 +222,8 @@ def fig4_records(params) -> list:
     for i, (k, inertia) in enumerate(FIG4_FIXTURES):
         setup = fig4_setup("model_pitch", k, inertia, stops_deg=60.0)
         for sign in (1.0, -1.0):
-            recs.append(simulate_friction_test(params, "model_pitch", setup, sign * math.radians(40.0), 16.0,
-                                               noise_std=NOISE, seed=10 * i + (sign > 0)))  # fmt: skip
+            recs.append(simulate_friction_test(params, "model_pitch", setup, sign * math.radians(40.0), 16.0, noise_std=NOISE,
+                                               seed=10 * i + (sign > 0), name=f"fig4 {'abc'[i]} from {sign * 40:+.0f} deg"))  # fmt: skip
     return recs
 
 
@@ -296,6 +297,8 @@ def test_free_rig_roll_decays_give_back_coulomb_viscous_and_inertia(params):
     assert est["sigma2"] == pytest.approx(f.sigma2, rel=0.10)
     assert est["inertia"] == pytest.approx(roll_inertia, rel=0.025)
     assert est["half_cycles"] >= 8
+    with pytest.raises(ValueError, match=r"window_s = 2.0: not shorter than the decays' half-cycle \(0\.6\d* s\)"):  # gave Fc 0.0014, -0.009 at 3 s
+        free_decay_estimates(recs, params, "rig_roll", window_s=2.0)
 
 
 # ---------------------------------------------------------------- (d) refined by fitting the angle history
@@ -345,3 +348,65 @@ def test_free_rig_roll_drops_fitted_give_back_coulomb_viscous_and_inertia(params
           f"relative std {np.round(np.median(std, axis=0) / true, 4)}")
     assert np.mean(np.abs(z) < 2.0) >= 0.9
     assert np.all((ratio > 0.7) & (ratio < 1.5))
+
+
+# ---------------------------------------------------------------- (e) bad arguments
+def _still(joint: str = "model_pitch", n: int = 50) -> rig_env.sysid.FlightRecord:
+    """A wind-off one-joint record that never moves: the argument checks come before any use of the data."""
+    return rig_env.sysid.FlightRecord(t=np.arange(n) / 80.0, free_dofs=(joint,), q=np.zeros(n), airspeed=0.0, name="still")
+
+
+@pytest.mark.parametrize("kw, message", [
+    ({"damping_ratio": -1}, r"damping_ratio = -1: must be a finite number >= 0"),
+    ({"damping_ratio": float("nan")}, r"damping_ratio = nan: must be a finite number >= 0"),
+    ({"damping_ratio": "1"}, r"damping_ratio = '1': must be a finite number >= 0"),
+    ({"joint": "xx"}, r"joint = 'xx'; valid joints: \['rig_roll'"),
+    ({"degree": -1}, r"degree = -1: the swings' polynomial degree must be an integer >= 2"),
+    ({"degree": 2.5}, r"degree = 2.5: the swings' polynomial degree must be an integer >= 2"),
+    ({"degree": True}, r"degree = True: the swings' polynomial degree must be an integer >= 2"),
+    ({"edge_s": -0.1}, r"edge_s = -0.1: must be a finite number >= 0 \(s\)"),
+    ({"v_min": -0.05}, r"v_min = -0.05: must be a finite number >= 0 \(rad/s\)"),
+    ({"records": None}, r"records = None: give a friction record"),
+])
+def test_friction_first_estimates_refuse_bad_arguments_by_name(params, kw, message):
+    """damping_ratio=-1 gave sigma1 = -0.949 and nan a nan, silently; an unknown joint an AttributeError; degree -1 or
+    2.5 raw numpy errors; a negative edge_s or v_min was taken."""
+    args = {"records": _still(), "joint": "model_pitch", **kw}
+    with pytest.raises(ValueError, match=message):
+        friction_first_estimates(args.pop("records"), params, args.pop("joint"), **args)
+
+
+@pytest.mark.parametrize("kw, message", [
+    ({"window_s": float("nan")}, r"window_s = nan: the reversals' smoothing window must be a number in \(0, 0.6125\] s"),
+    ({"window_s": 1e3}, r"window_s = 1000.0: the reversals' smoothing window must be a number in \(0, 0.6125\] s"),
+    ({"window_s": 0}, r"window_s = 0: the reversals' smoothing window"),
+    ({"window_s": "0.1"}, r"window_s = '0.1': the reversals' smoothing window"),
+    ({"min_amplitude": -1.0}, r"min_amplitude = -1.0: must be a finite number >= 0 \(rad\) or None"),
+    ({"joint": "xx"}, r"joint = 'xx'; valid joints"),
+])
+def test_free_decay_estimates_refuse_bad_arguments_by_name(params, kw, message):
+    """window_s = nan was "cannot convert float NaN to integer", a window longer than the record a scipy error, 0 an
+    amplitude ratio r = 1."""
+    args = {"joint": "rig_roll", **kw}
+    with pytest.raises(ValueError, match=message):
+        free_decay_estimates(_still("rig_roll"), params, args.pop("joint"), **args)
+
+
+def test_friction_test_set_up_and_simulation_refuse_bad_arguments_by_name(params):
+    """simulate_friction_test(noise_std="a" or None) was a raw TypeError; fig4_setup(stops_deg=-60) named lower_deg = 60."""
+    for noise in ("a", None, -1.0, float("inf")):
+        with pytest.raises(ValueError, match=re.escape(f"noise_std = {noise!r}: must be a finite number >= 0 (rad)")):
+            simulate_friction_test(params, "rig_roll", {}, 0.3, 1.0, noise_std=noise)
+    with pytest.raises(ValueError, match=r"duration = '1': must be a finite number"):
+        simulate_friction_test(params, "rig_roll", {}, 0.3, "1")
+    with pytest.raises(ValueError, match=r"seed = 1.5: must be an integer"):
+        simulate_friction_test(params, "rig_roll", {}, 0.3, 1.0, seed=1.5)
+    with pytest.raises(ValueError, match=r"stops_deg = -60: must be a finite number > 0 \(deg: the stops at -stops_deg and \+stops_deg\)"):
+        fig4_setup("model_pitch", 0.02, 0.005, stops_deg=-60)
+    with pytest.raises(ValueError, match=r"stops_deg = 100: stops.model_pitch.lower_deg = -100.0 deg is outside the allowed range"):
+        fig4_setup("model_pitch", 0.02, 0.005, stops_deg=100)
+    with pytest.raises(ValueError, match=r"inertia = -1: fixture.model_pitch.inertia = -1.0 kg m\^2 is outside the allowed range"):
+        fig4_setup("model_pitch", 0.02, -1)
+    with pytest.raises(ValueError, match=r"stiffness = 'a': must be a finite number"):
+        fig4_setup("model_pitch", "a", 0.0)
+    assert fig4_setup("model_pitch", np.float64(0.02), np.float32(0.005), stops_deg=np.int64(60))["stops.model_pitch.upper_deg"] == 60.0

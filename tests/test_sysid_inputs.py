@@ -122,6 +122,55 @@ def test_multisine_limits_refused_by_name_or_scaled_on_request():
         multisine(COMP, 10.0, 1.0, 45.0, 1.0)
 
 
+def test_numpy_numbers_are_numbers_to_the_designs():
+    assert three_two_one_one("hawk_elevator", np.int64(2)) == three_two_one_one("hawk_elevator", 2.0)
+    assert doublet("comp_elevator", np.float32(1.5), limit_deg=np.int64(40)) == doublet("comp_elevator", 1.5)
+    a = multisine("hawk_elevator", np.float32(5.0), np.float64(0.2), 2.0, np.float32(5.0), seed=np.int64(0), restarts=np.int32(1))
+    b = multisine("hawk_elevator", 5.0, 0.2, 2.0, 5.0, seed=0, restarts=1)
+    assert a == b
+    assert multisine(("hawk_elevator", "hawk_rudder"), 5.0, 0.2, 2.0, np.array([5.0, 2.0])).surfaces == ("hawk_elevator", "hawk_rudder")
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: three_two_one_one("hawk_elevator", 1.0, limit_deg=-1), r"^limit_deg = -1: the position limit must be a positive finite number of degrees$"),
+    (lambda: doublet("hawk_elevator", 1.0, limit_deg=0.0), r"^limit_deg = 0.0: the position limit must be a positive"),
+    (lambda: three_two_one_one("hawk_elevator", "2"), r"^amplitude_deg = '2': must be a finite number of degrees$"),
+    (lambda: three_two_one_one("hawk_elevator", np.int64(50)), r"^amplitude_deg = np.int64\(50\): must be non-zero and within the position limit \+-40 deg$"),
+    (lambda: multisine("hawk_elevator", 5.0, 0.2, 2.0, 5.0, restarts=-1), r"^restarts = -1: must be an integer in \[0, 100\]$"),
+    (lambda: multisine("hawk_elevator", 5.0, 0.2, 2.0, 5.0, restarts=2.5), r"^restarts = 2.5: must be an integer in \[0, 100\]$"),
+    (lambda: multisine("hawk_elevator", 5.0, 0.2, 2.0, 5.0, seed=-1), r"^seed = -1: must be an integer >= 0$"),
+    (lambda: multisine("hawk_elevator", 5.0, 0.2, 2.0, 5.0, seed=True), r"^seed = True: must be an integer >= 0$"),
+    (lambda: multisine("hawk_elevator", 5.0, 0.2, 2.0, "5"), r"^amplitude_deg = '5': give one number, one per surface in order, or a mapping"),
+    (lambda: multisine("hawk_elevator", np.float32(-5.0), 0.2, 2.0, 5.0), r"^duration_s = np.float32\(-5.0\): must be a positive finite number$"),
+    (lambda: multisine("hawk_elevator", 1000.0, 0.1, 10.0, 5.0), r"^multisine: duration_s \* f_max_hz = 1000 s x 10 Hz = 10000, beyond harmonic 4096 "
+                                                                   r"of 1/duration_s \(rig_env.sysid.inputs.MAX_HARMONIC"),
+    (lambda: multisine("hawk_elevator", 4000.0, 0.01, 1.0, 5.0), r"^multisine: the command held every dt = 0.0125 s over start_s \+ duration_s = 4000.5 s "
+                                                                   r"\(320042 steps\) with 3961 harmonics is 1.27e\+09 sine terms"),
+    (lambda: multisine("hawk_elevator", 100.0, 0.1, 1.0, 5.0, dt=1e-5), r"^multisine: start_s \+ duration_s = 100.5 s held every dt = 1e-05 s is "
+                                                                         r"1.005e\+07 control steps, more than 4194304"),
+])
+def test_bad_design_arguments_are_refused_by_name(call, message):
+    with pytest.raises(ValueError, match=message):
+        call()
+
+
+def test_phase_search_work_is_bounded(monkeypatch):
+    """60 s, 0.1-10 Hz on one surface (595 harmonics): the search runs on 16 samples per period of the highest
+    harmonic, with its iterations capped (took > 75 s with an n^3 BFGS on 64 samples per period); the peak
+    factor stays near 1 (Schroeder's 1.29)."""
+    from rig_env.sysid import inputs
+
+    k = harmonics(60.0, 0.1, 10.0, 1)[0]
+    synthesised = []
+    synth = inputs._synth
+    monkeypatch.setattr(inputs, "_synth", lambda k, a, phi, n: (synthesised.append(n), synth(k, a, phi, n))[1])
+    phi = inputs.minimum_peak_phases(k, 60.0, restarts=0)
+    assert k.size == 595 and max(synthesised) == 65536 and sorted(set(synthesised)) == [16384, 65536]
+    assert sum(synthesised) < 12e6, f"{len(synthesised)} signals, {sum(synthesised):.3g} samples"
+    rpf = relative_peak_factor(synth(k, np.ones(k.size), phi, 65536))
+    assert rpf < 1.0 < relative_peak_factor(synth(k, np.ones(k.size), schroeder_phases(k.size), 65536)) - 0.25, rpf
+
+
 def test_check_names_surface_time_and_limit():
     with pytest.raises(ScheduleError, match=r"hawk_rudder: 41 deg at t = 0\.5000 s exceeds the position limit \+-40 deg"):
         InputSchedule({"hawk_rudder": Step(41.0, 1.0, 0.5)}).check()
@@ -129,6 +178,41 @@ def test_check_names_surface_time_and_limit():
     with pytest.raises(ScheduleError, match=r"hawk_elevator: the command changes at 480 deg/s at t = 1\.3500 s .*rate limit 350 deg/s"):
         InputSchedule({"hawk_elevator": ThreeTwoOneOne(3.0, start_s=0.5)}).check(rate_deg_s=350.0)
     InputSchedule({"hawk_elevator": ThreeTwoOneOne(2.0, start_s=0.5)}).check()  # 4 deg in 1/80 s = 320 deg/s: within
+
+
+def test_check_bounds_its_work_and_reads_a_long_schedule_in_blocks():
+    from rig_env.signals import MAX_CHECK_SAMPLES
+
+    with pytest.raises(ScheduleError, match=r"^check: dt = 0.0125 s over the schedule's 1e\+15 s is 8e\+16 samples, more than "
+                                            rf"{MAX_CHECK_SAMPLES} \(rig_env.signals.MAX_CHECK_SAMPLES\)"):
+        InputSchedule({"hawk_elevator": Step(1.0, 1e15)}).check()
+    with pytest.raises(ScheduleError, match=r"^check: dt = 1e-15 s over the schedule's 1 s is 1e\+15 samples"):
+        InputSchedule({"hawk_elevator": Step(1.0, 1.0)}).check(dt=1e-15)
+    with pytest.raises(ScheduleError, match=r"^check.dt = np.float32\(-1.0\): must be a positive finite number"):
+        InputSchedule({"hawk_elevator": Step(1.0, 1.0)}).check(dt=np.float32(-1.0))
+    # beyond the first block of samples: found at its time; a position excess is named before an earlier rate excess
+    with pytest.raises(ScheduleError, match=r"hawk_rudder: 41 deg at t = 1000\.0000 s exceeds the position limit"):
+        InputSchedule({"hawk_rudder": Step(41.0, 1.0, 1000.0)}).check()
+    with pytest.raises(ScheduleError, match=r"hawk_rudder: the command changes at 800 deg/s at t = 1000\.0000 s"):
+        InputSchedule({"hawk_rudder": Step(10.0, 1.0, 1000.0)}).check()
+    with pytest.raises(ScheduleError, match=r"hawk_rudder: 41 deg at t = 1000\.0000 s"):
+        InputSchedule({"hawk_rudder": [Step(10.0, 1.0, 0.5), Step(41.0, 1.0, 1000.0)]}).check()
+    InputSchedule({"hawk_rudder": Step(4.0, 900.0, 100.0)}).check(dt=np.float64(1 / 80))
+
+
+def test_multisine_evaluation_and_peak_factor_are_those_of_the_definition():
+    """Evaluated in blocks (bounded memory) to the same values; the peak factor of harmonics by FFT equals the direct one's."""
+    m = Multisine(tuple(np.arange(1, 301) / 10.0), (1.0,) * 300, tuple(schroeder_phases(300)), 10.0, 0.5)
+    t = 0.5 + 10.0 * np.arange(8192) / 8192
+    f, a, p = (np.array(v) for v in (m.frequencies_hz, m.amplitudes_deg, m.phases_rad))
+    direct = (np.sin(2.0 * math.pi * np.multiply.outer(t - 0.5, f) + p) * a).sum(axis=-1)
+    np.testing.assert_array_equal(m(t), direct)
+    assert m(t.reshape(64, 128)).shape == (64, 128) and m(0.4) == 0.0
+    n = int(64 * 30 * 10)
+    assert m.relative_peak_factor == pytest.approx(relative_peak_factor(m(0.5 + 10.0 * np.arange(n) / n)), rel=1e-9)
+    off = Multisine((0.25, 0.61), (1.0, 0.5), (0.0, 1.0), 3.0)  # not harmonics of 1 / 3 s: read directly
+    n = 4096
+    assert off.relative_peak_factor == pytest.approx(relative_peak_factor(off(3.0 * np.arange(n) / n)), rel=1e-12)
 
 
 # ---------------------------------------------------------------------- plain data
@@ -178,6 +262,29 @@ def test_bad_data_is_refused_with_a_clear_error(change, message, tmp_path):
     path.write_text(json.dumps(data))  # NaN and Infinity tokens where the data has them
     with pytest.raises(ScheduleError, match=str(path) if "nan" not in message and "inf" not in message else "non-finite number"):
         InputSchedule.load(path)
+
+
+@pytest.mark.parametrize("values, message", [
+    ([[1.0, 2.0]], r"Sampled.values_deg\[0\] = \[1.0, 2.0\]: must be a number \(values_deg is a flat sequence, not nested\)"),
+    (np.zeros((1, 2)), r"Sampled.values_deg: must be a flat sequence of numbers, got an array of shape \(1, 2\)"),
+])
+def test_nested_sequences_are_refused_not_flattened(values, message):
+    with pytest.raises(ScheduleError, match=message):
+        Sampled(values, 0.0125)
+    data = {"format": "rig_env.InputSchedule", "version": 1, "surfaces": {"hawk_rudder": [{"kind": "sampled", "values_deg": [[1, 2]], "dt_s": 0.1}]}}
+    with pytest.raises(ScheduleError, match=r"surfaces\['hawk_rudder'\]\[0\]: Sampled.values_deg\[0\] = \[1, 2\]: must be a number"):
+        InputSchedule.from_data(data)
+
+
+def test_load_refuses_a_missing_folder_or_binary_file_naming_it(tmp_path):
+    with pytest.raises(ScheduleError, match=rf"^{tmp_path / 'none.json'}: input schedule file not found \(No such file or directory\)$"):
+        InputSchedule.load(tmp_path / "none.json")
+    with pytest.raises(ScheduleError, match=rf"^{tmp_path}: is a folder, not an input schedule file$"):
+        InputSchedule.load(tmp_path)
+    binary = tmp_path / "test.json"
+    binary.write_bytes(b'{"format": "\xe9"}')
+    with pytest.raises(ScheduleError, match=rf"^{binary}: not an input schedule \(not UTF-8 text: byte 12 is b'\\xe9'\)$"):
+        InputSchedule.load(binary)
 
 
 def test_environment_refuses_a_pilot_inputs_that_is_not_a_schedule():

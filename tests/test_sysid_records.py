@@ -445,3 +445,102 @@ def test_check_sampling_rule():
     check_sampling(np.r_[t, 5.0], allow_gaps=True)
     rec = FlightRecord(t=np.r_[t, 5.0], free_dofs="rig_roll", q=np.zeros(11))  # built by hand: irregular times are legitimate
     assert rec.n_t == 11 and math.isclose(rec.duration, 5.0)
+
+
+# ---------------------------------------------------------------------------------------------- fields of the wrong type
+N_SHORT = 20
+SHORT = dict(t=np.arange(N_SHORT) / 80.0, free_dofs=("model_pitch",), q=np.zeros((N_SHORT, 1)), airspeed=20.0, name="short")
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"locked": {"rig_pitch": "abc"}}, r"short: locked\['rig_pitch'\] = 'abc': a locked angle must be a finite number within \+-2 pi rad"),
+    ({"locked": {"rig_pitch": True}}, r"short: locked\['rig_pitch'\] = True: a locked angle must be a finite number"),
+    ({"locked": {"rig_pitch": 1e6}}, r"short: locked\['rig_pitch'\] = 1000000.0: a locked angle must be a finite number within \+-2 pi rad "
+                                     r"\(\+-360 deg\); the angles are in rad"),
+    ({"locked": [0.1]}, r"short: locked: must be a mapping \{name: value\}, got list"),
+    ({"setup": {"mass.hawk_mass": "x"}}, r"short: setup\['mass.hawk_mass'\] = 'x': must be a finite number"),
+    ({"setup": {"fixture.model_pitch.inertia": -5}}, r"short: setup: fixture.model_pitch.inertia = -5.0 kg m\^2 is outside the allowed range "
+                                                     r"\[0.0, 10.0\] kg m\^2"),
+    ({"setup": {"mass.hawk_mas": 1.0}}, r"short: setup: unknown parameter 'mass.hawk_mas' \(did you mean 'mass.hawk_mass'"),
+    ({"airspeed": "fast"}, r"short: airspeed = 'fast': give the tunnel speed, m/s, as a number in \[0.0, 60.0\] or a series of n_t = 20"),
+    ({"airspeed": None}, r"short: airspeed = None: give the tunnel speed"),
+    ({"airspeed": True}, r"short: airspeed = True: give the tunnel speed"),
+    ({"free_dofs": None}, r"short: free_dofs = None: give one or more distinct joints of \['rig_roll'"),
+    ({"free_dofs": [5]}, r"short: free_dofs = \[5\]: give one or more distinct joints"),
+    ({"q": np.zeros(10)}, r"short: q has 10 samples; t has 20 \(a 1-D q is one free joint's series\)"),
+    ({"q": np.ones((N_SHORT, 1), dtype=bool)}, r"short: q: must be real numbers, got ndarray of bool"),
+    ({"q": np.ones((N_SHORT, 1)) * 1j}, r"short: q: must be real numbers, got ndarray of complex128"),
+    ({"surfaces": 5}, r"short: surfaces: must be a mapping"),
+    ({"name": None}, r"name = None: must be a string"),
+])
+def test_fields_of_the_wrong_type_or_range_are_refused_by_field(change, message):
+    """Each was a bare float()/reshape/iteration error naming no field, or (a locked angle of 1e6 rad, a negative
+    fixture inertia) accepted; now a RecordError naming the record and the field.  The setup's ranges are the
+    parameter file's own (RigParams.replace)."""
+    with pytest.raises(RecordError, match=message):
+        FlightRecord(**{**SHORT, **change})
+
+
+def test_numpy_numbers_are_numbers_in_every_field():
+    rec = FlightRecord(**{**SHORT, "airspeed": np.float32(12.5), "locked": {"rig_pitch": np.float64(0.25), "rig_roll": np.int64(0)},
+                          "setup": {"mass.hawk_mass": np.float32(1.25)}, "q": np.zeros(N_SHORT)})
+    assert rec.airspeed == 12.5 and rec.locked == {"rig_pitch": 0.25, "rig_roll": 0.0} and rec.setup == {"mass.hawk_mass": 1.25}
+    assert rec.q.shape == (N_SHORT, 1)
+    assert rec.resample(np.float64(40.0)).n_t == 10 and rec.segment(np.float32(0.0), np.float64(0.1)).n_t == 9
+
+
+def test_pre_processing_refuses_arguments_that_are_not_numbers():
+    rec = FlightRecord(**SHORT)
+    with pytest.raises(RecordError, match=r"short: resample: rate_hz = abc; allowed \(0, 160\] Hz"):
+        rec.resample("abc")
+    with pytest.raises(RecordError, match=r"short: resample: rate_hz = True"):
+        rec.resample(True)
+    with pytest.raises(RecordError, match=r"short: segment: window \[None, 1\] s; need finite t_start < t_end"):
+        rec.segment(None, 1)
+    with pytest.raises(RecordError, match=r"short: with_noise: std_rad = 'a'"):
+        rec.with_noise("a", seed=0)
+
+
+def test_a_csv_with_a_utf8_byte_order_mark_is_read(tmp_path):
+    """Excel's "CSV UTF-8" starts the file with a byte-order mark, which was read as part of the first column's name."""
+    (tmp_path / "excel.csv").write_bytes("time,theta\n0,1\n0.1,2\n0.2,3\n".encode("utf-8-sig"))
+    rec = FlightRecord.read(tmp_path / "excel.csv", {"t": ("time", "s"), "q.model_pitch": ("theta", "deg")}, airspeed=0.0)
+    np.testing.assert_allclose(rec.t, [0.0, 0.1, 0.2])
+    np.testing.assert_allclose(rec.q[:, 0], np.radians([1.0, 2.0, 3.0]))
+
+
+@pytest.mark.parametrize("key, value, message", [
+    ("columns", [["t_s", "s"]], r"metadata: columns = \[\[\"t_s\", \"s\"\]\]: must be an object \{field: \[column, unit\]\}"),
+    ("columns", {"t": ["t_s", "s"], "q.model_pitch": ["q_model_pitch_rad", 5]}, r"metadata: columns\['q.model_pitch'\] = \('q_model_pitch_rad', 5\)"),
+    ("locked", [0.1], r"metadata: locked = \[0.1\]: must be an object \{joint: rad\} or null"),
+    ("airspeed", "fast", r"metadata: airspeed = \"fast\": must be a number \(m/s\) or null"),
+    ("name", 5, r"metadata: name = 5: must be a string"),
+    ("setup", {"mass.hawk_mass": "x"}, r"setup\['mass.hawk_mass'\] = 'x': must be a finite number"),
+])
+def test_hand_edited_metadata_is_refused_by_key(tmp_path, key, value, message):
+    """The metadata line of the project's CSV, edited by hand: a list for the column map was an AttributeError."""
+    FlightRecord(**SHORT).write(tmp_path / "own.csv")
+    first, *rest = (tmp_path / "own.csv").read_text().splitlines()
+    meta = json.loads(first[len("# rig-flight-record "):])
+    meta[key] = value
+    (tmp_path / "edited.csv").write_text("\n".join([f"# rig-flight-record {json.dumps(meta)}", *rest]) + "\n")
+    with pytest.raises(RecordError, match=message):
+        FlightRecord.read(tmp_path / "edited.csv")
+
+
+def test_complex_columns_are_refused(tmp_path):
+    """A complex .npz column was cast to its real part with only numpy's ComplexWarning."""
+    np.savez(tmp_path / "c.npz", time=np.arange(5) / 10, phi=np.zeros(5) + 0.5j)
+    with pytest.raises(RecordError, match=r"column 'phi' \(for q.rig_roll\) holds complex \(complex128\) values; a record's columns are real"):
+        FlightRecord.read(tmp_path / "c.npz", MAP, airspeed=20)
+
+
+@pytest.mark.filterwarnings("ignore:.*the last record is torn:rig_env.framelog_format.TornLogWarning")
+def test_frame_log_header_and_keyword_free_dofs_of_the_wrong_type(tmp_path):
+    ticks = [(1, k, k / 80.0) for k in range(5)]
+    _synthetic_log(tmp_path / "five.log", {"task": "t", "rate_hz": 80.0, "free_dofs": 5}, ticks)
+    with pytest.raises(RecordError, match=r"five.log: the log's header has free_dofs = 5; expected a list of joint names"):
+        FlightRecord.read(tmp_path / "five.log")
+    _synthetic_log(tmp_path / "ok.log", {"task": "t", "rate_hz": 80.0}, ticks)
+    with pytest.raises(RecordError, match=r"ok.log: free_dofs = 5: give a list of joint names"):
+        FlightRecord.read(tmp_path / "ok.log", free_dofs=5)

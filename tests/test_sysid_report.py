@@ -234,6 +234,42 @@ def test_report_of_two_fits_side_by_side(tmp_path: Path, params: RigParams):
     assert "| CMq + CMalphadot (`hawk_aero.CMq`) | -4.127 +- 0.215 | -4.127 +- 0.215 |" in md
 
 
+def _renamed(fit: Fit, *names: str) -> Fit:
+    return dataclasses.replace(fit, records=tuple(dataclasses.replace(r, name=n) for r, n in zip(fit.records, names)))
+
+
+@pytest.mark.parametrize("names, message", [
+    (("run 1", "run_1"), r"records\[0\] 'run 1' and records\[1\] 'run_1': names of one file-name form 'run_1', so their report figures "
+                         r"\(history_run_1.png, acf_run_1.png\) would collide; give each record its own name \(FlightRecord\(name=...\), "
+                         r"FlightRecord.read\(..., name=...\) or dataclasses.replace\(record, name=...\); rig identify: the \[\[record\]\] table's name"),
+    (("run", "run"), r"records\[0\] 'run' and records\[1\] 'run': the same name, so their report figures \(history_run.png, acf_run.png\) would collide"),
+])
+def test_report_refuses_records_whose_figures_would_be_one_file(tmp_path: Path, params: RigParams, names, message):
+    """Records named "run 1" and "run_1" (or twice "run") both wrote history_run_1.png and acf_run_1.png: the first
+    record's figures were lost and report.md showed the second's twice.  Refused before anything is written, naming
+    both records and the figures; with several fits, each fit's figures carry their own prefix."""
+    fit = _renamed(make_fit(params), *names)
+    with pytest.raises(sysid.RecordError, match=message):
+        write_report(fit, tmp_path / "out")
+    with pytest.raises(sysid.RecordError, match=r"fit2_history_run"):
+        write_report([make_fit(params), fit], tmp_path / "out")
+    assert not (tmp_path / "out").exists()
+    write_report([_renamed(make_fit(params), "run", "other"), _renamed(make_fit(params), "run", "other")], tmp_path / "two")  # fit by fit
+
+
+def test_report_refuses_unknown_reference_names(tmp_path: Path, params: RigParams):
+    """A misspelt reference name was dropped without a word (its row showed "-")."""
+    fit = make_fit(params)
+    with pytest.raises(ValueError, match=r"reference: unknown parameter 'hawk_aero.CMqq' \(did you mean 'hawk_aero.CMq'.*\?\); valid names: "
+                                         r"rig_env.PARAM_NAMES"):
+        write_report(fit, tmp_path / "out", reference={**TRUTH, "hawk_aero.CMqq": 1.0})
+    with pytest.raises(ValueError, match=r"reference\['hawk_aero.CMq'\] = 'x': must be a number"):
+        write_report(fit, tmp_path / "out", reference={"hawk_aero.CMq": "x"})
+    assert not (tmp_path / "out").exists()
+    md = write_report(fit, tmp_path / "ok", reference={"hawk_aero.CMq": np.float64(-4.36), "mass.hawk_mass": 1.0}).read_text()
+    assert _rows(md)["hawk_aero.CMq"][7] == "-4.36"  # a name not estimated is known, just not shown
+
+
 def test_save_fit_params_tags_the_estimates(tmp_path: Path, params: RigParams):
     fit = make_fit(params)
     back = RigParams.from_toml(save_fit_params(fit, tmp_path / "identified.toml"))

@@ -19,6 +19,7 @@ from rig_env.sysid.readers import ColumnMap
 from rig_env.sysid.records import (
     GAP_FACTOR,
     MAX_UPSAMPLE,
+    MIN_RECORD_SAMPLES,
     FlightRecord,
     RecordError,
     check_sampling,
@@ -47,7 +48,7 @@ _LAZY = {  # imported at first use (matplotlib, scipy, the model's kernels)
 __getattr__, __dir__ = lazy_attributes("rig_env.sysid", _LAZY, globals())
 
 __all__ = [
-    "GAP_FACTOR", "MAX_UPSAMPLE", "METHODS", "ColumnMap", "Fit", "FitWarning", "FlightRecord", "MonteCarlo", "RecordError", "check_sampling", "doublet",
+    "GAP_FACTOR", "MAX_UPSAMPLE", "METHODS", "MIN_RECORD_SAMPLES", "ColumnMap", "Fit", "FitWarning", "FlightRecord", "MonteCarlo", "RecordError", "check_sampling", "doublet",
     "fig4_setup", "fit", "fit_from_starts", "misfit_warnings", "monte_carlo", "free_decay_estimates", "friction_first_estimates", "lowess", "simulate_friction_test", "multisine", "peak_factors", "read_frame_log", "save_fit_params", "three_two_one_one", "write_params",
     "write_report",
 ]

@@ -14,12 +14,14 @@ only), :mod:`rig_env.sysid.filter_error` (process noise too: turbulence; the pap
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import warnings
-from typing import TYPE_CHECKING, Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
 from rig_env.params import ParameterError, RigParams
+from rig_env.sysid.checks import MIN_RECORD_SAMPLES, check_record_names, is_integer, is_number
 from rig_env.sysid.covariance import correlation
 from rig_env.sysid.parameters import ParameterSet
 from rig_env.sysid.records import FlightRecord, RecordError
@@ -42,6 +44,35 @@ MISFIT_SNR = 10.0
 
 class FitWarning(UserWarning):
     """A fit that converged to something its own residuals call into doubt (:func:`misfit_warnings`)."""
+
+
+def _check_request(records: object, params: object, method: object, max_iter: object, tol: object,
+                   progress: object) -> tuple[list[FlightRecord], int, float]:
+    """The checks of :func:`fit`'s arguments that need no model: (the records as a list, max_iter, tol)."""
+    if method not in METHODS:
+        raise ValueError(f"method = {method!r}; allowed: {', '.join(METHODS)}")
+    if not isinstance(params, RigParams):
+        raise ParameterError("params must be a RigParams (e.g. RigParams.default() or RigParams.from_toml(path))")
+    if not (is_integer(max_iter) and 1 <= max_iter <= 1000):  # type: ignore[operator]
+        raise ValueError(f"max_iter = {max_iter!r}: allowed an integer in [1, 1000]")
+    if not (is_number(tol) and 0.0 < tol < 1.0):  # type: ignore[operator]
+        raise ValueError(f"tol = {tol!r}: allowed a number in (0, 1)")
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress = {progress!r}: give a function taking one line (str) per iteration, or None")
+    if isinstance(records, FlightRecord):
+        recs = [records]
+    elif isinstance(records, Iterable) and not isinstance(records, (str, bytes, Mapping)):
+        recs = list(records)
+    else:
+        recs = []
+    if not recs or not all(isinstance(r, FlightRecord) for r in recs):
+        raise RecordError(f"records = {records!r:.80}: give one or more FlightRecord objects (a FlightRecord or a list of them)")
+    for r in recs:
+        if r.n_t < MIN_RECORD_SAMPLES:
+            raise RecordError(f"{r.name}: {r.n_t} sample(s); a record to fit needs at least {MIN_RECORD_SAMPLES} (the residuals' "
+                              "whiteness test needs two lags, n // 5)")
+    check_record_names([r.name for r in recs])
+    return recs, int(max_iter), float(tol)  # type: ignore[call-overload, arg-type]
 
 
 def fit(
@@ -67,7 +98,9 @@ def fit(
 ) -> Fit:
     """Estimate the parameters named in ``estimate`` from ``records``.
 
-    records: one or more :class:`FlightRecord` (fitted jointly; each uniformly sampled); params: the rig
+    records: one or more :class:`FlightRecord` (fitted jointly; each uniformly sampled, of at least
+    :data:`~rig_env.sysid.checks.MIN_RECORD_SAMPLES` samples, under its own name: the names go into the nuisance
+    parameters' and the report's figures' names, :func:`~rig_env.sysid.checks.check_record_names`); params: the rig
     (every parameter not estimated keeps its value); estimate: dotted names (:data:`rig_env.PARAM_NAMES`);
     method: "output_error", "filter_error" or "equation_error"; bounds: {name: (low, high)} within each
     parameter's allowed range; start: {name: start value} (default: the value in params);
@@ -79,24 +112,14 @@ def fit(
     aero_model: "linear" (default), "tables" or "unsteady" (the unsteady model's parameters, its
     flow-separation time constants, centre-of-pressure travel and wake, act only there; not with equation
     error, which regresses measured states and has no aerodynamic states to take), ``nonlinear_aero=True`` the
-    older name of "tables"; max_iter, tol: the optimiser's limits;
-    progress: called with a one-line message per iteration.
+    older name of "tables"; max_iter, tol: the optimiser's limits (an integer in [1, 1000], a number in (0, 1));
+    progress: None, or called with a one-line message per iteration.
 
     A fit whose residuals say the model does not follow an output (:func:`misfit_warnings`: a local
     minimum or a missing term) is returned with the messages in ``Fit.warnings``, each also issued as a
     :class:`FitWarning`.
     """
-    if method not in METHODS:
-        raise ValueError(f"method = {method!r}; allowed: {', '.join(METHODS)}")
-    if not isinstance(params, RigParams):
-        raise ParameterError("params must be a RigParams (e.g. RigParams.default() or RigParams.from_toml(path))")
-    if not (isinstance(max_iter, int) and 1 <= max_iter <= 1000):
-        raise ValueError(f"max_iter = {max_iter!r}: allowed an integer in [1, 1000]")
-    if not (0.0 < tol < 1.0):
-        raise ValueError(f"tol = {tol}: allowed range (0, 1)")
-    recs = [records] if isinstance(records, FlightRecord) else list(records)
-    if not recs or not all(isinstance(r, FlightRecord) for r in recs):
-        raise RecordError("records: give one or more FlightRecord objects")
+    recs, max_iter, tol = _check_request(records, params, method, max_iter, tol, progress)
     from rig_env.physics.pipeline import resolve_aero_model
 
     model = resolve_aero_model(aero_model, True if nonlinear_aero else None)
@@ -218,17 +241,33 @@ def fit_from_starts(
     power (the default rig's measured roll imbalance) has a local minimum below the truth, where the simulated
     roll falls back (docs: README, Identification).  ``starts``: one ``{name: value}`` per run (a name missing
     from one keeps ``params``' value there, as :func:`fit`'s ``start``); ``options``: :func:`fit`'s other keywords.
-    The returned fit's ``message`` lists every start's estimates and cost.
+    Every start and option is checked before the first fit runs.  The returned fit's ``message`` lists every
+    start's estimates and cost.
     """
+    if isinstance(estimate, str):
+        raise ValueError(f"estimate = {estimate!r}: give a list of names (dotted names of rig_env.PARAM_NAMES), e.g. [{estimate!r}]")
     if isinstance(starts, Mapping) or not isinstance(starts, Sequence) or len(starts) == 0:
         raise ValueError("starts: give a non-empty list of {name: start value} mappings, one per run")
     if not all(isinstance(s, Mapping) for s in starts):
         raise ValueError("starts: every entry must be a {name: start value} mapping")
-    unknown = sorted({n for s in starts for n in s} - set(estimate))
-    if unknown:
-        raise ValueError(f"starts: {unknown} not among the estimated parameters {list(estimate)}")
     if "start" in options:
         raise ValueError("start: give the start values in starts")
+    try:
+        call = inspect.signature(fit).bind(records, params, estimate, **options)
+    except TypeError as e:
+        raise ValueError(f"options: {e} (fit_from_starts takes fit's keywords)") from None
+    call.apply_defaults()
+    a = call.arguments
+    _check_request(records, params, a["method"], a["max_iter"], a["tol"], a["progress"])
+    ParameterSet.build(params, estimate, a["bounds"])  # the names and bounds, once
+    unknown = sorted({n for s in starts for n in s if not isinstance(n, str) or n not in estimate}, key=str)
+    if unknown:
+        raise ValueError(f"starts: {unknown} not among the estimated parameters {list(estimate)}")
+    for i, s in enumerate(starts):  # every start's values, before the first fit runs
+        try:
+            ParameterSet.build(params, estimate, a["bounds"], s)
+        except ParameterError as e:
+            raise ParameterError(f"starts[{i}]: {e}") from None
     with warnings.catch_warnings():  # a start that ends in a local minimum is expected here: only the best fit's are told
         warnings.simplefilter("ignore", FitWarning)
         fits = [fit(records, params, estimate, start=dict(s), **options) for s in starts]  # type: ignore[arg-type]

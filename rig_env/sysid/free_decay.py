@@ -33,7 +33,8 @@ from scipy.optimize import brentq
 from scipy.signal import savgol_filter
 
 from rig_env.params import RigParams
-from rig_env.sysid.friction_loop import joint_terms, record_params
+from rig_env.sysid.checks import is_number
+from rig_env.sysid.friction_loop import check_joint, check_records, check_rig, joint_terms, record_params
 from rig_env.sysid.records import FlightRecord
 
 DEAD_BANDS = 3.0
@@ -46,6 +47,7 @@ def _peaks(record: FlightRecord, window_s: float) -> tuple[np.ndarray, np.ndarra
     dt = record.dt
     n_w = max(5, int(round(window_s / dt)))
     n_w += 1 - n_w % 2
+    n_w = min(n_w, record.n_t - 1 + record.n_t % 2)  # the largest odd window the record holds (window_s <= its duration)
     q = savgol_filter(record.q[:, 0], n_w, 3)
     v = savgol_filter(record.q[:, 0], n_w, 3, deriv=1, delta=dt)
     t_out, q_out = [], []
@@ -72,18 +74,29 @@ def free_decay_estimates(
     """Coulomb friction, viscous friction and inertia of ``joint`` from free decays (the module docstring's method).
 
     records: one-joint wind-off records released from rest (their set-ups, e.g. a spring, applied to
-    ``params`` for the static torque; all must share one set-up), fitted jointly; window_s: the
-    Savitzky-Golay window that finds the reversals (s); min_amplitude: rad, half-cycles with a smaller
-    amplitude are left out (default 10 times the angle noise, which is estimated from the records).
+    ``params`` for the static torque; all must share one set-up; at least 9 samples each), fitted jointly;
+    window_s: the Savitzky-Golay window that finds the reversals, s, in (0, the shortest record's duration]
+    (at least 5 samples are taken) and shorter than a half-cycle of the decays; min_amplitude: rad, >= 0,
+    half-cycles with a smaller amplitude are left out (default 10 times the angle noise, which is estimated
+    from the records).
 
     Returns {"Fc": N m, "sigma2": viscous N m s/rad, "inertia": J about the joint axis with the
     fixture's, kg m^2, "inertia_rig": the rig's alone (J minus the fixture's inertia), "stiffness": k,
     N m/rad, "equilibrium": rad, "damping_ratio": zeta, "period": the undamped small-amplitude period
     2 pi / w_n, s, "half_cycles": the number used}.
     """
-    recs = [records] if isinstance(records, FlightRecord) else list(records)
-    if not recs:
-        raise ValueError("records: give at least one free-decay record")
+    check_joint(joint)
+    check_rig(params)
+    recs = check_records(records, "free-decay record")
+    short = [r for r in recs if r.n_t < 9]
+    if short:
+        raise ValueError(f"{short[0].name}: {short[0].n_t} samples; a free-decay record needs at least 9 (the noise estimate's window)")
+    shortest = min(r.duration for r in recs)
+    if not (is_number(window_s) and math.isfinite(window_s) and 0.0 < window_s <= shortest):
+        raise ValueError(f"window_s = {window_s!r}: the reversals' smoothing window must be a number in (0, {shortest:.6g}] s (the "
+                         "shortest record's duration)")
+    if min_amplitude is not None and not (is_number(min_amplitude) and math.isfinite(min_amplitude) and min_amplitude >= 0.0):
+        raise ValueError(f"min_amplitude = {min_amplitude!r}: must be a finite number >= 0 (rad) or None (10 times the angle noise)")
     setups = {tuple(sorted(r.setup.items())) for r in recs}
     if len(setups) != 1:
         raise ValueError("records: free decays fitted together must share one set-up (the static torque's)")
@@ -126,6 +139,9 @@ def free_decay_estimates(
             kk.append(k * (1.0 - kappa * s2 / 12.0))
             half.append((t_p[i + 1] - t_p[i]) / (1.0 + kappa * s2 / 32.0))
     A0, A1, kk, half = map(np.array, (A0, A1, kk, half))
+    if len(half) and window_s >= float(np.mean(half)):
+        raise ValueError(f"window_s = {window_s!r}: not shorter than the decays' half-cycle ({float(np.mean(half)):.3g} s), over which the "
+                         "smoothing moves the reversals; use a window well within a half-cycle (the default 0.1 s)")
 
     def regress(use: np.ndarray) -> tuple[float, float]:
         if use.sum() < 2:

@@ -21,22 +21,18 @@ from typing import Mapping
 
 import numpy as np
 
-from rig_env.params import JOINTS, LIMITED_JOINTS, RigParams
+from rig_env.params import LIMITED_JOINTS, ParameterError, RigParams
 from rig_env.simulate import simulate
+from rig_env.sysid.checks import is_integer, number
 from rig_env.sysid.free_decay import free_decay_estimates  # noqa: F401  (re-exported)
 from rig_env.sysid.friction_loop import FrictionLoop, friction_first_estimates, friction_velocity_loop, steady_sliding  # noqa: F401
+from rig_env.sysid.friction_loop import check_joint, check_rig
 from rig_env.sysid.records import FlightRecord
 
 ENCODER_13BIT = 2.0 * math.pi / 2**13
 """rad: one count of a 13-bit encoder (0.044 deg), the resolution of the model gimbal's angle sensors."""
 
 FIXTURE_FIELDS = ("stiffness", "neutral", "inertia", "torque")
-
-
-def _check_joint(joint: str) -> str:
-    if joint not in JOINTS:
-        raise ValueError(f"joint = {joint!r}; valid joints: {list(JOINTS)}")
-    return joint
 
 
 def fig4_setup(
@@ -54,17 +50,31 @@ def fig4_setup(
     the joint angle at which the springs are relaxed; torque: N m, a constant torque (a hanging
     weight's m g r).  stops_deg: for a joint with stops (:data:`rig_env.params.LIMITED_JOINTS`), the
     symmetric stop angle of the test (deg), when its swing exceeds the rig's flight stops; None keeps
-    the rig's.  Returns {dotted parameter name: value} in the parameter file's units.
+    the rig's.  Returns {dotted parameter name: value} in the parameter file's units.  Each value is
+    checked against its parameter's allowed range (ParameterError naming the argument and the parameter).
     """
-    _check_joint(joint)
-    values = (float(stiffness), float(neutral), float(inertia), float(torque))
-    setup = {f"fixture.{joint}.{f}": v for f, v in zip(FIXTURE_FIELDS, values)}
+    check_joint(joint)
+    args = {"stiffness": stiffness, "neutral": neutral, "inertia": inertia, "torque": torque}
+    setup = {f"fixture.{joint}.{f}": number(f, args[f]) for f in FIXTURE_FIELDS}
+    rig = RigParams.default()
+    for f in FIXTURE_FIELDS:  # each against its range, as the parameter file checks it
+        try:
+            rig.replace(**{f"fixture.{joint}.{f}": setup[f"fixture.{joint}.{f}"]})
+        except ParameterError as e:
+            raise ParameterError(f"{f} = {args[f]!r}: {e}") from None
     if stops_deg is not None:
         if joint not in LIMITED_JOINTS:
             raise ValueError(f"stops_deg: {joint} has no stops (joints with stops: {list(LIMITED_JOINTS)})")
-        setup[f"stops.{joint}.lower_deg"] = -float(stops_deg)
-        setup[f"stops.{joint}.upper_deg"] = float(stops_deg)
-    RigParams.default().replace(**setup)  # validates every value against its range (ParameterError)
+        allowed = "a finite number > 0 (deg: the stops at -stops_deg and +stops_deg)"
+        deg = number("stops_deg", stops_deg, allowed=allowed)
+        if not deg > 0.0:
+            raise ValueError(f"stops_deg = {stops_deg!r}: must be {allowed}")
+        stops = {f"stops.{joint}.lower_deg": -deg, f"stops.{joint}.upper_deg": deg}
+        try:
+            rig.replace(**stops)
+        except ParameterError as e:
+            raise ParameterError(f"stops_deg = {stops_deg!r}: {e}") from None
+        setup.update(stops)
     return setup
 
 
@@ -94,15 +104,24 @@ def simulate_friction_test(
     rad/s.  Returns a :class:`FlightRecord` with no rate measurement (``qd`` None), surfaces at zero,
     airspeed 0 and the set-up in ``setup``.
     """
-    _check_joint(joint)
-    if not (noise_std >= 0.0 and math.isfinite(noise_std)):
+    check_rig(params)
+    check_joint(joint)
+    if setup is not None and not isinstance(setup, Mapping):
+        raise ValueError(f"setup = {setup!r:.80}: give a mapping {{dotted parameter name: value}} (fig4_setup) or None")
+    q0, qd0, duration, rate_hz = (number(label, v) for label, v in (("q0", q0), ("qd0", qd0), ("duration", duration), ("rate_hz", rate_hz)))
+    noise_std = number("noise_std", noise_std, allowed="a finite number >= 0 (rad)")
+    if noise_std < 0.0:
         raise ValueError(f"noise_std = {noise_std}: must be a finite number >= 0 (rad)")
-    if resolution is not None and not (resolution > 0.0 and math.isfinite(resolution)):
+    if resolution is not None and not number("resolution", resolution, allowed="a positive number of rad per count, or None") > 0.0:
         raise ValueError(f"resolution = {resolution}: must be a positive number of rad per count, or None")
+    if not is_integer(seed):
+        raise ValueError(f"seed = {seed!r}: must be an integer (of numpy.random.default_rng)")
+    if name is not None and not isinstance(name, str):
+        raise ValueError(f"name = {name!r}: must be a string or None")
     p = params.replace(**dict(setup)) if setup else params
     r = simulate(
-        p, [float(q0)], [float(qd0)], float(duration), free_dofs=[joint], airspeed=0.0,
-        aero=False, friction=True, stops=True, servo=False, control_rate=float(rate_hz),
+        p, [q0], [qd0], duration, free_dofs=[joint], airspeed=0.0,
+        aero=False, friction=True, stops=True, servo=False, control_rate=rate_hz,
     )  # fmt: skip
     if r.failed.any():
         raise RuntimeError(f"simulate_friction_test: the simulation of {joint} failed ({r.status_text()[0]})")
@@ -112,4 +131,4 @@ def simulate_friction_test(
     if resolution is not None:
         q = np.round(q / resolution) * resolution
     label = name or f"friction test {joint} from {math.degrees(q0):.0f} deg"
-    return FlightRecord(t=r.t, free_dofs=(joint,), q=q[:, None], airspeed=0.0, setup=dict(setup), name=label)
+    return FlightRecord(t=r.t, free_dofs=(joint,), q=q[:, None], airspeed=0.0, setup=dict(setup or {}), name=label)

@@ -51,6 +51,7 @@ from scipy.signal import savgol_filter
 
 from rig_env import numpy_model as nm
 from rig_env.params import JOINTS, RigParams
+from rig_env.sysid.checks import is_integer, is_number
 from rig_env.sysid.records import FlightRecord
 
 
@@ -74,6 +75,42 @@ class FrictionLoop:
     noise: float
     joint: str
     name: str
+
+
+def check_joint(joint: object) -> str:
+    """``joint`` if it is one of :data:`rig_env.JOINTS`, else ValueError naming the argument and the joints."""
+    if not (isinstance(joint, str) and joint in JOINTS):
+        raise ValueError(f"joint = {joint!r}; valid joints: {list(JOINTS)}")
+    return joint
+
+
+def check_records(records: object, what: str) -> list[FlightRecord]:
+    """``records`` (a :class:`FlightRecord` or a non-empty sequence of them) as a list, else ValueError naming ``records``."""
+    if isinstance(records, FlightRecord):
+        recs = [records]
+    else:
+        recs = list(records) if isinstance(records, Sequence) and not isinstance(records, str) else []
+    if not recs or not all(isinstance(r, FlightRecord) for r in recs):
+        raise ValueError(f"records = {records!r:.80}: give a {what} (a FlightRecord) or a non-empty list of them")
+    return recs
+
+
+def check_rig(params: object) -> RigParams:
+    """``params`` if it is a :class:`RigParams`, else ValueError naming ``params``."""
+    if not isinstance(params, RigParams):
+        raise ValueError(f"params = {params!r:.80}: give a RigParams (e.g. RigParams.default())")
+    return params
+
+
+def check_loop_options(degree: object, edge_s: object, v_min: object) -> tuple[int, float, float]:
+    """(degree, edge_s, v_min) of :func:`friction_velocity_loop`, checked: ValueError naming the argument and its range."""
+    if not (is_integer(degree) and degree >= 2):  # type: ignore[operator]
+        raise ValueError(f"degree = {degree!r}: the swings' polynomial degree must be an integer >= 2 (a degree below 2 has no "
+                         "acceleration)")
+    for label, v, unit in (("edge_s", edge_s, "s"), ("v_min", v_min, "rad/s")):
+        if not (is_number(v) and math.isfinite(v) and v >= 0.0):  # type: ignore[operator, arg-type]
+            raise ValueError(f"{label} = {v!r}: must be a finite number >= 0 ({unit})")
+    return int(degree), float(edge_s), float(v_min)  # type: ignore[call-overload, arg-type]
 
 
 def steady_sliding(v: np.ndarray, Fc: float, Fs: float, alpha_f: float, sigma2: float) -> np.ndarray:
@@ -138,8 +175,13 @@ def friction_velocity_loop(
     over many more samples than a sliding window can, and the friction's jump at a reversal is never
     smoothed across.  Swings of fewer than 4 (degree + 1) samples are left out; samples within
     ``edge_s`` s of a swing's ends (where a polynomial fit is least certain) and slower than ``v_min``
-    rad/s are not counted as sliding.
+    rad/s are not counted as sliding.  degree: an integer >= 2; edge_s (s) and v_min (rad/s): >= 0.
     """
+    check_joint(joint)
+    check_rig(params)
+    degree, edge_s, v_min = check_loop_options(degree, edge_s, v_min)
+    if not isinstance(record, FlightRecord):
+        raise ValueError(f"record = {record!r:.80}: give a FlightRecord")
     _single_joint(record, joint)
     dt = record.dt
     if np.ptp(np.diff(record.t)) > 1e-6 * dt:
@@ -240,11 +282,16 @@ def friction_first_estimates(
     Returns {"Fs", "Fc", "alpha_f", "v_d", "sigma0", "sigma1", "sigma2"} (N m, s/rad, rad/s, N m/rad, N m
     s/rad; the keys of ``friction.<joint>.*``).  The rules, and which parameters fall back on the prior
     ``params`` when the data cannot show them: the module docstring.  degree, edge_s, v_min: as
-    :func:`friction_velocity_loop`; damping_ratio: zeta of the sigma1 rule (None: the prior's, 1: critical).
+    :func:`friction_velocity_loop`; damping_ratio: zeta of the sigma1 rule, a finite number >= 0 (None: the
+    prior's, 1: critical).
     """
-    recs = [records] if isinstance(records, FlightRecord) else list(records)
-    if not recs:
-        raise ValueError("records: give at least one friction record")
+    check_joint(joint)
+    check_rig(params)
+    recs = check_records(records, "friction record")
+    degree, edge_s, v_min = check_loop_options(degree, edge_s, v_min)
+    if damping_ratio is not None and not (is_number(damping_ratio) and math.isfinite(damping_ratio) and damping_ratio >= 0.0):
+        raise ValueError(f"damping_ratio = {damping_ratio!r}: must be a finite number >= 0 (zeta of the sigma1 rule; 1: critical) or None "
+                         "(the prior's)")
     prior = getattr(params.friction, joint)
     loops = [friction_velocity_loop(r, params, joint, degree, edge_s, v_min) for r in recs]
     v = np.concatenate([lp.v[lp.sliding] for lp in loops])

@@ -14,6 +14,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from rig_env.params import PARAM_INDEX, ParameterError, RigParams, _iter_leaves
+from rig_env.sysid.checks import is_number
 
 
 def _ranges(params: RigParams) -> dict[str, tuple[float, float, str]]:
@@ -49,6 +50,8 @@ class ParameterSet:
         ({name: (low, high)}), starting at ``start`` ({name: value}) or the value in ``params``."""
         if isinstance(estimate, str):
             estimate = (estimate,)
+        if not isinstance(estimate, (Sequence, np.ndarray)) or not all(isinstance(n, str) for n in estimate):
+            raise ParameterError(f"estimate = {estimate!r}: give a list of dotted parameter names (rig_env.PARAM_NAMES)")
         names = tuple(estimate)
         if not names:
             raise ParameterError("estimate: name at least one parameter to estimate (dotted names of rig_env.PARAM_NAMES)")
@@ -59,6 +62,9 @@ class ParameterSet:
             raise ParameterError(f"estimate: duplicate names in {list(names)}")
         rng = _ranges(params)
         vector = params.to_vector()
+        for label, d in (("bounds", bounds), ("start", start)):
+            if d is not None and not isinstance(d, Mapping):
+                raise ParameterError(f"{label} = {d!r}: give a mapping {{name: {'(low, high)' if label == 'bounds' else 'value'}}} or None")
         bounds = dict(bounds or {})
         start = dict(start or {})
         for label, d in (("bounds", bounds), ("start", start)):
@@ -74,16 +80,18 @@ class ParameterSet:
             a, b, unit = rng[n]
             units.append(unit)
             if n in bounds:
-                try:
-                    ua, ub = (float(v) for v in bounds[n])
-                except (TypeError, ValueError):
-                    raise ParameterError(f"bounds[{n!r}] must be a pair (low, high) of numbers, got {bounds[n]!r}") from None
+                pair = bounds[n]
+                if not (isinstance(pair, (Sequence, np.ndarray)) and len(pair) == 2 and all(is_number(v) for v in pair)):
+                    raise ParameterError(f"bounds[{n!r}] must be a pair (low, high) of numbers, got {pair!r}")
+                ua, ub = float(pair[0]), float(pair[1])
                 if not (math.isfinite(ua) and math.isfinite(ub) and ua < ub):
                     raise ParameterError(f"bounds[{n!r}] = ({ua}, {ub}): need finite low < high")
                 if ub < a or ua > b:
                     raise ParameterError(f"bounds[{n!r}] = ({ua}, {ub}) lies outside the allowed range [{a}, {b}] {unit}")
                 a, b = max(a, ua), min(b, ub)
             lo[i], hi[i] = a, b
+            if n in start and not is_number(start[n]):
+                raise ParameterError(f"start[{n!r}] = {start[n]!r}: must be a number in [{a}, {b}] {unit}")
             v = float(start[n]) if n in start else float(vector[PARAM_INDEX[n]]) / scale[i]
             if not (math.isfinite(v) and a <= v <= b):
                 raise ParameterError(f"start value of {n} = {v} {unit} is outside its bounds [{a}, {b}] {unit}")

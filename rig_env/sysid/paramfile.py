@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from rig_env.params import DEFAULT_FILE, IDENTIFIED_KEYS, PARAM_INDEX, ParameterError, RigParams
-from rig_env.params_io import params_text, write_checked
+from rig_env.params_io import IDENTIFICATION_METHODS, params_text, write_checked
 from rig_env.sysid.result import Fit
 
 HEADER = """# Rig parameters with identified values (written by rig_env.sysid.paramfile).
@@ -38,6 +38,8 @@ def _check_identified(identified: Mapping[str, Mapping[str, Any]]) -> dict[str, 
         std = float(entry["std"])
         if not (math.isfinite(std) and std >= 0):
             raise ParameterError(f"identified[{name!r}].std = {std!r}: must be finite and >= 0")
+        if entry["method"] not in IDENTIFICATION_METHODS:
+            raise ParameterError(f"identified[{name!r}].method = {entry['method']!r}; allowed: {', '.join(IDENTIFICATION_METHODS)}")
         out[name] = {"value": float(entry["value"]), "std": std, "records": recs, "method": str(entry["method"])}
     return out
 
@@ -67,6 +69,8 @@ def write_params(params: RigParams, path: str | Path, *, identified: Mapping[str
     :mod:`rig_env.params_io`'s (also :meth:`RigParams.to_toml`'s).
     """
     path = Path(path)
+    if path.is_dir():
+        raise ParameterError(f"{path}: is a folder, not a parameter file")
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists; pass overwrite=True (rig identify: --overwrite) to replace it")
     text = params_toml(params, identified, base_file)

@@ -20,6 +20,7 @@ from typing import Sequence
 import numpy as np
 
 from rig_env.params import RigParams
+from rig_env.sysid.checks import check_record_names
 from rig_env.sysid.model import RecordModel, output_names
 from rig_env.sysid.parameters import ParameterSet
 from rig_env.sysid.records import FlightRecord, RecordError
@@ -27,17 +28,6 @@ from rig_env.sysid.records import FlightRecord, RecordError
 INITIAL_STATES = ("estimate", "measured")
 DIFFERENCES = ("forward", "central")
 X0_STEP = 1e-5  # rad or rad/s, central-difference step of the initial state
-
-
-def unique_names(records: Sequence[FlightRecord]) -> list[str]:
-    """The records' names, made unique with a suffix where two share one."""
-    out: list[str] = []
-    for i, r in enumerate(records):
-        n = r.name
-        if n in out or [x.name for x in records].count(n) > 1:
-            n = f"{n}_{i}"
-        out.append(n)
-    return out
 
 
 @dataclass
@@ -79,7 +69,8 @@ class Problem:
         self.records = records
         self.params = params
         self.pset = pset
-        self.record_names = unique_names(records)
+        self.record_names = [r.name for r in records]
+        check_record_names(self.record_names)  # the nuisance parameters' names (x0.<record>.<joint>) are the records'
         self.models = [RecordModel(r, params, aero=aero, friction=friction, stops=stops, aero_model=aero_model) for r in records]
         self.outputs = [output_names(r) for r in records]
         k = pset.k

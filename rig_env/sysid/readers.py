@@ -60,7 +60,7 @@ import numpy as np
 from rig_env.framelog_format import FORMAT as LOG_FORMAT
 from rig_env.framelog_format import read_log
 from rig_env.params import JOINTS, SURFACES
-from rig_env.sysid.checks import RecordError, check_sampling
+from rig_env.sysid.checks import RecordError, check_sampling, is_number
 
 if TYPE_CHECKING:
     from rig_env.sysid.records import FlightRecord
@@ -118,6 +118,14 @@ def check_column_map(columns: ColumnMap) -> dict[str, tuple[str, str, float]]:
     if not any(f.startswith("q.") for f in out):
         raise RecordError(f"columns: no angle column (q.<joint>); map one per free joint of {list(JOINTS)}")
     return out
+
+
+def _joint_names(label: str, v: object) -> tuple[str, ...]:
+    """A ``free_dofs`` keyword (a joint name or a sequence of them) as a tuple; RecordError naming ``label`` otherwise."""
+    names = (v,) if isinstance(v, str) else tuple(v) if isinstance(v, (Sequence, np.ndarray)) else None
+    if names is None or not all(isinstance(j, str) for j in names):
+        raise RecordError(f"{label} = {v!r}: give a list of joint names of {list(JOINTS)}")
+    return names
 
 
 def own_columns(record: FlightRecord) -> dict[str, tuple[str, str]]:
@@ -251,9 +259,15 @@ def read_fields(path: str | os.PathLike, columns: ColumnMap | None = None, *, fr
                               f"and the configuration (airspeed=, surface_kind=, ...); columns present: {sorted(data)}")
         columns = {k: tuple(v) for k, v in meta["columns"].items()}  # type: ignore[misc]
         config = {k: meta[k] for k in ("name", "locked", "surface_kind", "setup", "airspeed")}
+        try:
+            cmap = check_column_map(columns)
+        except RecordError as e:
+            raise RecordError(f"{p}: {FORMAT} metadata: {e}") from None
+    else:
+        cmap = check_column_map(columns)
     given = {"locked": locked, "surface_kind": surface_kind, "setup": setup, "name": name, "airspeed": airspeed}
     config.update({k: v for k, v in given.items() if v is not None})
-    return _build(p, data, check_column_map(columns), config, free_dofs, allow_gaps)
+    return _build(p, data, cmap, config, free_dofs, allow_gaps)
 
 
 def _build(p: Path, data: dict[str, np.ndarray], cmap: dict[str, tuple[str, str, float]], config: dict[str, Any],
@@ -280,7 +294,7 @@ def _build(p: Path, data: dict[str, np.ndarray], cmap: dict[str, tuple[str, str,
     check_sampling(t, f"{p}: time column {cmap['t'][0]!r}", allow_gaps)
     free = [f.partition(".")[2] for f in cmap if f.startswith("q.")]
     if free_dofs is not None:
-        given = (free_dofs,) if isinstance(free_dofs, str) else tuple(free_dofs)
+        given = _joint_names(f"{p}: free_dofs", free_dofs)
         if set(given) != set(free):
             raise RecordError(f"{p}: free_dofs = {list(given)} but the angle columns are for {free}; map q.<joint> for each free joint")
     rate_joints = [f.partition(".")[2] for f in cmap if f.startswith("qd.")]
@@ -292,7 +306,7 @@ def _build(p: Path, data: dict[str, np.ndarray], cmap: dict[str, tuple[str, str,
             raise RecordError(f"{p}: airspeed = {config['airspeed']} m/s given and column {cmap['airspeed'][0]!r} mapped to airspeed; give one")
         air: float | np.ndarray = series["airspeed"]
     elif config.get("airspeed") is not None:
-        air = float(config["airspeed"])
+        air = config["airspeed"]  # checked by the record (a number in the allowed range)
     else:
         raise RecordError(f"{p}: no airspeed column mapped; give the tunnel speed as airspeed= (m/s, 0 for wind off) or map 'airspeed'")
     if surfaces and config.get("surface_kind") is None:
@@ -318,6 +332,8 @@ def _column(p: Path, data: dict[str, np.ndarray], col: str, fld: str) -> np.ndar
         a = a[:, k]
     if a.ndim != 1:
         raise RecordError(f"{p}: column {col!r} (for {fld}) has shape {a.shape}; expected a vector (select a column of a matrix as 'name[k]')")
+    if np.iscomplexobj(a):
+        raise RecordError(f"{p}: column {col!r} (for {fld}) holds complex ({a.dtype}) values; a record's columns are real numbers")
     if not (np.issubdtype(a.dtype, np.number) or a.dtype == bool):
         raise RecordError(f"{p}: column {col!r} (for {fld}) holds {a.dtype} values, not numbers")
     return a.astype(np.float64)
@@ -333,12 +349,25 @@ def _parse_meta(p: Path, text: str) -> dict[str, Any]:
         raise RecordError(f"{p}: {FORMAT} metadata must be a JSON object with keys {list(keys)}")
     if meta["version"] != VERSION:
         raise RecordError(f"{p}: {FORMAT} version {meta['version']!r}; this reader reads version {VERSION}")
+    kinds = {  # what each entry must be (a hand-edited file): the values themselves are the record's to check
+        "name": (lambda v: isinstance(v, str), "a string"),
+        "free_dofs": (lambda v: isinstance(v, list) and all(isinstance(j, str) for j in v), "a list of joint names"),
+        "locked": (lambda v: v is None or isinstance(v, dict), "an object {joint: rad} or null"),
+        "surface_kind": (lambda v: isinstance(v, str), "a string"),
+        "setup": (lambda v: isinstance(v, dict), "an object {dotted parameter name: value}"),
+        "airspeed": (lambda v: v is None or is_number(v), "a number (m/s) or null (a series)"),
+        "columns": (lambda v: isinstance(v, dict) and all(isinstance(c, list) for c in v.values()),
+                    "an object {field: [column, unit]}"),
+    }
+    for k, (ok, what) in kinds.items():
+        if not ok(meta[k]):
+            raise RecordError(f"{p}: {FORMAT} metadata: {k} = {json.dumps(meta[k])}: must be {what}")
     return meta
 
 
 def _read_csv(p: Path) -> tuple[dict[str, Any] | None, dict[str, np.ndarray]]:
     try:
-        text = p.read_text(encoding="utf-8")
+        text = p.read_text(encoding="utf-8-sig")  # a byte-order mark (Excel's "CSV UTF-8") is not part of the first name
     except (UnicodeDecodeError, OSError) as e:
         raise RecordError(f"{p}: cannot read as UTF-8 CSV text: {e}") from None
     meta = None
@@ -448,10 +477,12 @@ def frame_log_fields(path: str | os.PathLike, *, free_dofs: Sequence[str] | None
     if missing:
         raise RecordError(f"{p}: frame log without field(s) {missing}; fields present: {list(names)}")
     stored = header.get("free_dofs")
+    if stored is not None and not (isinstance(stored, list) and all(isinstance(j, str) for j in stored)):
+        raise RecordError(f"{p}: the log's header has free_dofs = {json.dumps(stored)}; expected a list of joint names of {list(JOINTS)}")
     if free_dofs is None and stored is None:
         raise RecordError(f"{p}: the log's header does not name the free joints (written before free_dofs was logged); give free_dofs= "
                           f"(names of {list(JOINTS)})")
-    free_given = None if free_dofs is None else ((free_dofs,) if isinstance(free_dofs, str) else tuple(free_dofs))
+    free_given = None if free_dofs is None else _joint_names(f"{p}: free_dofs", free_dofs)
     if free_given is not None and stored is not None and set(free_given) != set(stored):
         raise RecordError(f"{p}: free_dofs = {list(free_given)} but the log's header says {list(stored)}")
     free = tuple(free_given if free_given is not None else stored)

@@ -13,11 +13,12 @@ joints were free, at what angle the locked ones were held), the sample times, th
 | surfaces | {name: (n_t,)} | deg, ``rig_env.SURFACES`` names; absent surfaces are held at zero |
 | surface_kind | str | ``"commanded"``: what the loop sent (the model's servos act on it); ``"actual"``: the deflections themselves (measured, or passed through a servo model beforehand; the model's servos are bypassed) |
 | airspeed | float or (n_t,) | m/s, tunnel speed (a constant or the measured series), in [0, 60] |
-| locked | {joint: rad} or None | angles of locked joints (None: zeros) |
-| setup | {dotted parameter name: value} | parameters of this run's set-up that differ from the rig's (a friction test's springs and masses, an added mass), in the parameter file's units |
-| name | str | a label for reports and error messages |
+| locked | {joint: rad} or None | angles of locked joints (None: zeros), within +-2 pi rad |
+| setup | {dotted parameter name: value} | parameters of this run's set-up that differ from the rig's (a friction test's springs and masses, an added mass), in the parameter file's units, each within its allowed range (``rig_env.RigParams.replace`` checks them on the default rig) |
+| name | str | a label for reports and error messages; records fitted or reported together need distinct names (:func:`rig_env.sysid.checks.check_record_names`) |
 
-Construction checks every field and raises :class:`RecordError` naming the field and what is allowed.
+Construction checks every field and raises :class:`RecordError` naming the field and what is allowed
+(numbers: Python's or numpy's, not bools).
 It accepts any strictly increasing time: a record built by hand (or by a simulation) on an irregular
 grid is legitimate.  Files are different: a reader (:meth:`FlightRecord.read`) also applies
 :func:`check_sampling`, since an interval much longer than the rest in a recorded file is nearly always
@@ -37,6 +38,7 @@ are :mod:`rig_env.sysid.readers`.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
 from dataclasses import dataclass, field
@@ -45,8 +47,9 @@ from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
 import numpy as np
 
-from rig_env.params import JOINTS, SURFACES
-from rig_env.sysid.checks import GAP_FACTOR, RecordError, check_sampling  # noqa: F401  (re-exported)
+from rig_env.params import JOINTS, PARAM_INDEX, PARAM_NAMES, SURFACES, ParameterError, RigParams
+from rig_env.params_io import did_you_mean
+from rig_env.sysid.checks import GAP_FACTOR, MIN_RECORD_SAMPLES, RecordError, check_sampling, is_number  # noqa: F401  (re-exported)
 from rig_env.sysid.smoothing import DEFAULT_ITERATIONS, DEFAULT_SPAN, lowess
 
 if TYPE_CHECKING:
@@ -56,21 +59,49 @@ if TYPE_CHECKING:
 SURFACE_KINDS = ("commanded", "actual")
 AIRSPEED_RANGE = (0.0, 60.0)  # m/s, as simulate() allows
 MAX_UPSAMPLE = 2.0  # resample() refuses rates above this many times the record's own (median) rate
+LOCKED_LIMIT = 2.0 * math.pi  # rad: a locked angle beyond +-2 pi is a unit mistake (degrees), as rig identify says
 SMOOTH_CHANNELS = ("q", "qd", "surfaces", "airspeed")
 
 
-def _float_array(name: str, a: object, ndim: int) -> np.ndarray:
+def _float_array(name: str, a: object, ndim: int | tuple[int, ...]) -> np.ndarray:
+    """``a`` as a float64 array of ``ndim`` dimensions (one of them), finite; RecordError naming ``name`` otherwise
+    (real numbers only: not bools, complex numbers or strings)."""
     try:
-        arr = np.array(a, dtype=np.float64)
+        raw = np.asarray(a)
+        ok = raw.dtype.kind in "iuf" or (raw.dtype.kind == "O" and all(is_number(x) for x in raw.flat))
+        arr = np.array(raw, dtype=np.float64) if ok else None
     except (TypeError, ValueError):
-        raise RecordError(f"{name}: must be numbers, got {type(a).__name__}") from None
-    if arr.ndim != ndim:
-        raise RecordError(f"{name}: expected a {ndim}-D array, got shape {arr.shape}")
+        arr = None
+    if arr is None:
+        raise RecordError(f"{name}: must be real numbers, got {type(a).__name__}" + (f" of {raw.dtype}" if isinstance(a, np.ndarray) else ""))
+    dims = (ndim,) if isinstance(ndim, int) else ndim
+    if arr.ndim not in dims:
+        raise RecordError(f"{name}: expected a {' or '.join(f'{d}-D' for d in dims)} array, got shape {arr.shape}")
     bad = ~np.isfinite(arr)
     if bad.any():
         first = np.argwhere(bad)[0]
         raise RecordError(f"{name}: {int(bad.sum())} non-finite value(s), the first at index {tuple(int(i) for i in first)}")
     return arr
+
+
+def _mapping(name: str, v: object) -> dict:
+    """``v`` (a mapping, or None: empty) as a dict; RecordError naming ``name`` otherwise."""
+    if v is None:
+        return {}
+    if not isinstance(v, Mapping):
+        raise RecordError(f"{name}: must be a mapping {{name: value}}, got {type(v).__name__}")
+    return dict(v)
+
+
+def _scalar(v: object) -> object:
+    """A 0-d numpy array's value (a numpy scalar), other values as they are."""
+    return v[()] if isinstance(v, np.ndarray) and v.ndim == 0 else v
+
+
+@functools.lru_cache(maxsize=1)
+def _default_rig() -> RigParams:
+    """The default rig, on which a record's ``setup`` is range-checked (once per process)."""
+    return RigParams.default()
 
 
 def _held_index(t: np.ndarray, tq: np.ndarray) -> np.ndarray:
@@ -96,6 +127,8 @@ class FlightRecord:
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
+        if not isinstance(self.name, str):
+            raise RecordError(f"name = {self.name!r}: must be a string (the record's label in reports and messages)")
         t = _float_array(f"{self.name}: t", self.t, 1)
         if t.size < 2:
             raise RecordError(f"{self.name}: t needs at least 2 samples, got {t.size}")
@@ -105,24 +138,29 @@ class FlightRecord:
             raise RecordError(f"{self.name}: t must be strictly increasing; t[{k + 1}] = {t[k + 1]} s follows t[{k}] = {t[k]} s")
         set_(self, "t", t)
         n_t = t.size
-        free = (self.free_dofs,) if isinstance(self.free_dofs, str) else tuple(self.free_dofs)
-        unknown = [j for j in free if j not in JOINTS]
-        if unknown or not free or len(set(free)) != len(free):
-            raise RecordError(f"{self.name}: free_dofs = {list(free)}: give one or more distinct joints of {list(JOINTS)}")
+        fd = self.free_dofs
+        free = (fd,) if isinstance(fd, str) else tuple(fd) if isinstance(fd, (Sequence, np.ndarray)) else None
+        if free is None or not all(isinstance(j, str) and j in JOINTS for j in free) or not free or len(set(free)) != len(free):
+            raise RecordError(f"{self.name}: free_dofs = {list(free) if free is not None else fd!r}: give one or more distinct joints "
+                              f"of {list(JOINTS)}")
         order = sorted(range(len(free)), key=lambda k: JOINTS.index(free[k]))
         set_(self, "free_dofs", tuple(free[k] for k in order))
         for label in ("q", "qd"):
             v = getattr(self, label)
             if v is None:
                 continue
-            a = _float_array(f"{self.name}: {label}", np.reshape(v, (n_t, -1)) if np.ndim(v) == 1 else v, 2)
+            a = _float_array(f"{self.name}: {label}", v, (1, 2))
+            if a.ndim == 1:  # one free joint's series
+                if a.size != n_t:
+                    raise RecordError(f"{self.name}: {label} has {a.size} samples; t has {n_t} (a 1-D {label} is one free joint's series)")
+                a = a[:, None]
             if a.shape != (n_t, len(free)):
                 raise RecordError(f"{self.name}: {label} has shape {a.shape}; expected (n_t, n_free) = ({n_t}, {len(free)})")
             set_(self, label, a[:, order])
         if self.q is None:
             raise RecordError(f"{self.name}: q (the free joints' angles, rad) is required")
         surf: dict[str, np.ndarray] = {}
-        for s, v in dict(self.surfaces or {}).items():
+        for s, v in _mapping(f"{self.name}: surfaces", self.surfaces).items():
             if s not in SURFACES:
                 raise RecordError(f"{self.name}: surfaces: unknown surface {s!r}; valid names: {list(SURFACES)}")
             a = _float_array(f"{self.name}: surfaces[{s!r}]", v, 1)
@@ -133,8 +171,12 @@ class FlightRecord:
         if self.surface_kind not in SURFACE_KINDS:
             raise RecordError(f"{self.name}: surface_kind = {self.surface_kind!r}; allowed: {', '.join(SURFACE_KINDS)}")
         lo, hi = AIRSPEED_RANGE
-        if np.ndim(self.airspeed) == 0:
-            v = float(self.airspeed)  # type: ignore[arg-type]
+        air = _scalar(self.airspeed)
+        if air is None or isinstance(air, (str, bytes, bool)) or np.ndim(air) == 0:  # type: ignore[arg-type]
+            if not is_number(air):
+                raise RecordError(f"{self.name}: airspeed = {air!r}: give the tunnel speed, m/s, as a number in [{lo}, {hi}] or a "
+                                  f"series of n_t = {n_t} numbers")
+            v = float(air)  # type: ignore[arg-type]
             if not (math.isfinite(v) and lo <= v <= hi):
                 raise RecordError(f"{self.name}: airspeed = {v} m/s is outside the allowed range [{lo}, {hi}] m/s")
             set_(self, "airspeed", v)
@@ -145,25 +187,32 @@ class FlightRecord:
             if a.min() < lo or a.max() > hi:
                 raise RecordError(f"{self.name}: airspeed {a.min():.3g}..{a.max():.3g} m/s is outside the allowed range [{lo}, {hi}] m/s")
             set_(self, "airspeed", a)
-        locked = dict(self.locked or {})
+        locked = _mapping(f"{self.name}: locked", self.locked)
         for j, v in locked.items():
             if j not in JOINTS:
                 raise RecordError(f"{self.name}: locked: unknown joint {j!r}; valid names: {list(JOINTS)}")
             if j in self.free_dofs:
                 raise RecordError(f"{self.name}: locked: {j!r} is also a free joint")
-            if not math.isfinite(float(v)):
-                raise RecordError(f"{self.name}: locked[{j!r}] must be finite")
-            locked[j] = float(v)
+            v = _scalar(v)
+            if not (is_number(v) and math.isfinite(v) and abs(v) <= LOCKED_LIMIT):  # type: ignore[arg-type]
+                raise RecordError(f"{self.name}: locked[{j!r}] = {v!r}: a locked angle must be a finite number within +-2 pi rad "
+                                  "(+-360 deg); the angles are in rad")
+            locked[j] = float(v)  # type: ignore[arg-type]
         set_(self, "locked", locked)
-        from rig_env.params import PARAM_INDEX
-
         setup = {}
-        for k, v in dict(self.setup or {}).items():
-            if k not in PARAM_INDEX:
-                raise RecordError(f"{self.name}: setup: unknown parameter {k!r}; valid names: rig_env.PARAM_NAMES")
-            if not math.isfinite(float(v)):
-                raise RecordError(f"{self.name}: setup[{k!r}] must be finite")
-            setup[k] = float(v)
+        for k, v in _mapping(f"{self.name}: setup", self.setup).items():
+            if not isinstance(k, str) or k not in PARAM_INDEX:
+                hint = did_you_mean(k, PARAM_NAMES) if isinstance(k, str) else ""
+                raise RecordError(f"{self.name}: setup: unknown parameter {k!r}{hint}; valid names: rig_env.PARAM_NAMES")
+            v = _scalar(v)
+            if not (is_number(v) and math.isfinite(v)):  # type: ignore[arg-type]
+                raise RecordError(f"{self.name}: setup[{k!r}] = {v!r}: must be a finite number (the parameter file's units)")
+            setup[k] = float(v)  # type: ignore[arg-type]
+        if setup:
+            try:  # each value within its allowed range, as the parameter file checks it
+                _default_rig().replace(**setup)
+            except ParameterError as e:
+                raise RecordError(f"{self.name}: setup: {e}") from None
         set_(self, "setup", setup)
 
     # ------------------------------------------------------------------ views
@@ -229,7 +278,7 @@ class FlightRecord:
         falsely); the record is refused if it has gaps (:func:`check_sampling`) unless ``allow_gaps``,
         in which case the gaps are interpolated across.
         """
-        rate = float(rate_hz)
+        rate = float(rate_hz) if is_number(rate_hz) else math.nan
         own = 1.0 / self.dt
         if not (math.isfinite(rate) and 0.0 < rate <= MAX_UPSAMPLE * own * (1.0 + 1e-9)):
             raise RecordError(f"{self.name}: resample: rate_hz = {rate_hz}; allowed (0, {MAX_UPSAMPLE * own:.6g}] Hz ({MAX_UPSAMPLE:g} x the "
@@ -256,7 +305,7 @@ class FlightRecord:
         (then they start at 0).  A window that is empty, reversed, reaches outside ``[t_0, t_-1]`` or
         holds fewer than 2 samples is an error.  The name gains ``[t_start:t_end]``.
         """
-        a, b = float(t_start), float(t_end)
+        a, b = (float(v) if is_number(v) else math.nan for v in (t_start, t_end))
         t = self.t
         tol = 1e-9 * max(1.0, float(np.max(np.abs(t))))
         if not (math.isfinite(a) and math.isfinite(b) and a < b):
@@ -315,7 +364,8 @@ class FlightRecord:
         rng = np.random.default_rng(seed)
 
         def std(label: str, v: float | Sequence[float]) -> np.ndarray:
-            a = np.asarray(v, dtype=np.float64)
+            raw = np.asarray(v)
+            a = raw.astype(np.float64) if raw.dtype.kind in "iuf" else np.full(raw.shape, np.nan)
             if a.ndim > 1 or (a.ndim == 1 and a.size != len(self.free_dofs)) or not np.all(np.isfinite(a)) or np.any(a < 0):
                 raise RecordError(f"{self.name}: with_noise: {label} = {v!r}; one finite value >= 0 or one per free joint ({len(self.free_dofs)})")
             return np.broadcast_to(a, (len(self.free_dofs),))

@@ -21,13 +21,15 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import re
 from pathlib import Path
 from typing import Mapping, Sequence
 
 import numpy as np
 
+from rig_env.params import PARAM_INDEX, PARAM_NAMES
+from rig_env.params_io import did_you_mean
 from rig_env.sysid import figures
+from rig_env.sysid.checks import check_record_names, is_number, record_slug
 from rig_env.sysid.diagnostics import BAND_Z, fit_measures, whiteness
 from rig_env.sysid.result import Fit
 
@@ -72,10 +74,6 @@ def fmt(v: float, digits: int = 4) -> str:
     if v is None or (isinstance(v, float) and math.isnan(v)):
         return "-"
     return f"{v:.{digits}g}"
-
-
-def _slug(s: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", s).strip("_") or "record"
 
 
 def estimates_table(fit: Fit, reference: Mapping[str, float] | None = None) -> str:
@@ -192,7 +190,7 @@ def _side_by_side(fits: Sequence[Fit]) -> list[str]:
 def figure_name(kind: str, prefix: str = "", record: str | None = None) -> str:
     """A figure's file name (the one place it is spelled): ``<prefix><kind>.png``, or with a record
     ``<prefix><kind>_<record's slug>.png`` (kinds: correlation, cost; history, acf per record)."""
-    return f"{prefix}{kind}.png" if record is None else f"{prefix}{kind}_{_slug(record)}.png"
+    return f"{prefix}{kind}.png" if record is None else f"{prefix}{kind}_{record_slug(record)}.png"
 
 
 def figure_names(n_estimates: int, record_names: Sequence[str], *, cost: bool = True, prefix: str = "") -> list[str]:
@@ -225,12 +223,31 @@ def write_report(fit: Fit | Sequence[Fit], out_dir: str | Path, *, reference: Ma
     """Write ``out_dir/report.md`` and its PNG figures for one fit or several; returns the report's path.
 
     reference: ``{dotted name: value}`` in the parameter file's units (a simulation's truth, a table of
-    the paper), shown beside the estimates.  FileExistsError, before anything is written, if ``report.md``
-    or any of its figures (:func:`report_files`) exists and not ``overwrite``.
+    the paper), shown beside the estimates; names of :data:`rig_env.PARAM_NAMES` (those not estimated are
+    not shown), numbers.  Refused before anything is written: an unknown reference name (ValueError), a fit
+    whose records' figures would be one file (two records of one name, or of names alike but for characters a
+    file name cannot hold: RecordError, :func:`~rig_env.sysid.checks.check_record_names`), and, unless
+    ``overwrite``, a ``report.md`` or any of its figures (:func:`report_files`) already there (FileExistsError).
     """
     fits = [fit] if isinstance(fit, Fit) else list(fit)
     if not fits or not all(isinstance(f, Fit) for f in fits):
         raise ValueError("fit: give a Fit or a non-empty sequence of Fits")
+    if reference is not None:
+        if not isinstance(reference, Mapping):
+            raise ValueError(f"reference = {reference!r:.80}: give a mapping {{dotted parameter name: value}} or None")
+        for n, v in reference.items():
+            if not isinstance(n, str) or n not in PARAM_INDEX:
+                hint = did_you_mean(n, PARAM_NAMES) if isinstance(n, str) else ""
+                raise ValueError(f"reference: unknown parameter {n!r}{hint}; valid names: rig_env.PARAM_NAMES")
+            if not is_number(v):
+                raise ValueError(f"reference[{n!r}] = {v!r}: must be a number (the parameter file's units)")
+    for k, f in enumerate(fits, start=1):  # each record's figures named apart (the fits' by their prefix)
+        prefix = f"fit{k}_" if len(fits) > 1 else ""
+
+        def per_record(n: str, prefix: str = prefix) -> tuple[str, str]:
+            return figure_name("history", prefix, n), figure_name("acf", prefix, n)
+
+        check_record_names([r.name for r in f.records], per_record)
     out = Path(out_dir)
     path = out / "report.md"
     there = [str(p) for p in report_files(fits, out) if p.exists()] if not overwrite else []
