@@ -27,9 +27,9 @@ IDENTIFIED_KEYS = ("std", "records", "method")
 """Keys an ``identified`` entry carries besides value, source, note and unit (and no other source may)."""
 
 IDENTIFICATION_METHODS = ("output_error", "filter_error", "equation_error")
-"""The ``method`` an ``identified`` entry may name: :data:`rig_env.sysid.METHODS` (``rig_env.sysid.fit``), held here, in
-the file format's lowest layer, because the parameters may not import the identification package (the import
-contracts of pyproject.toml; tests/test_params.py keeps the two equal)."""
+"""The ``method`` an ``identified`` entry may name, and the fitting methods :data:`rig_env.sysid.METHODS` (the one
+list: it lives in the file format's lowest layer because the parameters may not import the identification package,
+by the import contracts of pyproject.toml)."""
 
 Provenance = Callable[[str], Mapping[str, Any]]
 """A dotted name (or ``"high_incidence"``) -> its ``source``, ``note`` and, if identified, ``std``, ``records``, ``method``."""

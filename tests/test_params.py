@@ -253,7 +253,7 @@ def test_identified_method_is_one_of_the_identification_methods(params, tmp_path
     from rig_env.sysid import METHODS
     from rig_env.sysid.paramfile import write_params
 
-    assert IDENTIFICATION_METHODS == METHODS  # the file format's list is the identification's
+    assert IDENTIFICATION_METHODS is METHODS  # one list: the file format's is the identification's
     ident = {"mass.hawk_mass": {"value": 1.2, "std": 0.01, "records": ["r1"], "method": "filter_error"}}
     text = write_params(params, tmp_path / "fit.toml", identified=ident).read_text()
     assert RigParams.from_toml(tmp_path / "fit.toml").provenance("mass.hawk_mass")["method"] == "filter_error"

@@ -379,6 +379,8 @@ def test_monte_carlo_counts_flagged_fits_without_warning_each(pitch_run):
         wrong = monte_carlo(clean, P.replace(**{"hawk_aero.CMalpha": 0.3 * P.hawk_aero.CMalpha}), ["hawk_aero.CMq"],
                             noise_std_rad=0.1 * D, seeds=[0, 1], fit_kwargs={"max_iter": 8})
     assert good.flagged.tolist() == [False, False] and wrong.flagged.tolist() == [True, True]
+    one = monte_carlo(clean, P, "hawk_aero.CMq", noise_std_rad=0.1 * D, seeds=[0], fit_kwargs={"max_iter": 8})
+    assert one.names == ("hawk_aero.CMq",)  # one name, as fit() takes it; it was split into 13 one-letter "names"
 
 
 def test_fit_from_starts_refuses_bad_starts_by_name(pitch_run):

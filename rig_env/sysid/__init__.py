@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 from rig_env.importhook import lazy_attributes
 from rig_env.sysid.fit import METHODS, FitWarning, fit, fit_from_starts, misfit_warnings
-from rig_env.sysid.inputs import doublet, multisine, peak_factors, three_two_one_one  # scipy only inside multisine()
+from rig_env.sysid.inputs import doublet, multisine, peak_factors, three_two_one_one
 from rig_env.sysid.readers import ColumnMap
 from rig_env.sysid.records import (
     GAP_FACTOR,

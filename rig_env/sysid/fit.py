@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Callable, Iterable, Mapping, Sequence
 import numpy as np
 
 from rig_env.params import ParameterError, RigParams
+from rig_env.params_io import IDENTIFICATION_METHODS
 from rig_env.sysid.checks import MIN_RECORD_SAMPLES, check_record_names, is_integer, is_number
 from rig_env.sysid.covariance import correlation
 from rig_env.sysid.parameters import ParameterSet
@@ -30,7 +31,8 @@ from rig_env.sysid.result import Fit
 if TYPE_CHECKING:
     from rig_env.sysid.output_error import Solution
 
-METHODS = ("output_error", "filter_error", "equation_error")
+METHODS = IDENTIFICATION_METHODS
+"""The fitting methods (one list: the parameter file's, which records the method of each identified value)."""
 
 MISFIT_R2 = 0.9
 """An output whose simulated response explains less than this fraction of the measured one's variance (R^2) ..."""

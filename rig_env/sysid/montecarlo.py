@@ -119,6 +119,8 @@ def monte_carlo(
     ``progress``: a stream for a line every few seconds on Ray.  A bad option is a ValueError naming it."""
     distributed.check_backend(backend, address)
     distributed.check_chunk_size(chunk_size)
+    if isinstance(estimate, str):
+        estimate = (estimate,)  # one name, as fit() takes it (it was split into its characters)
     seeds = [int(s) for s in seeds]
     if not seeds or len(set(seeds)) != len(seeds) or min(seeds) < 0:
         raise ValueError(f"seeds = {seeds[:8]!r}{' ...' if len(seeds) > 8 else ''}: a non-empty list of distinct integers >= 0")
