@@ -431,14 +431,66 @@ def _relax_lanes(row, tabs, dt):
         store7(row, OFF_X + L.X_SEP * W, lane, xs)
 
 
+def relaxed(y, xs, u, p, dt, tabs):
+    """The flow-separation states xs (7-tuple) relaxed over dt at the RK state y's joint state and the Hawk's
+    surfaces (the servo positions y[14:17]), inputs u, parameters p (:func:`rig_env.physics.joint_space.separation_step`):
+    what :func:`relax_separation` does to one lane, for the RK stage that opens a physics step.  The unsteady
+    model's tables only (:func:`model_of`); for the others xs unchanged.  Compiled code only."""
+    raise TypeError("relaxed runs inside the lane kernel only")
+
+
+@overload(relaxed, inline="always")
+def _relaxed(y, xs, u, p, dt, tabs):
+    """:func:`relaxed` for the unsteady model's tables; for the others the identity, so that the linear and tables
+    kernels never compile the separation step."""
+    if isinstance(tabs, types.BaseTuple) and len(tabs) == 6:
+        return lambda y, xs, u, p, dt, tabs: separation_step(y[0:5], y[5:10], u, p, xs, (y[14], y[15], y[16]), dt, tabs)
+    return lambda y, xs, u, p, dt, tabs: xs
+
+
+@inlined(**_JIT)
+def rk_stage(row, flags, free, tabs, c, wgt, first, relax, dt):
+    """One RK stage of every lane: the stage state (y0 + c k, or y0 ``first``), its derivative into row[OFF_K] and,
+    weighted by ``wgt``, into row[OFF_ACC].  ``relax`` (the unsteady model's opening stage): the separation states
+    are first relaxed over dt at the stage state, which is the physics step's start (:func:`relaxed`), in the same
+    loop, so that the arm's kinematics and air that the relaxation and the derivative both need are computed once.
+    ``friction`` (flags' F_FRICTION), ``first`` and ``relax`` are compile-time constants at every call site, so
+    the loops have no branch."""
+    friction = (flags & L.F_FRICTION) != 0
+    unsteady = model_of(tabs) == 2
+    f0, f1, f2, f3, f4 = free
+    # the free joints' friction and fixture torques, each in a loop of its own (a locked joint's are never
+    # computed); branched here so that the loops have no branch
+    if friction:
+        stage_torques(row, free, c, first, True)
+    else:
+        stage_torques(row, free, c, first, False)
+    for lane in range(W):
+        y0 = load24(row, OFF_Y0, lane)
+        yt = y0 if first else axpy24(c, load24(row, OFF_K, lane), y0)
+        t = load5(row, OFF_FRIC, lane)
+        fric = (t[0] if f0 else 0.0, t[1] if f1 else 0.0, t[2] if f2 else 0.0, t[3] if f3 else 0.0, t[4] if f4 else 0.0)
+        u = load_inputs(row, OFF_U, lane)
+        p = load_params(row, OFF_P, lane)
+        xs = load7(row, OFF_X + L.X_SEP * W, lane) if unsteady else ATTACHED
+        if relax:
+            xs = relaxed(yt, xs, u, p, dt, tabs)
+            store7(row, OFF_X + L.X_SEP * W, lane, xs)
+        k = rhs_values(yt, fric, xs, load7(row, OFF_UD, lane), u, p, flags, free, tabs)
+        store24(row, OFF_K, lane, k)
+        acc = load24(row, OFF_ACC, lane)
+        store24(row, OFF_ACC, lane, axpy24(wgt, k, _ZERO_Y if first else acc))
+
+
 @njit(**_JIT)
 def physics_step(row, flags, free, tabs, h, reuse_decay, last):
     """Every lane of one block over one physics step h (in place); row[OFF_UD] holds the delayed demands.
     reuse_decay: the row holds the bristle decay of the previous physics step's end (False on the first
     physics step of a control step: the caller may have changed states or parameters since).  With the
     unsteady model (:func:`model_of`) the separation states relax over h/2 before the RK4 step on the first
-    physics step of the control step, and after it over h/2 on the ``last``, else over h (the next step's
-    opening half merged in, as the per-environment kernel does).
+    physics step of the control step and over h/2 after it on the ``last``; between physics steps over h, the
+    closing half of one merged with the opening half of the next, as the per-environment kernel does.  Each
+    opening relaxation runs in stage 0's loop (:func:`rk_stage`), whose state is the one it relaxes at.
 
     The stages' derivatives are accumulated with the RK4 weights as they come (in the order
     integrator.physics_step sums them), so every access of the loops below is at a constant offset."""
@@ -449,31 +501,12 @@ def physics_step(row, flags, free, tabs, h, reuse_decay, last):
         start_step(row, free, friction, h, True)
     else:
         start_step(row, free, friction, h, False)
-        if unsteady:
-            relax_separation(row, tabs, 0.5 * h)
-    f0, f1, f2, f3, f4 = free
-    for s in range(4):  # the four stages, each a loop over the lanes (one copy of the right-hand side in the code)
-        c = RK_C[s] * h
-        wgt = RK_W[s]
-        first = s == 0
-        # the free joints' friction and fixture torques, each in a loop of its own (a locked joint's are never
-        # computed); branched here so that the loops have no branch
-        if friction:
-            stage_torques(row, free, c, first, True)
-        else:
-            stage_torques(row, free, c, first, False)
-        for lane in range(W):
-            y0 = load24(row, OFF_Y0, lane)
-            yt = y0 if first else axpy24(c, load24(row, OFF_K, lane), y0)
-            t = load5(row, OFF_FRIC, lane)
-            fric = (t[0] if f0 else 0.0, t[1] if f1 else 0.0, t[2] if f2 else 0.0, t[3] if f3 else 0.0, t[4] if f4 else 0.0)
-            xs = load7(row, OFF_X + L.X_SEP * W, lane) if unsteady else ATTACHED
-            k = rhs_values(
-                yt, fric, xs, load7(row, OFF_UD, lane), load_inputs(row, OFF_U, lane), load_params(row, OFF_P, lane), flags, free, tabs,
-            )  # fmt: skip
-            store24(row, OFF_K, lane, k)
-            acc = load24(row, OFF_ACC, lane)
-            store24(row, OFF_ACC, lane, axpy24(wgt, k, _ZERO_Y if first else acc))
+    if unsteady:  # the separation states' opening relaxation fused into stage 0 (rk_stage): over h/2 on the first
+        # physics step of the control step, else over h (the previous step's closing half merged in)
+        rk_stage(row, flags, free, tabs, 0.0, RK_W[0], True, True, h if reuse_decay else 0.5 * h)
+    for s in range(1 if unsteady else 0, 4):  # the stages, one loop over the lanes each (one copy of the
+        # right-hand side in the code for the linear and tables models; the unsteady model's stage 0 is a second)
+        rk_stage(row, flags, free, tabs, RK_C[s] * h, RK_W[s], s == 0, False, 0.0)
     for lane in range(W):  # the RK4 step and servo limits; then the bristles over the second h/2
         p = load_params(row, OFF_P, lane)
         y = axpy24(h, load24(row, OFF_ACC, lane), load24(row, OFF_Y0, lane))
@@ -489,8 +522,8 @@ def physics_step(row, flags, free, tabs, h, reuse_decay, last):
             s0[1] if servo else 0.0, s1[1] if servo else 0.0, s2[1] if servo else 0.0, s3[1] if servo else 0.0,
             s4[1] if servo else 0.0, s5[1] if servo else 0.0, s6[1] if servo else 0.0,
         ))  # fmt: skip
-    if unsteady:
-        relax_separation(row, tabs, 0.5 * h if last else h)
+    if unsteady and last:  # the closing half of the control step's last physics step (the others': in the next stage 0)
+        relax_separation(row, tabs, 0.5 * h)
     if friction:
         bristles(row, free, h, False)
 
