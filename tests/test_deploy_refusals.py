@@ -191,7 +191,10 @@ def test_seeds_share_one_range_on_run_and_sim_rig(argv, capsys):
 def test_seed_range_is_the_loops_and_the_sim_rigs():
     from controllers.deploy.simrig import Faults, SimRig
 
-    assert cli.MAX_SEED == lp.MAX_SEED == 2**32 - 1
+    from controllers.evaluation import evaluate
+    from rig_env.envs import ranges
+
+    assert cli.MAX_SEED is lp.MAX_SEED is evaluate.MAX_SEED is ranges.MAX_SEED and ranges.MAX_SEED == 2**32 - 1  # one range
     for bad in (-1, 2**32, True, 1.5):
         with pytest.raises(ValueError, match="seed"):
             lp.LoopConfig(rig=("127.0.0.1", 9), rate_hz=80.0, seed=bad)

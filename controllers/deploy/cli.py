@@ -53,13 +53,13 @@ import signal
 import socket
 import sys
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 from urllib.parse import urlparse
 
 from controllers.deploy.framelog import LogWriteError
 from controllers.deploy.protocol import BindError
 from controllers.laws.artefact import ArtefactError
-from rig_env.envs.ranges import CONTROL_RATE_HZ
+from rig_env.envs.ranges import CONTROL_RATE_HZ, MAX_SEED
 
 EXIT_OK, EXIT_REFUSED, EXIT_FAULT, EXIT_NO_FRAMES, EXIT_LOG, EXIT_CMD_LOST = 0, 2, 3, 4, 5, 6
 EXIT_CODES = {EXIT_OK: "success", EXIT_REFUSED: "refused input (arguments, artefact, log path); nothing flown",
@@ -67,18 +67,26 @@ EXIT_CODES = {EXIT_OK: "success", EXIT_REFUSED: "refused input (arguments, artef
               EXIT_LOG: "the log could not be written", EXIT_CMD_LOST: "command path lost: sends failed (fault_frames or more) or the rig stopped acknowledging (command_ack)"}
 MAX_PORT = 65535
 MAX_DURATION_S = 1.0e6  # controllers.deploy.loop.MAX_DURATION_S (a test checks the copy; importing the loop here would load it for every command)
-MAX_SEED = 2**32 - 1  # controllers.deploy.loop.MAX_SEED (a test checks the copy)
 
 
-def _port(text: str) -> int:
-    """argparse type: a UDP port, 0-65535 (0: any free port)."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: not an integer port") from None
-    if not 0 <= v <= MAX_PORT:
-        raise argparse.ArgumentTypeError(f"{v}: allowed range 0-{MAX_PORT}")
-    return v
+def _integer(hi: int, what: str) -> Callable[[str], int]:
+    """argparse type: an integer in [0, hi] (``what``: the error's name of it)."""
+    def parse(text: str) -> int:
+        shown = text if len(text) <= 24 else text[:20] + "..."
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{shown!r}: not an integer {what}; allowed range [0, {hi}]") from None
+        if not 0 <= v <= hi:
+            raise argparse.ArgumentTypeError(f"{shown}: allowed range [0, {hi}]")
+        return v
+    return parse
+
+
+_port = _integer(MAX_PORT, "port (0: any free port)")
+"""argparse type: a UDP port, [0, 65535] (0: any free port)."""
+_seed = _integer(MAX_SEED, "seed")
+"""argparse type: a seed, an integer in [0, MAX_SEED] (``run --seed``, ``sim-rig --seed``, ``--fault-seed``)."""
 
 
 def _bounded(lo: float, hi: float, unit: str, integer: bool = False, lo_open: bool = False):
@@ -94,18 +102,6 @@ def _bounded(lo: float, hi: float, unit: str, integer: bool = False, lo_open: bo
             raise argparse.ArgumentTypeError(f"{shown}: allowed range {'(' if lo_open else '['}{lo:g}, {hi:g}] {unit}")
         return v
     return parse
-
-
-def _seed(text: str) -> int:
-    """argparse type: a seed, an integer in [0, MAX_SEED] (``run --seed``, ``sim-rig --seed``, ``--fault-seed``)."""
-    shown = text if len(text) <= 24 else text[:20] + "..."
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{shown!r}: not an integer; allowed range [0, {MAX_SEED}]") from None
-    if not 0 <= v <= MAX_SEED:
-        raise argparse.ArgumentTypeError(f"{shown}: allowed range [0, {MAX_SEED}]")
-    return v
 
 
 def _finite(text: str) -> float:

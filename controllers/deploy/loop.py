@@ -106,7 +106,7 @@ from controllers.deploy.framelog import FrameLog
 from controllers.deploy.overrun import OverrunWatchdog
 from controllers.deploy.plausibility import REASONS as IMPLAUSIBLE_REASONS, Plausibility
 from controllers.deploy.stuck import StuckDetector
-from rig_env.envs.ranges import CONTROL_RATE_HZ
+from rig_env.envs.ranges import CONTROL_RATE_HZ, MAX_SEED
 from rig_env.envs.observation import labels, observe, task_for_seed
 from rig_env.envs.sensors import UNLIMITED, Sensors
 from rig_env.params import JOINTS, SURFACES, RigParams, param_batch
@@ -119,9 +119,6 @@ FAULTS = {F_STALE: "stale", F_SENSOR: "sensor_range", F_RIG: "rig_status", F_CON
           F_STUCK: "stuck_sensor", F_LINK: "command_ack", F_IMPLAUSIBLE: "implausible", F_LOG: "log_write"}
 MAX_DURATION_S = 1.0e6
 """Longest ``duration`` accepted, s (11.6 days): a bound on the tick counter, not on memory (below)."""
-MAX_SEED = 2**32 - 1
-"""Largest ``seed`` (the loop's, and the sim rig's ``seed`` and fault seed): the project's seed range,
-[0, 2**32 - 1], as ``rig compare --seed`` (``controllers.evaluation.evaluate.MAX_SEED``)."""
 STATS_CAP = 1 << 18
 """Per-tick timing statistics (latency, wake jitter, law time) keep the last ``STATS_CAP`` ticks (a ring of
 3 x 2 MiB; 55 min at 80 Hz): memory stays bounded whatever the duration."""

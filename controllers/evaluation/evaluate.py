@@ -38,11 +38,9 @@ from controllers.evaluation.traces import trace_metrics
 from controllers.design.conditions import GUSTY, MODES, NOMINAL, ROBUST, Conditions  # noqa: F401  (re-exported)
 from rig_env.compile_watch import compile_watch
 from rig_env.envs import RigVectorEnv
+from rig_env.envs.ranges import MAX_SEED
 from rig_env.params import JOINTS
 
-MAX_SEED = 2**32 - 1
-"""The largest seed (``rig compare --seed``, a ``--config`` file's ``seed``): episode ``i`` of a run seeded ``s`` is the stream
-of seed ``s + i``, which then fits the int64 seeds the environments take for any number of episodes."""
 
 
 
