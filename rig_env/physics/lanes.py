@@ -45,7 +45,10 @@ is compiled, from the tables' type (:func:`model_of`: arrays for the linear mode
 so the linear kernel's loops carry none of the tables' work and each model is its own compiled kernel;
 so is the compensator table's form (:func:`lane_shape`).  The separation states are split around the RK4
 step as the bristles are, relaxed exactly over h/2 on either side (the two halves inside a control step
-merged into one over h, as :func:`rig_env.physics.integrator.physics_step` does), in a loop of their own.
+merged into one over h, as :func:`rig_env.physics.integrator.physics_step` does).  Each physics step's opening
+relaxation runs in RK stage 0's loop over the lanes (:func:`rk_stage`), at the state that stage starts from, so that
+the arm's kinematics and air the two share are computed once; only the control step's closing half has a loop of
+its own.
 
 Results equal :mod:`rig_env.physics.integrator`'s to rounding (``tests/test_lanes.py``: 2e-13 rad
 after 100 control steps with every term on, every lock set), not bit for bit: the order of some
