@@ -8,6 +8,7 @@ designs and builds in one call.
 
 from __future__ import annotations
 
+import inspect
 from typing import Any, Callable
 
 from controllers.design.emulation import design_emulation_lqr
@@ -36,12 +37,27 @@ def make_controller(kind: str, spec: LoopSpec, num_envs: int = 1, **options: Any
     ``options`` go to the class's design function (``params``, ``link_delay_steps``... see
     :data:`DESIGNS`); ``tables=`` skips the design.  Laws without a design (``"ppo"``, ``"sac"``:
     ``path=``; ``"linear"``: ``K=``...) take ``options`` as constructor arguments.  ValueError for an
-    unknown kind; :class:`~controllers.laws.UnsupportedTask` when no law of the kind flies ``spec``.
+    unknown kind or an option the kind's design (or constructor) does not take, before any design work;
+    :class:`~controllers.laws.UnsupportedTask` when no law of the kind flies ``spec``.
     """
     cls = law_for(kind, spec)
     design = DESIGNS.get(cls)
     if design is not None and "tables" in options and len(options) > 1:
         raise ValueError(f"tables given: {sorted(set(options) - {'tables'})} belong to the design and must not be passed too")
+    takes = cls.__init__ if design is None or "tables" in options else design
+    _check_options(kind, takes, options)
     if design is None or "tables" in options:
         return cls(spec, num_envs, **options)
     return cls(spec, num_envs, tables=design(spec, **options))
+
+
+def _check_options(kind: str, fn: Callable[..., Any], options: dict[str, Any]) -> None:
+    """ValueError naming the options ``fn`` (a design function or a law's constructor) does not take: else a TypeError
+    ("design_pid() got an unexpected keyword argument") that names neither the kind nor what it takes."""
+    params = inspect.signature(fn).parameters
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        return
+    allowed = [n for n, p in params.items() if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD) and n not in ("self", "spec", "num_envs")]
+    unknown = sorted(set(options) - set(allowed))
+    if unknown:
+        raise ValueError(f"options {unknown}: not options of kind {kind!r} ({getattr(fn, '__qualname__', fn)}); allowed {allowed}")

@@ -26,6 +26,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from controllers.design.heave_sway import axis_point
+from controllers.design.model import check_params, check_positive, check_steps
 from controllers.laws.base import LoopSpec
 from controllers.laws.emulation import (
     BASE_STATES,
@@ -66,9 +67,11 @@ def zoh_with_delay(A: np.ndarray, b: np.ndarray, h: float, tau: float) -> tuple[
     0 < tau' <= h, ``G[d-1] = int_0^{h-tau'} e^{As} ds b`` and ``G[d] = e^{A(h-tau')} int_0^{tau'} e^{As} ds b``; tau = 0 gives
     the plain hold (d = 0).  Returns (Phi (n, n), G (d + 1, n)).
     """
-    if not (h > 0 and tau >= 0):
-        raise ValueError(f"h = {h}, tau = {tau}: need h > 0 and tau >= 0")
-    n = A.shape[0]
+    h, tau = check_positive("h", h), check_positive("tau", tau, allow_zero=True)  # tau = inf: OverflowError in int()
+    A, b = np.asarray(A, dtype=float), np.asarray(b, dtype=float)
+    n = A.shape[0] if A.ndim == 2 else -1
+    if A.shape != (n, n) or b.shape != (n,):
+        raise ValueError(f"A, b: shapes {A.shape}, {b.shape}; allowed (n, n) and (n,)")
 
     def hold(t: float) -> tuple[np.ndarray, np.ndarray]:  # (e^{At}, int_0^t e^{As} ds b)
         M = np.zeros((n + 1, n + 1))
@@ -281,21 +284,28 @@ def margins_discrete(L: control.StateSpace, dt: float, n_w: int = 4000) -> dict[
     return out
 
 
+def _maximum(name: str, v: object) -> float:
+    """A Bryson maximum as a float; ValueError naming ``name`` unless a finite real number > 0."""
+    try:
+        return check_positive(name, v)
+    except ValueError:
+        raise ValueError(f"{name} = {v!r}: every maximum must be finite and > 0; allowed a real number > 0") from None
+
+
 def design_emulation_lqr(spec: LoopSpec, params: RigParams | None = None, *, link_delay_steps: int = 1,
                          max_deviation: dict[str, float] | None = None, max_input: float | None = None) -> EmulationTables:
     """Tables of :class:`controllers.laws.emulation.EmulationLQR` (steps 1-3 over the airspeed grid)."""
     from rig_env.envs.tasks.freeflight import FreeFlightEmulation
 
     check_emulation(spec)
-    if isinstance(link_delay_steps, bool) or not isinstance(link_delay_steps, int) or not 0 <= link_delay_steps <= 50:
-        raise ValueError(f"link_delay_steps = {link_delay_steps!r}: an integer in [0, 50]")
-    unknown = sorted(set(max_deviation or {}) - set(MAX_DEVIATION))
+    check_params(params)
+    link_delay_steps = check_steps("link_delay_steps", link_delay_steps, 50)  # numpy integers too (np.int64 was refused)
+    unknown = sorted(set(max_deviation or {}) - set(MAX_DEVIATION), key=str)
     if unknown:
         raise ValueError(f"max_deviation: unknown entries {unknown}; allowed {sorted(MAX_DEVIATION)}")
-    md = {**MAX_DEVIATION, **(max_deviation or {})}
-    mi = MAX_INPUT if max_input is None else float(max_input)
-    if any(not (math.isfinite(v) and v > 0) for v in (*md.values(), mi)):
-        raise ValueError(f"max_deviation = {md}, max_input = {mi}: every maximum must be finite and > 0")
+    # each maximum by name: a string reached float() / math.isfinite() (numpy's or Python's own message), True passed as 1
+    md = {**MAX_DEVIATION, **{k: _maximum(f"max_deviation[{k!r}]", v) for k, v in (max_deviation or {}).items()}}
+    mi = MAX_INPUT if max_input is None else _maximum("max_input", max_input)
     params_default, params = params is None, params or RigParams.default()
     lo, hi = spec.airspeed_range
     if lo <= 1.0:

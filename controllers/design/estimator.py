@@ -11,10 +11,16 @@ import numpy as np
 
 
 def kalman_gain(dt: float, sigma_a: float, sigma_z: float) -> np.ndarray:
-    """(2,) steady-state gain (angle, rate) of the kinematic model x = (angle, rate)."""
-    if not (dt > 0 and sigma_a > 0 and sigma_z > 0):
-        raise ValueError(f"dt, sigma_a, sigma_z = {dt}, {sigma_a}, {sigma_z}: must be positive")
+    """(2,) steady-state gain (angle, rate) of the kinematic model x = (angle, rate).
+
+    ValueError naming the argument unless ``dt`` (s), ``sigma_a`` (rad/s^2) and ``sigma_z`` (rad) are finite numbers > 0.
+    """
     from scipy.linalg import solve_discrete_are
+
+    from controllers.design.model import check_positive
+
+    # each checked by name: an inf reached scipy ("array must not contain infs or NaNs"), a string a TypeError
+    dt, sigma_a, sigma_z = (check_positive(k, v) for k, v in (("dt", dt), ("sigma_a", sigma_a), ("sigma_z", sigma_z)))
 
     F = np.array([[1.0, dt], [0.0, 1.0]])
     G = np.array([[0.5 * dt * dt], [dt]])

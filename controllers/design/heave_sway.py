@@ -46,7 +46,7 @@ import control
 import numpy as np
 
 from controllers.design.lqr import MAX_DEVIATION, MAX_INPUT, SIGMA_A, SIGMA_Z, V_REF, Design, augmented, loop_margins
-from controllers.design.model import INPUTS, design_aero_model, loop_elements
+from controllers.design.model import INPUTS, check_flag, check_params, check_positive, check_steps, design_aero_model, loop_elements
 from controllers.design.signals import reference_constants, signal_scales
 from controllers.design.tuning import AxisTuning, margins, rate_tf, shape_loops
 from controllers.laws.axes import AXIS_OF
@@ -57,6 +57,8 @@ from controllers.laws.heave_sway import ANGLE_MAX_DEG, LQR_TARGETS, V_STEP, Heav
 from rig_env import linearize, trim
 from rig_env.params import JOINTS, RigParams
 
+TARGET_KEYS = ("pm_inner", "gm_inner", "pm_outer", "gm_outer")
+"""The margin targets :func:`design_heave_sway_pid`'s ``targets`` may override (:func:`tune_driven`'s arguments)."""
 DRIVEN = ("rig_pitch", "rig_yaw")
 """Rig joints a heave/sway law drives (virtual input :data:`controllers.design.model.AXIS_OF`)."""
 Q_GUESS_DEG = {"rig_pitch": 7.0}  # where the trim search starts (the rig's zero-input trim, task docstrings)
@@ -302,7 +304,18 @@ def _design(spec: LoopSpec, link_delay_steps: int, rate_filter_hz: float = 10.0,
 
 def design_heave_sway_pid(spec: LoopSpec, params: RigParams | None = None, *, link_delay_steps: int = 1, rate_filter_hz: float = 10.0,
                           feedforward: bool = True, decouple: bool = True, targets: dict[str, float] | None = None) -> HeaveSwayTables:
-    """Tables of :class:`controllers.laws.heave_sway.HeaveSwayPID` (steps 1-3)."""
+    """Tables of :class:`controllers.laws.heave_sway.HeaveSwayPID` (steps 1-3).
+
+    ``targets``: margin targets overriding :func:`tune_driven`'s (``pm_inner``, ``gm_inner``, ``pm_outer``, ``gm_outer``).
+    ValueError, before any design work, for a bad option: ``link_delay_steps`` an integer in [0, 100],
+    ``rate_filter_hz`` a finite number > 0, ``feedforward`` and ``decouple`` bools, ``targets`` keys among those four."""
+    check_params(params)
+    link_delay_steps = check_steps("link_delay_steps", link_delay_steps)
+    rate_filter_hz = check_positive("rate_filter_hz", rate_filter_hz)
+    feedforward, decouple = check_flag("feedforward", feedforward), check_flag("decouple", decouple)
+    unknown = sorted(set(targets or {}) - set(TARGET_KEYS))  # else a TypeError from tune_driven's signature
+    if unknown:
+        raise ValueError(f"targets: unknown key(s) {unknown}; allowed {list(TARGET_KEYS)}")
     params_default, params = params is None, params or RigParams.default()
     model, points, ref = _model(spec, params)
     V = model["airspeeds"]
@@ -329,7 +342,18 @@ def design_heave_sway_pid(spec: LoopSpec, params: RigParams | None = None, *, li
 
 def design_heave_sway_lqr(spec: LoopSpec, params: RigParams | None = None, *, link_delay_steps: int = 1,
                           max_deviation: dict[str, float] | None = None) -> HeaveSwayTables:
-    """Tables of :class:`controllers.laws.heave_sway.HeaveSwayLQR` (steps 1-3; the weight search of its docstring)."""
+    """Tables of :class:`controllers.laws.heave_sway.HeaveSwayLQR` (steps 1-3; the weight search of its docstring).
+
+    ``max_deviation``: Bryson maxima (keys of :data:`controllers.design.lqr.MAX_DEVIATION`, values finite > 0)
+    replacing the search.  ValueError, before any design work, for an unknown key, a bad value or a
+    ``link_delay_steps`` that is not an integer in [0, 100]."""
+    check_params(params)
+    link_delay_steps = check_steps("link_delay_steps", link_delay_steps)
+    if max_deviation is not None:  # an unknown key was ignored silently and a negative maximum squared away
+        unknown = sorted(set(max_deviation) - set(MAX_DEVIATION))
+        if unknown:
+            raise ValueError(f"max_deviation: unknown key(s) {unknown}; allowed {sorted(MAX_DEVIATION)}")
+        max_deviation = {k: check_positive(f"max_deviation[{k!r}]", v) for k, v in max_deviation.items()}
     params_default, params = params is None, params or RigParams.default()
     model, points, ref = _model(spec, params)
     fd, j, V = spec.free_dofs, ref.joint, model["airspeeds"]

@@ -25,7 +25,7 @@ from controllers.laws.axes import AXES, AXIS_OF, axes_of
 from controllers.laws.base import LoopSpec
 from rig_env import riccati
 from controllers.design.estimator import kalman_gain
-from controllers.design.model import design_aero_model, design_model, loop_elements
+from controllers.design.model import check_flag, check_params, check_steps, design_aero_model, design_model, loop_elements
 from controllers.design.signals import signal_scales
 from controllers.design.tuning import margins, plain
 from rig_env.params import JOINTS, RigParams
@@ -126,8 +126,12 @@ def design_lqr(spec: LoopSpec, params: RigParams | None = None, *, link_delay_st
 
     Airspeed grid: every 2.5 m/s or finer over ``spec.airspeed_range`` (ValueError unless > 1 m/s).  Designed on
     the model the loop's rig flies (``spec.aero_model``; the unsteady model's quasi-steady form, the tables:
-    :func:`controllers.design.model.design_aero_model`).
+    :func:`controllers.design.model.design_aero_model`).  ValueError, before any design work, unless
+    ``link_delay_steps`` is an integer in [0, 100], ``estimator`` a bool and ``params`` a RigParams or None.
     """
+    check_params(params)
+    link_delay_steps = check_steps("link_delay_steps", link_delay_steps)
+    estimator = check_flag("estimator", estimator)
     p = params or RigParams.default()
     fd = spec.free_dofs
     lo, hi = spec.airspeed_range

@@ -40,6 +40,39 @@ from rig_env.linear import InputMix, OperatingPoint, linearize, trim
 from rig_env.params import JOINTS, RigParams
 
 INPUTS = ("comp_aileron", "comp_elevator", "comp_rudder")
+LINK_DELAY_STEPS_MAX = 100
+"""Largest ``link_delay_steps`` a design takes: the laws' tables refuse more (``LQRTables``, ``HeaveSwayTables``)."""
+
+
+# Argument checks of the public design functions: a bad option is refused before any trim or Riccati solve, in one
+# line naming it, rather than surfacing later as a scipy / python-control error, a ZeroDivisionError or a silent
+# int() / bool() coercion in the tables (link_delay_steps = 1.5 stored as 1, feedforward = "no" stored as True).
+def check_positive(name: str, v: object, *, allow_zero: bool = False) -> float:
+    """``v`` as a float when it is a finite real number > 0 (>= 0 with ``allow_zero``); ValueError naming ``name`` otherwise."""
+    real = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+    if not (real and math.isfinite(v) and (v >= 0 if allow_zero else v > 0)):
+        raise ValueError(f"{name} = {v!r}: must be a finite number; allowed {'>= 0' if allow_zero else '> 0'}")
+    return float(v)
+
+
+def check_steps(name: str, v: object, hi: int = LINK_DELAY_STEPS_MAX) -> int:
+    """``v`` as an int when it is an integer in [0, ``hi``] (not a bool, not a float); ValueError naming ``name`` otherwise."""
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or not 0 <= v <= hi:
+        raise ValueError(f"{name} = {v!r}: must be an integer; allowed 0 to {hi}")
+    return int(v)
+
+
+def check_flag(name: str, v: object) -> bool:
+    """``v`` when it is a bool (``"no"`` or 0.0 would be truthy or falsy by accident); ValueError naming ``name`` otherwise."""
+    if not isinstance(v, (bool, np.bool_)):
+        raise ValueError(f"{name} = {v!r}: must be a bool; allowed True, False")
+    return bool(v)
+
+
+def check_params(params: object) -> None:
+    """ValueError unless ``params`` is None (the default rig) or a :class:`rig_env.params.RigParams`."""
+    if params is not None and not isinstance(params, RigParams):
+        raise ValueError(f"params = {type(params).__name__}: must be a rig_env.params.RigParams or None (the default rig)")
 
 
 @dataclass(frozen=True)
@@ -86,8 +119,10 @@ def operating_point(params: RigParams, free_dofs: tuple[str, ...], airspeed: flo
     scaled back until the most loaded flap is at 0.95 and their rig joints settle instead (the rig
     weathercocks): a loop around the trim, which then takes those inputs as given.  Returns the
     operating point and the normalised virtual inputs (3,).  RuntimeError if no trim with max |qdd| <
-    1e-6 rad/s^2 exists.
+    1e-6 rad/s^2 exists; ValueError for a non-finite ``phi``.
     """
+    if isinstance(phi, (bool, np.bool_)) or not isinstance(phi, (int, float, np.integer, np.floating)) or not math.isfinite(phi):
+        raise ValueError(f"phi = {phi!r}: must be a finite rig roll angle, rad")
     mix = compensator_mix(phi, scale_deg)
     q_guess = np.zeros(5)
     q_guess[0] = phi
@@ -135,8 +170,15 @@ def loop_elements(params: RigParams, dt: float, link_delay_steps: int = 1, rate_
     ``servo``: wn^2 / (s^2 + 2 zeta wn s + wn^2) (``servos.compensator``); ``delay``: Pade of
     servo delay + telemetry delay (``link_delay_steps`` dt) + dt / 2 (zero-order hold);
     ``rate_sensor``: 1 / (tau s + 1) (tau = 1 / (2 pi rate_filter_hz)) times Pade of dt / 2 (backward
-    difference).  ``total_delay`` is returned as a 1x1 constant in seconds for the report.
+    difference).  ``total_delay`` is returned as a 1x1 constant in seconds for the report.  ValueError unless
+    ``dt`` and ``rate_filter_hz`` are finite and > 0, ``link_delay_steps`` an integer in [0, 100] and ``pade_order``
+    an integer in [1, 10] (order 0 would drop the delay from the loop).
     """
+    dt = check_positive("dt", dt)
+    link_delay_steps = check_steps("link_delay_steps", link_delay_steps)
+    rate_filter_hz = check_positive("rate_filter_hz", rate_filter_hz)
+    if isinstance(pade_order, (bool, np.bool_)) or not isinstance(pade_order, (int, np.integer)) or not 1 <= pade_order <= 10:
+        raise ValueError(f"pade_order = {pade_order!r}: must be an integer; allowed 1 to 10")
     comp = params.servos.compensator
     wn = 2 * math.pi * comp.natural_freq_hz
     zeta = comp.damping

@@ -17,7 +17,7 @@ import numpy as np
 
 from controllers.laws.axes import axes_of
 from controllers.laws.base import LoopSpec
-from controllers.design.model import design_aero_model, design_model, operating_point
+from controllers.design.model import check_flag, check_params, check_positive, check_steps, design_aero_model, design_model, operating_point
 from controllers.design.signals import signal_scales
 from controllers.design.tuning import plain, tune_axis
 from rig_env.params import RigParams
@@ -34,8 +34,14 @@ def design_pid(spec: LoopSpec, params: RigParams | None = None, *, link_delay_st
     """The tables of :class:`controllers.laws.pid.PIDTables` for ``spec`` (see the module docstring).
 
     Design point: the middle of ``spec.airspeed_range`` (ValueError unless > 1 m/s) and roll 0, on the model the
-    loop's rig flies (``spec.aero_model``, :func:`controllers.design.model.design_aero_model`).
+    loop's rig flies (``spec.aero_model``, :func:`controllers.design.model.design_aero_model`).  ValueError, before any
+    design work, unless ``link_delay_steps`` is an integer in [0, 100], ``rate_filter_hz`` a finite number > 0,
+    ``feedforward`` a bool and ``params`` a RigParams or None.
     """
+    check_params(params)
+    link_delay_steps = check_steps("link_delay_steps", link_delay_steps)
+    rate_filter_hz = check_positive("rate_filter_hz", rate_filter_hz)
+    feedforward = check_flag("feedforward", feedforward)
     p = params or RigParams.default()
     v_design = 0.5 * (spec.airspeed_range[0] + spec.airspeed_range[1])
     if v_design <= 1.0:

@@ -71,6 +71,9 @@ def margins(L: control.TransferFunction | control.StateSpace) -> tuple[float, fl
     A loop whose closed loop ``L / (1 + L)`` is unstable gets (-inf, -inf, nan).
     """
     Ls = L if isinstance(L, control.StateSpace) else control.tf2ss(L)
+    if not all(np.all(np.isfinite(np.asarray(m, dtype=complex))) for m in (Ls.A, Ls.B, Ls.C, Ls.D)):
+        # numpy's eigvals would raise LinAlgError("Array must not contain infs or NaNs") on the closed loop
+        raise ValueError("L: non-finite coefficient(s) in the loop; allowed finite numbers only")
     cl = control.feedback(Ls, 1)
     if np.max(np.real(np.linalg.eigvals(cl.A))) > 1e-8:  # (a pole at the origin cancelled by a zero is not unstable)
         return -math.inf, -math.inf, math.nan
@@ -84,6 +87,16 @@ def margins(L: control.TransferFunction | control.StateSpace) -> tuple[float, fl
     pm_min = float(pm[np.isfinite(pm)].min()) if np.any(np.isfinite(pm)) else math.inf
     wc = float(wg[np.isfinite(wg)].max()) if np.any(np.isfinite(wg)) else math.nan
     return gm_db, pm_min, wc
+
+
+def check_targets(**targets: float) -> None:
+    """ValueError naming the first margin target that is not a finite number in range (phase margins [0, 180) deg,
+    gain margins >= 0 dB): a NaN target failed every comparison and was reported as "no crossover meets PM nan"."""
+    for k, v in targets.items():
+        real = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+        pm = k.startswith("pm")
+        if not (real and math.isfinite(v) and v >= 0 and (v < 180 if pm else True)):
+            raise ValueError(f"{k} = {v!r}: a margin target must be a finite number; allowed {'[0, 180) deg' if pm else '>= 0 dB'}")
 
 
 def rate_tf(sys: control.StateSpace, joint: str) -> control.TransferFunction:
@@ -109,6 +122,9 @@ def tune_axis(params: RigParams, free_dofs: tuple[str, ...], joint: str, airspee
     """The procedure of the module docstring for one joint, on ``aero_model``; ValueError if no gain meets the margins."""
     if joint not in AXIS_OF:
         raise ValueError(f"joint = {joint!r}: tunable joints are {list(AXIS_OF)}")
+    if joint not in free_dofs:  # else the linear model has no '<joint>_rate' output ("... is not in list")
+        raise ValueError(f"joint = {joint!r}: not among free_dofs {list(free_dofs)}; allowed {[j for j in AXIS_OF if j in free_dofs]}")
+    check_targets(pm_inner=pm_inner, gm_inner=gm_inner, pm_outer=pm_outer, gm_outer=gm_outer)
     el = loop_elements(params, dt, link_delay_steps, rate_filter_hz)
     return shape_loops(rate_plant(params, free_dofs, joint, airspeed, aero_model=aero_model), el, joint, airspeed,
                        pm_inner=pm_inner, gm_inner=gm_inner, pm_outer=pm_outer, gm_outer=gm_outer)
@@ -125,6 +141,7 @@ def shape_loops(P: control.TransferFunction, el: dict, joint: str, airspeed: flo
     Each grid is scanned from its top down and the scan stops at the first point that meets the margins: that
     is the largest feasible point whatever the feasible set's shape, and only the points above it are evaluated.
     """
+    check_targets(pm_inner=pm_inner, gm_inner=gm_inner, pm_outer=pm_outer, gm_outer=gm_outer)
     s = control.tf("s")
     b = float(np.real(control.evalfr(P * s, 1j * 1e4)))  # high-frequency gain: rad/s^2 per unit command
     sign = 1.0 if b > 0 else -1.0  # rig_yaw accelerates negatively for positive sway

@@ -150,7 +150,10 @@ class Artefact:
 
 # ---------------------------------------------------------------------- building
 def default_limits(spec: LoopSpec, rate_deg_s: float = 350.0) -> dict[str, list[float]]:
-    """Position +-``spec.action_scale_deg`` and ``rate_deg_s`` (the servos' slew rate) per action."""
+    """Position +-``spec.action_scale_deg`` and ``rate_deg_s`` (the servos' slew rate) per action; ArtefactError unless
+    ``rate_deg_s`` is a number in (0, 5000] deg/s (the range an artefact's ``limits.rate_deg_s`` takes)."""
+    if isinstance(rate_deg_s, bool) or not isinstance(rate_deg_s, (int, float)) or not 0.0 < rate_deg_s <= 5000.0:
+        raise ArtefactError(f"rate_deg_s = {rate_deg_s!r}: allowed range (0, 5000] deg/s")
     n = spec.n_actions
     return {"position_deg": [float(spec.action_scale_deg)] * n, "rate_deg_s": [float(rate_deg_s)] * n}
 
@@ -177,6 +180,8 @@ def from_controller(ctrl: Controller, sensors: Mapping[str, Any], limits: Mappin
     own ``to_data()``, or for kind "linear" the ``linear_form()`` of another static law).  ``prov``
     replaces the default provenance (:func:`provenance` of ``source``, ``notes``); a law loaded from a
     file adds ``derived_from`` (that file's sha256 and provenance)."""
+    if not isinstance(ctrl, Controller):  # else an AttributeError on .kind
+        raise ArtefactError(f"ctrl = {type(ctrl).__name__}: must be a law (a controllers.laws.Controller)")
     kind = getattr(ctrl, "artefact_kind", None) or ctrl.kind
     try:
         cls = artefact_class(kind)
@@ -190,6 +195,7 @@ def from_controller(ctrl: Controller, sensors: Mapping[str, Any], limits: Mappin
         p["derived_from"] = dict(origin)
     art = Artefact(kind, ctrl.spec, dict(sensors), dict(limits or default_limits(ctrl.spec)), dict(data), p)
     _check_body(_body(art), "<memory>")
+    _check_law(art, "<memory>")
     return art
 
 
@@ -219,20 +225,28 @@ def canonical(body: Mapping[str, Any]) -> bytes:
         raise ArtefactError(f"not plain finite JSON data: {e}") from None
 
 
-def save(art: Artefact, path: str | os.PathLike, key: bytes | None = None, overwrite: bool = True) -> str:
+def save(art: Artefact, path: str | os.PathLike, key: bytes | str | None = None, overwrite: bool = True) -> str:
     """Write ``art`` to ``path`` (atomically: temporary file then rename); returns the SHA-256 hex digest.
 
-    key: optional shared HMAC-SHA256 key (bytes); the file then carries a signature.  overwrite: False
-    refuses an existing ``path`` (FileExistsError naming it), also one that appears while writing (the
-    file is linked into place, never renamed over another).
+    key: optional shared HMAC-SHA256 key (bytes, or a str encoded as UTF-8; at least 16 bytes); the file then
+    carries a signature.  overwrite: False refuses an existing ``path`` (FileExistsError naming it), also one that
+    appears while writing (the file is linked into place, never renamed over another).  The law is checked as
+    :func:`load` checks it (its kind's ``from_data``, shapes against the spec) before anything is written, so a
+    file this writes is one :func:`load` accepts; ArtefactError naming what is refused otherwise.
     """
     body = _body(art)
     _check_body(body, str(path))
+    _check_law(art, str(path))  # a gain matrix of the wrong shape was written, and refused only when loaded
     raw = canonical(body)
     doc = dict(body, sha256=hashlib.sha256(raw).hexdigest())
     if key is not None:
         doc["signature"] = {"alg": "HMAC-SHA256", "value": hmac.new(_key(key), raw, hashlib.sha256).hexdigest()}
     p = Path(path)
+    # named here: otherwise the error names the temporary file ("'/x/law.json.tmp' -> ...", "no such file ...tmp")
+    if p.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "is a directory; an artefact is written to a file path", str(p))
+    if not p.parent.is_dir():
+        raise FileNotFoundError(errno.ENOENT, "no such directory to write the artefact into", str(p.parent))
     if not overwrite and os.path.lexists(p):
         raise FileExistsError(errno.EEXIST, "already exists; refusing to overwrite it", str(p))
     tmp = p.with_name(p.name + ".tmp")
@@ -385,13 +399,18 @@ def _load(where: str, raw_bytes: bytes, key: bytes | str | None, require_signatu
             raise ArtefactError(f"{where}: signature does not match (wrong key, or the file was re-checksummed after editing)")
     spec, data = _check_body(body, where)
     art = Artefact(body["kind"], spec, dict(body["sensors"]), dict(body["limits"]), data, dict(body["provenance"]), digest)
+    _check_law(art, where)
+    return art
+
+
+def _check_law(art: Artefact, where: str) -> None:
+    """The kind's own ``from_data`` validates the law's data (shapes against the spec): ArtefactError naming ``where``."""
     try:
-        art.controller()  # the kind's own from_data validates its data (shapes against the spec)
+        art.controller()
     except ArtefactError:
         raise
     except (ValueError, KeyError, TypeError) as e:
         raise ArtefactError(f"{where}: kind {art.kind!r} refused its data: {e}") from None
-    return art
 
 
 def _no_constant(name: str) -> None:

@@ -18,6 +18,7 @@ Signals are found by name (``spec.index("rig_roll_rate")``), never by bare index
 from __future__ import annotations
 
 import abc
+import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, ClassVar, Mapping
 
@@ -50,6 +51,22 @@ class LoopSpec:
     action_scale_deg: float = 40.0
     task_options: Mapping[str, Any] = field(default_factory=dict)
     aero_model: str = "linear"
+
+    def __post_init__(self) -> None:
+        # the numbers every design and runtime divide by or grid over, checked as the artefact checks a stored spec:
+        # a reversed or NaN airspeed range was designed silently at one airspeed, action_scale_deg = 0 divided by zero
+        def real(v: Any) -> bool:
+            return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_)) and math.isfinite(v)
+
+        if not (real(self.dt) and 0.0 < self.dt <= 1.0):
+            raise ValueError(f"dt = {self.dt!r}: the control period, s; allowed range (0, 1]")
+        ar = self.airspeed_range
+        if not (isinstance(ar, (tuple, list)) and len(ar) == 2 and all(real(v) for v in ar) and 0.0 <= ar[0] <= ar[1]):
+            raise ValueError(f"airspeed_range = {ar!r}: allowed two finite speeds lo <= hi, m/s, lo >= 0")
+        if not (real(self.action_scale_deg) and 0.0 < self.action_scale_deg <= 90.0):
+            raise ValueError(f"action_scale_deg = {self.action_scale_deg!r}: allowed range (0, 90] deg")
+        if self.aero_model not in AERO_MODELS:
+            raise ValueError(f"aero_model = {self.aero_model!r}; allowed {list(AERO_MODELS)}")
 
     @classmethod
     def from_env(cls, env: Any) -> "LoopSpec":
@@ -143,7 +160,10 @@ class Controller(abc.ABC):
     def act(self, obs: np.ndarray) -> np.ndarray: ...
 
     def _check_obs(self, obs: np.ndarray) -> np.ndarray:
-        o = np.asarray(obs, dtype=np.float64)
+        raw = np.asarray(obs) if isinstance(obs, np.ndarray) else _as_array(obs)
+        if raw.dtype.kind not in "biuf":  # a string or object array reached numpy's "could not convert string to float"
+            raise ValueError(f"obs: dtype {raw.dtype}; allowed real numbers of shape {(self.num_envs, self.spec.obs_dim)}")
+        o = np.asarray(raw, dtype=np.float64)
         if o.shape != (self.num_envs, self.spec.obs_dim):
             raise ValueError(f"obs: expected shape {(self.num_envs, self.spec.obs_dim)}, got {o.shape}")
         if not np.all(np.isfinite(o)):
@@ -153,10 +173,21 @@ class Controller(abc.ABC):
     def _mask(self, mask: np.ndarray | None) -> np.ndarray:
         if mask is None:
             return np.ones(self.num_envs, dtype=bool)
-        m = np.asarray(mask, dtype=bool)
-        if m.shape != (self.num_envs,):
-            raise ValueError(f"mask: expected shape ({self.num_envs},), got {m.shape}")
-        return m
+        raw = np.asarray(mask)
+        if raw.shape != (self.num_envs,):
+            raise ValueError(f"mask: expected shape ({self.num_envs},), got {raw.shape}")
+        # a mask of indices ([0, 3]) or of fractions was cast to bool silently and reset the wrong environments
+        if raw.dtype != bool and not (raw.dtype.kind in "iuf" and np.all((raw == 0) | (raw == 1))):
+            raise ValueError(f"mask = {raw.tolist()[:8]}: one flag per environment; allowed bools (or 0 / 1), not indices")
+        return raw.astype(bool)
+
+
+def _as_array(v: Any) -> np.ndarray:
+    """``np.asarray(v)``, or an object array when ``v`` is ragged (numpy raises on it), for a dtype check."""
+    try:
+        return np.asarray(v)
+    except (ValueError, TypeError):
+        return np.array(None)
 
 
 class TabledLaw(Controller):

@@ -41,6 +41,9 @@ class DelayedKalman:
         self.wrap = np.asarray(wrap, dtype=bool)
         self.K = np.asarray(gains, dtype=np.float64)  # (n_joints, 2)
         nj = self.wrap.size
+        # a gain table of another joint count broadcast or failed deep inside step() (IndexError / shape mismatch)
+        if self.K.shape != (nj, 2) or not np.all(np.isfinite(self.K)):
+            raise ValueError(f"gains: shape {self.K.shape}; allowed finite numbers of shape ({nj}, 2), one (angle, rate) pair per joint of wrap")
         self.q_m = np.zeros((n, nj))  # estimate at the measurement's time
         self.w_m = np.zeros((n, nj))
         self.q = np.zeros((n, nj))

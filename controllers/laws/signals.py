@@ -105,7 +105,16 @@ def table_array(d: Mapping[str, Any], k: str, shape: tuple[int | None, ...] | No
     """Entry ``k`` of a law's plain-data tables as a finite float64 array of ``shape`` (None: any shape; a
     None entry: any length along that axis); ValueError naming ``owner: k`` otherwise."""
     where = f"{owner}: {k}" if owner else k
-    a = np.asarray(d[k], dtype=np.float64)
+    # checked before the float conversion: complex tables lost their imaginary part with only a ComplexWarning,
+    # and strings or ragged lists raised numpy's own message without the entry's name
+    try:
+        raw = np.asarray(d[k])
+    except (ValueError, TypeError):
+        raw = None
+    if raw is None or raw.dtype.kind not in "biuf":
+        what = "a ragged nesting" if raw is None else f"dtype {raw.dtype}"
+        raise ValueError(f"{where} = {type(d[k]).__name__} of {what}: must be real numbers")
+    a = np.asarray(raw, dtype=np.float64)
     if shape is not None and (a.ndim != len(shape) or any(n is not None and m != n for m, n in zip(a.shape, shape))):
         raise ValueError(f"{where}: expected shape {tuple('m' if n is None else n for n in shape)}, got {a.shape}")
     if not np.all(np.isfinite(a)):
