@@ -305,8 +305,10 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--seed", type=int, default=None, metavar="S", help="seed of the episodes, 0..4294967295 (default 0)")
     # tasks and kinds are listed, not argparse choices: compare checks them (one-line error) and knows kinds registered later
     c.add_argument("--tasks", nargs="+", default=None, metavar="T", help=f"task names: {', '.join(tasks)} (default: all)")
+    gains = [k for k in kinds if k not in default]  # "linear": refused here, it joins as a --policy law file
     c.add_argument("--controllers", nargs="+", default=None, metavar="K",
-                   help=f"law kinds: {', '.join(kinds)} (default: every kind built from the task alone: {', '.join(default)})")
+                   help=f"law kinds: {', '.join(kinds)} (default: every kind built from the task alone: {', '.join(default)})"
+                        + (f"; {', '.join(gains)} takes its gains: export it (rig-deploy export) and pass the file with --policy" if gains else ""))
     c.add_argument("--modes", nargs="+", default=None, choices=list(MODES), metavar="M",
                    help="conditions: nominal (the rig as modelled), robust (+-20 %% aerodynamic derivatives and friction), "
                         "gusty (5 %% gusts, a stress case) (default: nominal robust)")
@@ -316,7 +318,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="law artefact files (a trained policy.json, a rig-deploy export, controllers/policies/*.json): each flies "
                         "its task as a further contender, named after its file")
     c.add_argument("--config", default=None, metavar="FILE.toml",
-                   help="the comparison as a file: tasks, laws, policies, episodes, seed, modes, params, [conditions], [score] "
+                   help="the comparison as a file: tasks, laws, policies, episodes, seed, quick, modes, params, backend, address, "
+                        "chunk_size, [conditions], [score] "
                         "(controllers.evaluation.config); options on the command line win")
     c.add_argument("--overwrite", action="store_true", help="replace files in DIR that an earlier rig compare did not write")
     c.add_argument("--backend", default=None, metavar="B",
@@ -325,7 +328,7 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--address", default=None, metavar="ADDR",
                    help="with --backend ray: the cluster (auto, HOST:PORT, ray://HOST:PORT; default: a local cluster on this machine)")
     c.add_argument("--chunk-size", type=int, default=None, metavar="N",
-                   help="with --backend ray: episodes per Ray task, 1..100000 (default: about two chunks per cluster CPU)")
+                   help="with --backend ray: episodes per Ray task, 2..100000 (default: about two chunks per cluster CPU)")
     d = sub.add_parser("demo", help="velocity-vector roll at 20 m/s with the compensator ailerons (paper Fig. 7)")
     d.add_argument("--out", default="out", metavar="DIR", help="directory for demo_roll.png (default: out)")
     d.add_argument("--t-final", type=float, default=25.0, metavar="S", help="simulated time, s (default 25; 5 to 3600)")
@@ -387,12 +390,16 @@ def run_compare(args: argparse.Namespace, argv: Sequence[str]) -> None:
     cfg = parse(args.config, sorted(TASKS), sorted(CONTROLLERS), list(MODES)) if args.config else CompareConfig()
     pick = lambda cli, file, default: cli if cli is not None else (file if file is not None else default)  # noqa: E731
     rule = {"rule": cfg.score} if cfg.score is not None else {}
+    # --backend local over a file's backend = "ray": the file's Ray settings (address, chunk_size) go with its backend,
+    # not refused as "--address ...: only with --backend ray", options the user did not give
+    ray_file = not (args.backend == "local" and cfg.backend == "ray")
+    file_address, file_chunk = (cfg.address, cfg.chunk_size) if ray_file else (None, None)
     compare(tasks=pick(args.tasks, cfg.tasks, None), kinds=pick(args.controllers, cfg.laws, None), episodes=pick(args.episodes, cfg.episodes, None),
             seed=pick(args.seed, cfg.seed, 0), quick=bool(pick(args.quick, cfg.quick, False)), modes=pick(args.modes, cfg.modes, ["nominal", "robust"]),
             out_dir=args.out, params_file=pick(args.params, cfg.params, None), policies=pick(args.policy, cfg.policies or None, ()),
             conditions=cfg.conditions, overwrite=args.overwrite, command=_recorded(argv),
-            backend=pick(args.backend, cfg.backend, "local"), address=pick(args.address, cfg.address, None),
-            chunk_size=pick(args.chunk_size, cfg.chunk_size, None), **rule)
+            backend=pick(args.backend, cfg.backend, "local"), address=pick(args.address, file_address, None),
+            chunk_size=pick(args.chunk_size, file_chunk, None), **rule)
 
 
 def _sweep_arg(items: Sequence[str] | None) -> tuple[str, float, float, float] | None:

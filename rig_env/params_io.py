@@ -35,11 +35,13 @@ Provenance = Callable[[str], Mapping[str, Any]]
 """A dotted name (or ``"high_incidence"``) -> its ``source``, ``note`` and, if identified, ``std``, ``records``, ``method``."""
 
 
-def did_you_mean(name: str, names: Sequence[str]) -> str:
+def did_you_mean(name: str, names: Sequence[str], cutoff: float = 0.75) -> str:
     """" (did you mean 'a' or 'b'?)" for the (up to three) names closest to a misspelt ``name``, "" when none
-    is close: the hint an unknown-name error carries instead of a list of every valid name."""
+    is close: the hint an unknown-name error carries instead of a list of every valid name.  ``cutoff``: the least
+    similarity (difflib's ratio) of a hint; 0.75 suits the long dotted parameter names, short names (a law kind of
+    three letters, one of them wrong: 0.67) want difflib's default 0.6."""
     lower = {n.lower(): n for n in names}  # the tables' case (CLa, Cnb) is the kind of thing misspelt
-    close = [lower[c] for c in difflib.get_close_matches(name.lower(), list(lower), n=3, cutoff=0.75)]
+    close = [lower[c] for c in difflib.get_close_matches(name.lower(), list(lower), n=3, cutoff=cutoff)]
     return f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
 
 

@@ -23,10 +23,11 @@ in chunks on a Ray cluster (:mod:`controllers.evaluation.ray_backend`; a local o
 from __future__ import annotations
 
 import json
+import os
 import platform
 import sys
 import time
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any, Mapping, Sequence, TextIO
 
@@ -69,30 +70,89 @@ def _check_kinds(kinds: Sequence[str]) -> None:
                              "that with --policy FILE.json")
 
 
+def _name_list(option: str, names: Sequence[str] | None, what: str) -> list[str] | None:
+    """``names`` as a list, or a ValueError naming ``option``: a bare string (it would be read letter by letter), an
+    empty list (the API's None is "the default"; an empty list would silently mean all, or crash) or a name given
+    twice (it would fly twice: duplicated rows, tables and work)."""
+    if names is None:
+        return None
+    if isinstance(names, str):
+        raise ValueError(f"{option} {names!r}: must be a list of {what}, e.g. [{names!r}]")
+    out = list(names)
+    if not out:
+        raise ValueError(f"{option}: an empty list; give at least one of the {what} (or None for the default)")
+    twice = sorted({n for n in out if out.count(n) > 1})
+    if twice:
+        raise ValueError(f"{option} {' '.join(map(str, out))}: {', '.join(map(str, twice))} given more than once; give each once")
+    return out
+
+
+def _known(option: str, names: Sequence[str], allowed: list[str]) -> None:
+    """A ValueError naming ``option`` and the first unknown name, with the closest known one (a misspelt task or kind
+    is the usual cause) and every allowed name."""
+    from rig_env.params_io import did_you_mean
+
+    for name in names:
+        if name not in allowed:
+            raise ValueError(f"{option} {name}: unknown{did_you_mean(str(name), allowed, cutoff=0.6)}; allowed: {', '.join(allowed)}")
+
+
+def check_conditions(conditions: Mapping[str, Any] | None) -> dict[str, Any]:
+    """``conditions`` (overrides of every mode) checked as ``--config``'s ``[conditions]`` table is
+    (:data:`controllers.evaluation.config.CONDITION_FIELDS`): a one-line ValueError naming the key and its range,
+    not a TypeError from deep inside for a misspelt key; ``airspeed`` may be a tuple or a list."""
+    from controllers.evaluation.config import _conditions
+
+    if conditions is None:
+        return {}
+    if not isinstance(conditions, Mapping):
+        return _conditions("conditions", conditions)  # refuses it, naming the allowed keys
+    given = {k: list(v) if k == "airspeed" and isinstance(v, tuple) else v for k, v in conditions.items()}
+    return _conditions("conditions", given)
+
+
+def check_rule(rule: ScoreRule | Mapping[str, float]) -> ScoreRule:
+    """``rule`` as a :class:`ScoreRule`: a mapping (``--config``'s ``[score]`` table) is read as its fields; a misspelt key
+    or a value out of range is a one-line ValueError naming it (not an AttributeError when the tables are scored)."""
+    if isinstance(rule, ScoreRule):
+        return rule
+    allowed = [f.name for f in fields(ScoreRule)]
+    if not isinstance(rule, Mapping):
+        raise ValueError(f"rule = {rule!r}: must be a ScoreRule or a mapping with keys from {allowed}")
+    bad = sorted(set(rule) - set(allowed))
+    if bad:
+        raise ValueError(f"score: unknown key(s) {bad}; allowed: {allowed}")
+    return ScoreRule(**rule)  # ScoreRule names a value out of range (score.KEY = V: must be ...)
+
+
 def check_options(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes: int | None, seed: int, quick: bool,
-                  modes: Sequence[str], policies: Sequence[str | Path]) -> tuple[list[str], list[str], int]:
-    """The tasks, kinds and episodes per law after the defaults, or a one-line ValueError naming the option: unknown
-    names, a kind that needs its gains (:func:`_check_kinds`), ``--episodes`` outside [1, :data:`MAX_EPISODES`] and
-    ``--seed`` outside [0, :data:`MAX_SEED`] (episode ``i`` is seeded ``seed + i``).  Nothing is built before."""
-    tasks = list(tasks) if tasks else list(TASKS)
-    kinds = list(kinds) if kinds is not None else default_kinds()
-    bad_t = [t for t in tasks if t not in TASKS]
-    if bad_t:
-        raise ValueError(f"tasks: unknown {bad_t}; valid names: {sorted(TASKS)}")
-    bad_k = [k for k in kinds if k not in CONTROLLERS]
-    if bad_k:
-        raise ValueError(f"controllers: unknown {bad_k}; valid kinds: {sorted(CONTROLLERS)}")
+                  modes: Sequence[str], policies: Sequence[str | Path],
+                  conditions: Mapping[str, Any] | None = None, record: int = 3) -> tuple[list[str], list[str], int]:
+    """The tasks, kinds and episodes per law after the defaults, or a one-line ValueError naming the option: unknown,
+    repeated or no names (:func:`_name_list`), a kind that needs its gains (:func:`_check_kinds`), ``--episodes`` outside
+    [1, :data:`MAX_EPISODES`], ``--seed`` outside [0, :data:`MAX_SEED`] (episode ``i`` is seeded ``seed + i``), a bad
+    ``conditions`` key or value (:func:`check_conditions`) and a ``record`` that is not a count.  Nothing is built before."""
+    tasks = _name_list("--tasks", tasks, "task names")
+    kinds = _name_list("--controllers", kinds, "law kinds") if kinds is None or len(kinds) else list(kinds)  # []: only --policy laws
+    modes = _name_list("--modes", modes, "modes")
+    if isinstance(policies, (str, Path)):  # a bare path would be read character by character ("/": not a file)
+        raise ValueError(f"--policy {str(policies)!r}: must be a list of law files, e.g. [{str(policies)!r}]")
+    tasks = tasks if tasks is not None else list(TASKS)
+    kinds = kinds if kinds is not None else default_kinds()
+    _known("--tasks", tasks, sorted(TASKS))
+    _known("--controllers", kinds, sorted(CONTROLLERS))
     _check_kinds(kinds)
-    bad_m = [m for m in modes if m not in MODES]
-    if bad_m:
-        raise ValueError(f"modes: unknown {bad_m}; valid: {sorted(MODES)}")
+    _known("--modes", modes, sorted(MODES))
     if not kinds and not policies:
-        raise ValueError("controllers: give at least one law kind or one --policy file")
+        raise ValueError("--controllers: none given; give at least one law kind or one --policy file")
     n = episodes if episodes is not None else (QUICK_EPISODES if quick else FULL_EPISODES)
     if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_EPISODES:
         raise ValueError(f"--episodes = {n!r}: must be an integer in [1, {MAX_EPISODES}]")
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
         raise ValueError(f"--seed = {seed!r}: must be an integer in [0, {MAX_SEED}]")
+    check_conditions(conditions)
+    if isinstance(record, bool) or not isinstance(record, int) or record < 0:
+        raise ValueError(f"record = {record!r}: must be an integer >= 0 (episodes per law whose time histories are kept)")
     return tasks, kinds, n
 
 
@@ -125,7 +185,7 @@ def compare(
     params_file: str | Path | None = None,
     policies: Sequence[str | Path] = (),
     conditions: Mapping[str, Any] | None = None,
-    rule: ScoreRule = DEFAULT_RULE,
+    rule: ScoreRule | Mapping[str, float] = DEFAULT_RULE,
     overwrite: bool = False,
     command: str | None = None,
     backend: str = "local",
@@ -139,15 +199,21 @@ def compare(
     the default rig; a missing or invalid file is a ValueError naming it), see the module docstring;
     ``policies``: law artefact files, each a contender on its task named after its file
     (:mod:`controllers.evaluation.contenders`); ``conditions``: overrides of every mode's
-    conditions (:data:`controllers.evaluation.config.CONDITION_FIELDS`); ``rule``: the score and the
-    criterion; ``overwrite``: replace files in ``out_dir`` that an earlier comparison did not write
+    conditions (:data:`controllers.evaluation.config.CONDITION_FIELDS`, checked as ``--config``'s); ``rule``: the score and
+    the criterion (a :class:`ScoreRule`, or a mapping of its fields as ``--config``'s ``[score]``); ``overwrite``: replace files in ``out_dir`` that an earlier comparison did not write
     (see :func:`check_out_dir`); ``command``: the command line to record (default: built from the arguments);
     ``backend``: "local" (one process) or "ray" (chunks of ``chunk_size`` episodes as Ray tasks on the cluster at
     ``address``, default a local one; :mod:`controllers.evaluation.ray_backend`), the same numbers either way.
     """
     from rig_env import distributed
 
-    check_options(tasks, kinds, episodes, seed, quick, modes, policies)  # before a Ray session or anything else starts
+    check_options(tasks, kinds, episodes, seed, quick, modes, policies, conditions, record)  # before a Ray session or anything else starts
+    rule = check_rule(rule)
+    if out_dir is not None and not str(out_dir).strip():  # Path("") is ".": the files would land in the working folder
+        raise ValueError(f"--out {str(out_dir)!r}: an empty folder name; give a folder (e.g. out/compare, or . for this one)")
+    if out_dir is not None and record < 1:  # history_<task>.png draws recorded episode 0: an IndexError after the whole run
+        raise ValueError(f"record = {record!r}: the history figures need at least one recorded episode; give record >= 1, "
+                         "or out_dir=None for no files")
     distributed.check_backend(backend, address)
     distributed.check_chunk_size(chunk_size)
     if chunk_size == 1:
@@ -168,7 +234,8 @@ def _compare(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes:
              rule: ScoreRule, overwrite: bool, command: str | None, backend: str, chunk_size: int | None) -> Comparison:
     stream = stream if stream is not None else sys.stdout
     prog: TextIO | None = sys.stderr if progress is True else (None if progress is False else progress)
-    tasks, kinds, n = check_options(tasks, kinds, episodes, seed, quick, modes, policies)
+    tasks, kinds, n = check_options(tasks, kinds, episodes, seed, quick, modes, policies, conditions, record)
+    modes = list(modes)
     earlier: list[str] = []
     if out_dir is not None:
         earlier = check_out_dir(Path(out_dir), overwrite, stream, tasks)
@@ -176,16 +243,17 @@ def _compare(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes:
     for c in contenders:
         if c.task not in tasks:
             stream.write(f"  note: {c.name} ({c.path}) flies {c.task}, which this comparison does not include\n")
-    params = None if params_file is None else RigParams.from_toml(params_file)  # ParameterError (a ValueError) names the file
+    params = None if params_file is None else _load_params(params_file)
+    given = conditions
     base = MODES if params is None else modes_for(params)
-    conditions = {m: replace(base[m], **dict(conditions or {})) for m in MODES}
+    conditions = {m: replace(base[m], **check_conditions(conditions)) for m in MODES}
     env_params = {} if params_file is None else {"params_file": str(params_file)}
     settings = {"tasks": tasks, "laws": kinds, "policies": {c.name: c.describe() for c in contenders}, "episodes": n, "seed": seed,
                 "quick": quick, "modes": list(modes),
                 "conditions": {m: {**conditions[m].env_fields(), "randomise": {k: list(v) for k, v in conditions[m].randomise.items()}} for m in modes},
                 "params_file": None if params_file is None else str(params_file),
                 "machine": f"{platform.machine()} {platform.system()}, python {platform.python_version()}"}
-    settings["command"] = command or _command(quick, n, seed, tasks, kinds, modes, params_file, policies)
+    settings["command"] = command or _command(quick, n, seed, tasks, kinds, modes, params_file, policies, check_conditions(given), rule)
     cmp = Comparison(settings, rule=rule)
     fields0 = {**conditions[modes[0]].env_fields(), **env_params}
     # the kernels, side by side, on a fresh installation; matplotlib is imported meanwhile (the report needs it)
@@ -239,9 +307,13 @@ def _compare(tasks: Sequence[str] | None, kinds: Sequence[str] | None, episodes:
                 cmp.rows += rows
                 cmp.recommendations.setdefault(task, {})[mode] = recommend({r["law"]: r for r in rows}, rule, shared_failures(res.metrics))
     cmp.seconds = time.perf_counter() - t0
+    if not cmp.rows:  # every law skipped: no table, and the figures would fail on no data after a half-written folder
+        who = " ".join([*kinds, *(c.name for c in contenders)])
+        raise ValueError(f"--controllers {who}: no law could fly {', '.join(tasks)} (every one skipped, the notes above say why); "
+                         "nothing written; choose other --controllers or pass a law file with --policy")
     for mode in modes:
         rows = [r for r in cmp.rows if r["mode"] == mode]
-        stream.write("\n" + format_table(rows, f"{mode}: {n} episodes per law and task, seed {seed} ({_mode_note(mode)})") + "\n")
+        stream.write("\n" + format_table(rows, f"{mode}: {n} episodes per law and task, seed {seed} ({_mode_note(mode, conditions[mode])})") + "\n")
     stream.write("\n" + "\n".join(report.verdict(cmp)) + "\n")
     stream.write(f"\ncompared in {cmp.seconds:.0f} s\n")
     if cmp.backend:
@@ -270,14 +342,21 @@ def _batch_sizes(tasks: Sequence[str], kinds: Sequence[str], contenders: Sequenc
 
 
 def _command(quick: bool, n: int, seed: int, tasks: list[str], kinds: list[str], modes: Sequence[str],
-             params_file: str | Path | None, policies: Sequence[str | Path]) -> str:
+             params_file: str | Path | None, policies: Sequence[str | Path], conditions: Mapping[str, Any] | None = None,
+             rule: ScoreRule = DEFAULT_RULE) -> str:
+    """The command line of an API call.  Conditions and a score rule have no options, only ``--config`` tables: they are
+    named after the line (the TOML that reproduces them), or the line would claim to reproduce a run it does not."""
     cmd = ["rig compare"] + (["--quick"] if quick else []) + [f"--episodes {n}", f"--seed {seed}"]
     cmd += [f"--tasks {' '.join(tasks)}"] if tasks != list(TASKS) else []
     cmd += [f"--controllers {' '.join(kinds)}"] if kinds != default_kinds() else []
     cmd += [f"--modes {' '.join(modes)}"] if list(modes) != ["nominal", "robust"] else []
     cmd += [f"--params {params_file}"] if params_file is not None else []
     cmd += [f"--policy {' '.join(str(p) for p in policies)}"] if policies else []
-    return " ".join(cmd)
+    toml = lambda v: f"[{v[0]!r}, {v[1]!r}]" if isinstance(v, (tuple, list)) else repr(v)  # noqa: E731
+    tables = ([f"[conditions] {', '.join(f'{k} = {toml(v)}' for k, v in conditions.items())}"] if conditions else [])
+    changed = {k: v for k, v in rule.to_dict().items() if v != DEFAULT_RULE.to_dict()[k]}
+    tables += [f"[score] {', '.join(f'{k} = {v!r}' for k, v in changed.items())}"] if changed else []
+    return " ".join(cmd) + (f" --config FILE.toml (FILE.toml: {'; '.join(tables)})" if tables else "")
 
 
 OUR_FILES = ("summary.json", "summary.csv", "report.md", "metrics.png")
@@ -314,7 +393,10 @@ def check_out_dir(out: Path, overwrite: bool, stream: TextIO, tasks: Sequence[st
     wrote is replaced silently, and a file of no comparison's name (or of a task not compared now) is left alone."""
     check_out_folder("--out", out)  # a file, or a folder under one: refused before anything runs
     if not out.exists():
+        _check_creatable(out)
         return []
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise ValueError(f"--out {out}: not writable; give a folder you can write")
     try:
         earlier = _earlier_files(json.loads((out / "summary.json").read_text()))
     except (OSError, ValueError):
@@ -332,10 +414,37 @@ def check_out_dir(out: Path, overwrite: bool, stream: TextIO, tasks: Sequence[st
     return ours
 
 
-def _mode_note(mode: str) -> str:
-    return {"nominal": "airspeed 15-25 m/s, 1 % gusts, sensor noise, parameter spread",
-            "robust": "as nominal plus +-20 % on aerodynamic derivatives and friction",
-            "gusty": "as nominal with 5 % gusts (atmospheric, a stress case)"}.get(mode, mode)
+def _load_params(params_file: str | Path) -> RigParams:
+    """The ``--params`` file, or a one-line ValueError naming the option (ParameterError names only the file)."""
+    try:
+        return RigParams.from_toml(params_file)
+    except ValueError as exc:
+        msg = str(exc)
+        msg = msg[len(f"{params_file}: "):] if msg.startswith(f"{params_file}: ") else msg
+        raise ValueError(f"--params {params_file}: {msg}") from None
+
+
+def _check_creatable(out: Path) -> None:
+    """A ValueError naming ``--out`` when the folder cannot be made (no permission, a read-only or virtual file system):
+    found now, by making it and removing it again, not by ``mkdir`` after the whole comparison has run."""
+    missing = [p for p in (out, *out.parents) if not p.exists()]  # deepest first: the order to remove them in
+    try:
+        out.mkdir(parents=True)
+    except OSError as exc:
+        raise ValueError(f"--out {out}: cannot be created ({exc.strerror}); give a folder you can write") from None
+    for p in missing:
+        p.rmdir()
+
+
+def _mode_note(mode: str, c: Any = None) -> str:
+    """The table's heading: the conditions as flown (``c``, with the ``[conditions]`` overrides), not the defaults."""
+    c = c if c is not None else MODES.get(mode)
+    if c is None:
+        return mode
+    a = f"airspeed {c.airspeed[0]:g}-{c.airspeed[1]:g} m/s, {100 * c.turbulence:g} % gusts"
+    return {"nominal": f"{a}, sensor noise, parameter spread",
+            "robust": f"{a}, sensor noise, parameter spread, plus +-20 % on aerodynamic derivatives and friction",
+            "gusty": f"{a} (atmospheric, a stress case), sensor noise, parameter spread"}.get(mode, mode)
 
 
 def write_files(cmp: Comparison, out: Path, stream: TextIO, earlier: Sequence[str] = ()) -> None:
@@ -344,9 +453,17 @@ def write_files(cmp: Comparison, out: Path, stream: TextIO, earlier: Sequence[st
     there (:func:`check_out_dir`); those this one does not rewrite (figures of tasks not flown now) are removed, and
     no other file."""
     out.mkdir(parents=True, exist_ok=True)
-    files = report.write(cmp, out, progress=stream)
-    cmp.settings["files"] = sorted({*OUR_FILES, *(p.name for p in files)})
+    # summary.json first, listing the files about to be drawn: a run stopped while drawing (Ctrl-C, a full disk) then
+    # leaves a folder the next rig compare recognises as its own, not one it refuses as holding a user's files
+    first = cmp.settings["modes"][0]
+    cmp.settings["files"] = sorted({*OUR_FILES, *(f"history_{r.task}.png" for r in cmp.results if r.conditions == first),
+                                    *(f"distributions_{r['task']}.png" for r in cmp.rows)})
     schema.write(cmp, out)
+    files = report.write(cmp, out, progress=stream)
+    drawn = sorted({*OUR_FILES, *(p.name for p in files)})
+    if drawn != cmp.settings["files"]:  # the plan above missed or added a figure: record what was written
+        cmp.settings["files"] = drawn
+        schema.write(cmp, out)
     for stale in sorted(set(earlier) - set(cmp.settings["files"])):  # an earlier run's figures of tasks not flown now
         (out / stale).unlink(missing_ok=True)
     stream.write(f"wrote {out}/summary.json, summary.csv, report.md and {len(files)} plots\n")

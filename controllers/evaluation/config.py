@@ -79,6 +79,9 @@ def _names(where: str, v: Any, allowed: list[str] | None) -> list[str]:
     bad = [x for x in v if allowed is not None and x not in allowed]
     if bad:
         raise ValueError(f"{where}: unknown {bad}; allowed: {allowed}")
+    twice = sorted({x for x in v if v.count(x) > 1})
+    if twice:  # a name twice would fly twice (duplicated rows and work): refused here, naming the file's key
+        raise ValueError(f"{where} = {v!r}: {', '.join(twice)} given more than once; give each once")
     return list(v)
 
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
-from controllers.laws.artefact import Artefact, load
+from controllers.laws.artefact import Artefact, ArtefactError, load
 from controllers.laws.base import Controller, LoopSpec, UnsupportedTask
 
 SPEC_FIELDS = ("task", "free_dofs", "obs_labels", "action_names", "dt", "action_scale_deg", "task_options")
@@ -60,5 +60,9 @@ def load_contenders(paths: Sequence[str | Path], kinds: Sequence[str]) -> list[C
             raise ValueError(f"--policy {path}: its name {name!r} is a law kind of this comparison; rename the file")
         if any(c.name == name for c in out):
             raise ValueError(f"--policy {path}: a second file named {name!r}; every contender is named after its file, rename one")
-        out.append(Contender(name, str(path), load(path)))
+        try:
+            artefact = load(path)
+        except ArtefactError as exc:  # its message names the file; the option it came from is said here
+            raise ArtefactError(f"--policy {exc}") from None
+        out.append(Contender(name, str(path), artefact))
     return out

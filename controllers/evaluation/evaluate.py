@@ -37,7 +37,7 @@ from controllers import Controller, LoopSpec, make_controller
 from controllers.evaluation.traces import trace_metrics
 from controllers.design.conditions import GUSTY, MODES, NOMINAL, ROBUST, Conditions  # noqa: F401  (re-exported)
 from rig_env.compile_watch import compile_watch
-from rig_env.envs import RigVectorEnv
+from rig_env.envs import TASKS, RigVectorEnv
 from rig_env.envs.ranges import MAX_SEED
 from rig_env.params import JOINTS
 
@@ -94,7 +94,7 @@ def evaluate(
     *,
     n_episodes: int = 40,
     seed: int = 0,
-    conditions: Conditions = NOMINAL,
+    conditions: Conditions | str = NOMINAL,
     record: int = 3,
     env_overrides: Mapping[str, Any] | None = None,
     progress: TextIO | None = None,
@@ -104,6 +104,7 @@ def evaluate(
 
     A law is given as a kind for :func:`make_controller`, a factory ``(spec, n) -> Controller``, or a
     built :class:`Controller` for ``n_episodes`` environments and this task's loop (it is reset here).
+    ``conditions``: a :class:`Conditions` or a mode's name (:data:`MODES`: "nominal", "robust", "gusty");
     ``env_overrides``: further :class:`rig_env.envs.RigEnvConfig` fields; ``progress``: a stream for a
     progress display (None: silent); ``first_episode``: the index of the first episode run (episodes
     ``first_episode .. first_episode + n_episodes - 1`` of the comparison seeded ``seed``: a chunk of it).
@@ -118,16 +119,26 @@ def _evaluate(
     task: str,
     n_episodes: int,
     seed: int,
-    conditions: Conditions,
+    conditions: Conditions | str,
     record: int,
     env_overrides: Mapping[str, Any] | None,
     progress: TextIO | None,
     first_episode: int = 0,
 ) -> EvalResult:
+    if not isinstance(laws, Mapping):  # a list of kinds would fail later as "list indices must be integers"
+        raise ValueError(f"laws = {laws!r}: must be a mapping name -> kind, Controller or factory, e.g. {{'pid': 'pid'}}")
     if not laws:
         raise ValueError("laws: give at least one law")
-    if not isinstance(n_episodes, int) or n_episodes < 1:
+    if isinstance(conditions, str) and conditions in MODES:  # a mode's name, as compare's modes take them
+        conditions = MODES[conditions]
+    if not isinstance(conditions, Conditions):
+        raise ValueError(f"conditions = {conditions!r}: must be a Conditions or a mode name from {sorted(MODES)}")
+    if task not in TASKS:  # a KeyError from the registry would name nothing a caller can act on
+        raise ValueError(f"task = {task!r}: unknown; valid names: {sorted(TASKS)}")
+    if isinstance(n_episodes, bool) or not isinstance(n_episodes, int) or n_episodes < 1:  # True is an int, not a count
         raise ValueError(f"n_episodes = {n_episodes!r}: must be a positive integer")
+    if isinstance(record, bool) or not isinstance(record, int) or record < 0:  # negative: numpy's "negative dimensions"
+        raise ValueError(f"record = {record!r}: must be an integer >= 0 (episodes per law whose time histories are kept)")
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
         raise ValueError(f"seed = {seed!r}: must be an integer in [0, {MAX_SEED}]")
     if isinstance(first_episode, bool) or not isinstance(first_episode, int) or first_episode < 0:

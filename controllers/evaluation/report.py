@@ -89,6 +89,17 @@ def _margins_md(margins: dict[str, dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def _flown(settings: dict[str, Any]) -> str:
+    """Each mode's airspeed draw and gusts as flown (``[conditions]`` overrides included), and the tasks whose airspeed
+    floor raised the draw: the numbers the tables were made under, not the defaults the sentence before describes."""
+    parts = []
+    for mode, c in settings.get("conditions", {}).items():
+        a = c.get("airspeed", [math.nan, math.nan])
+        parts.append(f"{mode} airspeed {float(a[0]):g}-{float(a[1]):g} m/s, {100 * float(c.get('turbulence', math.nan)):g} % gusts")
+    parts += [f"{t} at {float(a[0]):g}-{float(a[1]):g} m/s (its airspeed floor)" for t, a in settings.get("airspeed", {}).items()]
+    return "; ".join(parts)
+
+
 def _glossary() -> list[str]:
     keys = ["rms_error", "hold_error", "rise_time", "settling_time", "overshoot_pct", "cmd_rms", "cmd_rate_rms", "saturation",
             "cmd_freq", "cmd_osc_amp", "stop_time", "emulation_error", "amplitude_ratio", "phase_lag_deg"]
@@ -123,7 +134,8 @@ def write(cmp: Comparison, out: Path, progress: TextIO | None = None) -> list[Pa
         (f"Command: `{s['command']}` ({s['episodes']} episodes per law, task and mode, seed {s['seed']}; {cmp.seconds:.0f} s on "
          f"{s['machine']}).  Every law runs on the same episodes (paired conditions): airspeed drawn per episode, gusts, sensor "
          "noise, quantisation and telemetry delay, Hawk mass +-10 %, servo delay 10-20 ms and bandwidth 5-8 Hz; robust mode adds "
-         "+-20 % on every aerodynamic derivative and on friction; gusty mode 5 % gusts (the settings per mode: summary.json).  "
+         "+-20 % on every aerodynamic derivative and on friction; gusty mode 5 % gusts unless [conditions] sets them (the "
+         f"settings per mode: summary.json).  As flown: {_flown(s)}.  "
          "Success: the task's own criterion.  Numbers are medians over the episodes with their 95 % bootstrap interval "
          f"[low, high]; success rates carry Wilson 95 % intervals.  With {s['episodes']} episodes one episode moves a success rate by "
          f"{100 / s['episodes']:.0f} points."),

@@ -98,7 +98,7 @@ def _caveats(law: str, r: Mapping[str, Any], rule: ScoreRule) -> list[str]:
     med = lambda k: r["metrics"][k]["median"]  # noqa: E731
     if r["success"] >= rule.min_success and lo < rule.min_success:
         out.append(f"{law}: success {_pct(r['success'])} % [{_pct(lo)}, {_pct(hi)}] of {r['episodes']} episodes does not exclude "
-                   f"a rate below {_pct(rule.min_success)} %; more episodes would")
+                   f"a rate below {_pct(rule.min_success)} %; more episodes would narrow the interval")
     sat = med("saturation")  # % of the episode
     if np.isfinite(sat) and sat >= 5.0:
         out.append(f"{law}: a command saturated (within 2 % of +-40 deg) {sat:.0f} % of the time (median over episodes)")
