@@ -130,6 +130,15 @@ class InputMix:
         return np.array([scale * (self.weights[k] @ v) for k in range(len(self.surfaces))])
 
 
+def _small_positive(name: str, v: object, hi: float, what: str) -> float:
+    """``v`` as a float, or a ValueError naming ``name`` unless a real number in (0, ``hi``]: a tolerance or a
+    difference step of zero, below zero or NaN reached scipy's own message or gave NaN matrices without a word."""
+    ok = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_)) and 0.0 < float(v) <= hi
+    if not ok:
+        raise ValueError(f"{name} = {v!r}: {what}; allowed range (0, {hi:g}]")
+    return float(v)
+
+
 def _inputs(controls_deg: Mapping[str, float], airspeed: float) -> np.ndarray:
     u = np.zeros(L.N_INPUTS)
     for k, name in enumerate(SURFACES):
@@ -184,11 +193,15 @@ def trim(
     the unsteady model's equilibria are the tables', with the Hawk's separation state at x0).
     Returns the :class:`OperatingPoint`, with the solved inputs in ``inputs`` (surface names: in
     ``controls_deg``).  RuntimeError when max |qdd| > ``max_residual`` rad/s^2 (None: return the
-    solver's point anyway, the caller checks ``residual``).
+    solver's point anyway, the caller checks ``residual``).  ``tol`` in (0, 0.01], ``max_residual`` in (0, 1000]
+    or None: a ValueError naming either otherwise.
     """
     free = check_free_dofs(free_dofs)
     aero_model = check_aero_model(aero_model)
     controls = check_static_controls(controls or {}, params)
+    tol = _small_positive("tol", tol, 0.01, "the solver's relative tolerance")
+    if max_residual is not None:
+        max_residual = _small_positive("max_residual", max_residual, 1.0e3, "the largest joint acceleration accepted as an equilibrium, rad/s^2, or None")
     q0 = np.zeros(5) if q_guess is None else np.array(q_guess, dtype=np.float64)
     if q0.shape != (5,) or not np.all(np.isfinite(q0)):
         raise ValueError("q_guess: expected 5 finite joint angles (rad, JOINTS order)")
@@ -274,6 +287,7 @@ def linearize(
 
     States are named ``<joint>`` and ``<joint>_rate``; inputs are the named surfaces in rad and the named gusts
     of :data:`GUST_INPUTS` in m/s; the outputs are the states.  The aerodynamic model is the operating point's (:func:`trim`'s ``aero_model``).
+    ``eps``: the central differences' step (rad, rad/s and the inputs' units), in (0, 0.01].
     """
     if not isinstance(op, OperatingPoint):
         raise ValueError(f"op: expected the OperatingPoint rig_env.trim returns, not {type(op).__name__}")
@@ -282,6 +296,7 @@ def linearize(
         raise ValueError(f"inputs: unknown input(s) {unknown}; valid names: the surfaces {list(SURFACES)} and the gusts {list(GUST_INPUTS)}")
     if friction not in (False, "viscous"):
         raise ValueError("friction: allowed values are False and 'viscous'")
+    eps = _small_positive("eps", eps, 0.01, "the finite-difference step (rad, rad/s and the inputs' units)")
     free = op.free_dofs
     p = params.to_vector()
     tabs = params.tables()

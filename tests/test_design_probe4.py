@@ -222,3 +222,51 @@ def test_emulation_design_names_a_bad_maximum_and_takes_numpy_integers():
         zoh_with_delay(np.eye(3), np.ones(2), 0.01, 0.0)
     t = design_emulation_lqr(spec, link_delay_steps=np.int64(1))  # a numpy integer (from a config array) was refused
     assert t.design["link_delay_steps"] == 1
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"tol": 0.0}, r"^tol = 0\.0: the solver's relative tolerance; allowed range \(0, 0\.01\]$"),
+    ({"tol": -1.0}, r"^tol = -1\.0: "),
+    ({"tol": float("nan")}, r"^tol = nan: "),
+    ({"max_residual": 0.0}, r"^max_residual = 0\.0: .*or None; allowed range \(0, 1000\]$"),
+])
+def test_trim_refuses_a_bad_tolerance_by_name(kw, match):
+    """rig_env.trim(tol=-1) failed in scipy's least_squares with its own message; a NaN tolerance or a zero
+    max_residual were taken as given."""
+    import rig_env
+
+    with pytest.raises(ValueError, match=match):
+        rig_env.trim(RigParams.default(), ("model_pitch",), **kw)
+
+
+@pytest.mark.parametrize("eps", [0.0, -1e-6, float("nan"), 1.0, "1e-6", True])
+def test_linearize_refuses_a_bad_step_by_name(eps):
+    """rig_env.linearize(eps=0) returned NaN matrices with only a RuntimeWarning."""
+    import rig_env
+
+    p = RigParams.default()
+    op = rig_env.trim(p, ("model_pitch",))
+    with pytest.raises(ValueError, match=r"^eps = .*: the finite-difference step .*allowed range \(0, 0\.01\]$"):
+        rig_env.linearize(p, op, eps=eps)
+    assert np.all(np.isfinite(rig_env.linearize(p, op).A))  # the default step still linearises
+
+
+def test_an_old_policy_whose_loop_spec_is_refused_names_the_file(tmp_path):
+    """convert-policy of an old-format file whose loop_spec LoopSpec refuses (a reversed airspeed range): an
+    ArtefactError naming the file and the field, as every other malformed old file gets, not a bare ValueError."""
+    import hashlib
+    import json
+
+    from controllers.deploy.convert import old_policy_to_artefact
+
+    payload = {
+        "format": "rig_env.rl_policy", "format_version": 1, "kind": "ppo",
+        "loop_spec": {"task": "velocity_vector_roll", "free_dofs": ["rig_roll"], "obs_labels": ["a"], "action_names": ["u"],
+                      "dt": 0.0125, "airspeed_range": [25.0, 15.0], "action_scale_deg": 40.0},
+        "network": {"activation": "tanh", "layers": [{"weight": [[0.5]], "bias": [0.0]}]},
+        "action": {"postprocess": "clip", "low": [-1.0], "high": [1.0]},
+    }
+    body = json.dumps(payload, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    payload["sha256"] = hashlib.sha256(body.encode("utf-8")).hexdigest()
+    with pytest.raises(A.ArtefactError, match=r"^old\.json: loop_spec: airspeed_range = \(25\.0, 15\.0\): "):
+        old_policy_to_artefact(payload, "old.json")

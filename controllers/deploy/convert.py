@@ -75,6 +75,10 @@ def old_policy_to_artefact(payload: Any, where: str = "<old policy>") -> Artefac
                         obs_norm={"clip_obs": norm["clip_obs"], "epsilon": norm["epsilon"]})
         overrides = dict(payload.get("env_overrides") or {})
         prov = dict(payload.get("provenance") or {})
+    except ArtefactError:
+        raise
+    except ValueError as e:  # a number that is not one, or LoopSpec refusing a field (its message names it)
+        raise ArtefactError(f"{where}: loop_spec: {e}") from None
     except (KeyError, TypeError, AttributeError) as e:
         raise ArtefactError(f"{where}: old-format policy file incomplete or malformed ({e!r})") from None
     sensors = {k: overrides.get(k, v) for k, v in DEFAULT_SENSORS.items()}
