@@ -76,3 +76,16 @@ def ray_cluster():  # type: ignore[no-untyped-def]
         ray.shutdown()
         cluster.shutdown()
         faulthandler.cancel_dump_traceback_later()
+
+
+@pytest.fixture
+def nothing_runs(monkeypatch: pytest.MonkeyPatch) -> None:
+    """rig compare fails the test if it gets as far as compiling or building anything: the option under test must be
+    refused first (tests/test_compare_report.py, tests/test_compare_probe4.py)."""
+    import controllers.evaluation.compare as cmp_mod
+
+    def boom(*a: object, **k: object) -> None:
+        raise AssertionError("the comparison started; the option should have been refused first")
+
+    monkeypatch.setattr(cmp_mod, "precompile", boom)
+    monkeypatch.setattr(cmp_mod, "_build", boom)

@@ -19,14 +19,6 @@ TASK = "velocity_vector_roll"
 SMALL = dict(tasks=[TASK], kinds=["pid"], episodes=2, modes=["nominal"], progress=False)
 
 
-@pytest.fixture
-def nothing_runs(monkeypatch):
-    """Fails the test if the comparison gets as far as compiling or building: the option must be refused first."""
-    def boom(*a, **k):
-        raise AssertionError("the comparison started; the option should have been refused first")
-
-    monkeypatch.setattr(cmp_mod, "precompile", boom)
-    monkeypatch.setattr(cmp_mod, "_build", boom)
 
 
 def _cli(args: list[str], capsys) -> tuple[int, str]:

@@ -20,6 +20,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from controllers.laws.base import Controller, LoopSpec, register
+from controllers.laws.signals import real_array
 
 
 @register("linear")
@@ -88,16 +89,7 @@ class LinearLaw(Controller):
 
 
 def _arr(name: str, v: Any, shape: tuple[int, ...]) -> np.ndarray:
-    # complex gains lost their imaginary part with only a ComplexWarning, strings were parsed ("2" -> 2.0), and a
-    # ragged list raised numpy's own message: refuse each in one line naming the argument
-    try:
-        raw = np.asarray(v)
-    except (ValueError, TypeError):
-        raw = None
-    if raw is None or raw.dtype.kind not in "biuf":
-        what = "a ragged nesting" if raw is None else f"dtype {raw.dtype}"
-        raise ValueError(f"{name} = {type(v).__name__} of {what}: must be real numbers; allowed an array of shape {shape}")
-    a = np.array(raw, dtype=np.float64)
+    a = np.array(real_array(name, v, f"an array of shape {shape}"))  # a copy: the law keeps it
     if a.shape != shape:
         raise ValueError(f"{name}: expected shape {shape}, got {a.shape}")
     if not np.all(np.isfinite(a)):

@@ -101,20 +101,25 @@ def _scalar(d: Mapping[str, Any], k: str) -> float:
     return float(v)
 
 
-def table_array(d: Mapping[str, Any], k: str, shape: tuple[int | None, ...] | None = None, owner: str = "") -> np.ndarray:
-    """Entry ``k`` of a law's plain-data tables as a finite float64 array of ``shape`` (None: any shape; a
-    None entry: any length along that axis); ValueError naming ``owner: k`` otherwise."""
-    where = f"{owner}: {k}" if owner else k
-    # checked before the float conversion: complex tables lost their imaginary part with only a ComplexWarning,
-    # and strings or ragged lists raised numpy's own message without the entry's name
+def real_array(where: str, v: Any, allowed: str = "") -> np.ndarray:
+    """``v`` as a float64 array, or a ValueError naming ``where`` (and ``allowed``, what to give instead).  Checked
+    before the float conversion: complex numbers lost their imaginary part with only a ComplexWarning, strings were
+    parsed ("2" -> 2.0), and ragged lists raised numpy's own message without the entry's name."""
     try:
-        raw = np.asarray(d[k])
+        raw = np.asarray(v)
     except (ValueError, TypeError):
         raw = None
     if raw is None or raw.dtype.kind not in "biuf":
         what = "a ragged nesting" if raw is None else f"dtype {raw.dtype}"
-        raise ValueError(f"{where} = {type(d[k]).__name__} of {what}: must be real numbers")
-    a = np.asarray(raw, dtype=np.float64)
+        raise ValueError(f"{where} = {type(v).__name__} of {what}: must be real numbers{'; allowed ' + allowed if allowed else ''}")
+    return np.asarray(raw, dtype=np.float64)
+
+
+def table_array(d: Mapping[str, Any], k: str, shape: tuple[int | None, ...] | None = None, owner: str = "") -> np.ndarray:
+    """Entry ``k`` of a law's plain-data tables as a finite float64 array of ``shape`` (None: any shape; a
+    None entry: any length along that axis); ValueError naming ``owner: k`` otherwise."""
+    where = f"{owner}: {k}" if owner else k
+    a = real_array(where, d[k])
     if shape is not None and (a.ndim != len(shape) or any(n is not None and m != n for m, n in zip(a.shape, shape))):
         raise ValueError(f"{where}: expected shape {tuple('m' if n is None else n for n in shape)}, got {a.shape}")
     if not np.all(np.isfinite(a)):
