@@ -326,8 +326,13 @@ def test_compare_designs_and_flies_the_params_file(identified_file: Path, monkey
     envs = []
     real_env = cmp.RigVectorEnv
     monkeypatch.setattr(cmp, "RigVectorEnv", lambda *a, **kw: envs.append(kw) or real_env(*a, **kw))
-    c = cmp.compare(tasks=["pull_up_push_over"], kinds=["lqr", "ppo"], episodes=1, modes=["robust"], out_dir=None, stream=io.StringIO(),
+    made = []  # the comparison's record, kept: with every law stubbed out compare ends in "no law could fly"
+    real_comparison = cmp.Comparison
+    monkeypatch.setattr(cmp, "Comparison", lambda *a, **kw: made.append(real_comparison(*a, **kw)) or made[-1])
+    with pytest.raises(ValueError, match="no law could fly pull_up_push_over"):
+        cmp.compare(tasks=["pull_up_push_over"], kinds=["lqr", "ppo"], episodes=1, modes=["robust"], out_dir=None, stream=io.StringIO(),
                     progress=False, params_file=identified_file)
+    c = made[0]
     p = RigParams.from_toml(identified_file)
     assert [k for k, _ in built] == ["lqr", "ppo"]
     assert built[0][1] == p and built[1][1] is None  # designed on the file; the trained law is flown as trained
